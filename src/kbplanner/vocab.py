@@ -40,6 +40,7 @@ class KBP(DefinedNamespace):
     RouteStop: URIRef
     SafetyFence: URIRef
     Scenario: URIRef
+    SiteLayout: URIRef
     SiteObject: URIRef
     SiteOffice: URIRef
     Slab: URIRef
@@ -90,6 +91,7 @@ class KBP(DefinedNamespace):
     roll: URIRef
     routeStop: URIRef
     scenarioName: URIRef
+    siteExtent: URIRef
     sizeX: URIRef
     sizeY: URIRef
     sizeZ: URIRef

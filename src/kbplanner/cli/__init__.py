@@ -23,10 +23,6 @@ EXIT_BAD_INPUT = 2
 
 # Modules of kbplanner.cli, each with ``register(subparsers)`` setting ``func(args) -> int``.
 COMMANDS: tuple[str, ...] = (
-    "import_ifc",
-    "info",
-    "query",
-    "run",
 )
 
 
