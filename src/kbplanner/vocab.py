@@ -86,6 +86,7 @@ class KBP(DefinedNamespace):
     pitch: URIRef
     predecessor: URIRef
     predefinedType: URIRef
+    robotStart: URIRef
     robotized: URIRef
     role: URIRef
     roll: URIRef
