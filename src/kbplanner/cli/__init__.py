@@ -23,6 +23,8 @@ EXIT_BAD_INPUT = 2
 
 # Modules of kbplanner.cli, each with ``register(subparsers)`` setting ``func(args) -> int``.
 COMMANDS: tuple[str, ...] = (
+    "info",
+    "query",
 )
 
 
