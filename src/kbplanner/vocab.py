@@ -14,28 +14,59 @@ class KBP(DefinedNamespace):
     _fail = True
     _NS = Namespace("https://w3id.org/kbplanner/ontology#")
 
+    Action: URIRef
+    ActionLimit: URIRef
+    ArmPose: URIRef
     Beam: URIRef
     Box: URIRef
     Built: URIRef
+    Capability: URIRef
     Column: URIRef
     ConstructionSchedule: URIRef
     ConstructionTask: URIRef
+    ConstructionTaskKind: URIRef
     Covering: URIRef
+    DepthCamera: URIRef
     Door: URIRef
     Element: URIRef
     ElementState: URIRef
     Equipment: URIRef
     Footing: URIRef
+    FromModel: URIRef
+    FromRobot: URIRef
+    FromTaskElement: URIRef
+    FromWorld: URIRef
     Furniture: URIRef
+    Gripping: URIRef
     InProgress: URIRef
+    InputBinding: URIRef
+    InputSource: URIRef
+    InteriorWallFraming: URIRef
+    JobsiteParameters: URIRef
+    LaserScan: URIRef
+    LayoutMarking: URIRef
+    Lidar2D: URIRef
+    LineMarking: URIRef
+    Manipulation6DoF: URIRef
+    MarkingTool: URIRef
     MaterialStorage: URIRef
     Member: URIRef
+    ModelingRequirement: URIRef
+    MoveManipulatorAndGrasp: URIRef
+    MoveManipulatorAndRelease: URIRef
+    Navigation: URIRef
+    Navigation2D: URIRef
+    NavigationWithObject: URIRef
     NoGoZone: URIRef
     NotStarted: URIRef
+    OccupancyMap: URIRef
     Opening: URIRef
     OtherElement: URIRef
+    ParameterSetting: URIRef
+    PathStart: URIRef
     Pose: URIRef
     Railing: URIRef
+    Robot: URIRef
     Roof: URIRef
     RouteStop: URIRef
     SafetyFence: URIRef
@@ -43,65 +74,134 @@ class KBP(DefinedNamespace):
     SiteLayout: URIRef
     SiteObject: URIRef
     SiteOffice: URIRef
+    Skill: URIRef
+    SkillInput: URIRef
+    SkillKind: URIRef
+    SkillParameter: URIRef
     Slab: URIRef
     Stair: URIRef
+    StartAtElement: URIRef
+    StartAtTask: URIRef
+    TaskSpecification: URIRef
     TemporaryStructure: URIRef
     Wall: URIRef
     Window: URIRef
     Worker: URIRef
     Workspace: URIRef
+    appliesTo: URIRef
+    approachPose: URIRef
+    armMass: URIRef
+    armModel: URIRef
+    armPose: URIRef
+    baseMass: URIRef
+    basePayload: URIRef
+    bindingPath: URIRef
+    bindsInput: URIRef
     bounds: URIRef
     buildsElement: URIRef
+    defaultValue: URIRef
+    doorClearance: URIRef
     dwellTime: URIRef
     elevation: URIRef
     fillsOpening: URIRef
     finish: URIRef
+    footprintLength: URIRef
+    footprintWidth: URIRef
+    forAction: URIRef
+    forBinding: URIRef
+    forInput: URIRef
+    forScenario: URIRef
+    forSkill: URIRef
+    forTask: URIRef
     globalId: URIRef
     graspPoint: URIRef
+    hasAction: URIRef
+    hasActionLimit: URIRef
+    hasBinding: URIRef
+    hasCapability: URIRef
+    hasInput: URIRef
+    hasNoGoZone: URIRef
     hasOpening: URIRef
+    hasParameter: URIRef
+    hasSetting: URIRef
     hasTask: URIRef
+    height: URIRef
     hostWall: URIRef
+    howToAdd: URIRef
     ifcClass: URIRef
     ifcSchema: URIRef
+    inputName: URIRef
+    inputSource: URIRef
     installedPose: URIRef
     isExternal: URIRef
     isExternalSource: URIRef
+    jointAngles: URIRef
+    lineWidth: URIRef
     location: URIRef
+    markingSpeed: URIRef
+    markingStart: URIRef
     mass: URIRef
     massAssumption: URIRef
     material: URIRef
+    maxRobotHeight: URIRef
+    maxRobotLength: URIRef
+    maxRobotMass: URIRef
+    maxRobotWidth: URIRef
+    maxSpeed: URIRef
     maxX: URIRef
     maxY: URIRef
     maxZ: URIRef
     meshFile: URIRef
+    minSpeed: URIRef
     minX: URIRef
     minY: URIRef
     minZ: URIRef
+    missingFor: URIRef
+    modelingHint: URIRef
     objectType: URIRef
     obstructs: URIRef
     order: URIRef
     overallHeight: URIRef
     overallWidth: URIRef
+    parameterKind: URIRef
+    pathStart: URIRef
+    payload: URIRef
     pickupLocation: URIRef
     pitch: URIRef
     predecessor: URIRef
     predefinedType: URIRef
+    reach: URIRef
+    requirementText: URIRef
+    requiresCapability: URIRef
     robotStart: URIRef
     robotized: URIRef
     role: URIRef
     roll: URIRef
     routeStop: URIRef
+    safetyStopDistance: URIRef
     scenarioName: URIRef
+    sensor: URIRef
+    setsParameter: URIRef
     siteExtent: URIRef
     sizeX: URIRef
     sizeY: URIRef
     sizeZ: URIRef
+    skillId: URIRef
+    skillKind: URIRef
     sourceFile: URIRef
+    specificationId: URIRef
     stackIndex: URIRef
     start: URIRef
     storedIn: URIRef
+    surveyReference: URIRef
     taskId: URIRef
+    taskKind: URIRef
     taskSpecificationId: URIRef
+    unit: URIRef
+    urdf: URIRef
+    usesSkill: URIRef
+    value: URIRef
+    valueClass: URIRef
     volume: URIRef
     walkingSpeed: URIRef
     workSequence: URIRef
