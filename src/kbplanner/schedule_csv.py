@@ -41,6 +41,7 @@ SELECTOR_KEYS: tuple[str, ...] = ("class", "storey", "name", "external")
 
 _DATE_RE = re.compile(r"\d{4}-\d{2}-\d{2}")
 _DATETIME_RE = re.compile(r"\d{4}-\d{2}-\d{2}T\d{2}:\d{2}(:\d{2})?")
+_TZ_RE = re.compile(r"T.*(Z|[+-]\d{2}:?\d{2})$")
 _GLOBAL_ID_RE = re.compile(r"[0-9A-Za-z_$]{22}")
 _PRED_SPLIT_RE = re.compile(r"[\s;]+")
 _DATE_FIX = ("write an ISO date YYYY-MM-DD or date-time YYYY-MM-DDTHH:MM[:SS] in local site time "
@@ -148,6 +149,8 @@ def _parse_time(row: _Row, column: str, text: str, *, is_finish: bool) -> dateti
             parsed = date.fromisoformat(value)
         elif _DATETIME_RE.fullmatch(value):
             parsed = datetime.fromisoformat(value)
+        elif _TZ_RE.search(value):
+            raise ValueError("it has a time zone; schedule times are local site times")
         else:
             raise ValueError("not in the documented format")
     except ValueError as exc:
@@ -164,7 +167,8 @@ def _parse_selector(row: _Row, entry: str) -> Selector:
         key, sep, value = part.partition("=")
         key, value = key.strip().lower(), value.strip()
         if not sep or key not in SELECTOR_KEYS:
-            raise row.error("elements", f"selector '{entry}': '{part}' is not one of the keys "
+            what = f"key '{key}'" if sep else f"'{part}' (no '=')"
+            raise row.error("elements", f"selector '{entry}': {what} is not one of the keys "
                             f"{', '.join(SELECTOR_KEYS)}",
                             "write key=value pairs separated by ';', e.g. class=IfcWall;storey=Level 1")
         if not value:
