@@ -49,12 +49,25 @@ def build_model(store: str = "default") -> Graph:
     for n, (name, cls, typ, storey, ext) in ELEMENTS.items():
         e = el(n)
         g.add((e, RDF.type, typ))
+        g.add((e, RDF.type, BOT.Element))
         g.add((e, KBP.globalId, Literal(gid(n))))
         g.add((e, KBP.ifcClass, Literal(cls)))
         g.add((e, RDFS.label, Literal(name)))
         g.add((storeys[storey], BOT.containsElement, e))
         if ext is not None:
             g.add((e, KBP.isExternal, Literal(ext, datatype=XSD.boolean)))
+    # Not building elements: a space and an opening on Level 1 with GlobalIds and matching names.
+    space, opening = el(20), el(21)
+    g.add((space, RDF.type, BOT.Space))
+    g.add((storeys["Level 1"], BOT.hasSpace, space))
+    g.add((opening, RDF.type, KBP.Opening))
+    g.add((opening, RDF.type, BOT.Element))
+    for node, n, cls, name in ((space, 20, "IfcSpace", "Interior Frame room"),
+                               (opening, 21, "IfcOpeningElement", "Interior Frame opening")):
+        g.add((node, KBP.globalId, Literal(gid(n))))
+        g.add((node, KBP.ifcClass, Literal(cls)))
+        g.add((node, RDFS.label, Literal(name)))
+        g.add((storeys["Level 1"], BOT.containsElement, node))
     return g
 
 
@@ -157,6 +170,13 @@ def test_selectors_match_class_prefix_storey_name_glob_and_external(
     assert list(got) == sorted(got, key=lambda e: next(gid(n) for n in ELEMENTS if el(n) == e))
 
 
+@pytest.mark.parametrize("entry", ["class=IfcSpace", "class=IfcOpening", "name=*room", "name=*opening"])
+def test_selectors_never_match_spaces_storeys_or_openings(tmp_path: Path, entry: str) -> None:
+    p = write(tmp_path, f"T1,Walls,2024-03-04,2024-03-04,,{entry},,")
+    with pytest.raises(ScheduleError, match="matches no element"):
+        read_csv_schedule(p, build_model())
+
+
 def test_element_entries_are_united_in_order_without_duplicates(tmp_path: Path) -> None:
     entries = f"{gid(4)}|class=IfcWall;storey=Level 1| {gid(1)} |"
     p = write(tmp_path, f"T1,Mixed,2024-03-04,2024-03-04,,{entries},,")
@@ -183,7 +203,9 @@ ERRORS = [
      "before start"),
     ("unknown predecessor", [GOOD, "T2,X,2024-03-06,2024-03-06,T1 T7,,,"], 3, "predecessors", "'T7'"),
     ("unknown GlobalId", [GOOD, f"T2,X,2024-03-06,2024-03-06,,{gid(99)},,"], 3, "elements",
-     "not in the model"),
+     "not a building element"),
+    ("GlobalId of a space", [GOOD, f"T2,X,2024-03-06,2024-03-06,,{gid(20)},,"], 3, "elements",
+     "not a building element"),
     ("not a GlobalId", ["T1,X,2024-03-06,2024-03-06,,wall-1,,"], 2, "elements", "neither"),
     ("duplicate task id", [GOOD, "T2,X,2024-03-06,2024-03-06,,,,", "T1,Y,2024-03-07,2024-03-07,,,,"], 4,
      "task_id", "already used on line 2"),

@@ -21,7 +21,7 @@ from kbplanner.schedule import (
     schedule_iri,
     schedule_to_graph,
 )
-from kbplanner.vocab import KBP
+from kbplanner.vocab import BOT, KBP
 
 BASE = "https://w3id.org/kbplanner/data/test/"
 E1, E2, E3, E4 = (element_iri(BASE, f"{c}" * 22) for c in "ABCD")
@@ -43,8 +43,16 @@ def make_graph(store: str = "default") -> Graph:
     g = Graph(store=store)
     for e, gid in ((E1, "A" * 22), (E2, "B" * 22), (E3, "C" * 22), (E4, "D" * 22)):
         g.add((e, RDF.type, KBP.Wall))
+        g.add((e, RDF.type, BOT.Element))
         g.add((e, KBP.globalId, Literal(gid)))
         g.add((e, RDFS.label, Literal(f"wall {gid[0]}")))
+    # Not building elements: never in the result.
+    opening, storey = element_iri(BASE, "O" * 22), element_iri(BASE, "S" * 22)
+    g.add((opening, RDF.type, KBP.Opening))
+    g.add((opening, RDF.type, BOT.Element))
+    g.add((storey, RDF.type, BOT.Storey))
+    for node in (opening, storey):
+        g.add((node, KBP.globalId, Literal(str(node)[-22:])))
     for t in schedule_to_graph(make_schedule(), BASE):
         g.add(t)
     return g

@@ -51,7 +51,7 @@ _HINT_LIMIT = 12
 
 @dataclass(frozen=True)
 class ModelElement:
-    """What a schedule entry can match in the model graph: one element with a GlobalId."""
+    """What a schedule entry can match in the model graph: one building element with a GlobalId."""
 
     iri: URIRef
     global_id: str
@@ -94,9 +94,11 @@ class _ElementRecord:
 
 
 def model_elements(model: Graph) -> list[ModelElement]:
-    """Every element of the model graph that has a GlobalId, sorted by GlobalId then IRI.
+    """Every building element of the model graph, sorted by GlobalId then IRI.
 
-    Uses the named query ``schedule_element_index`` (one row per element and storey).
+    Building elements are ``bot:Element`` nodes with a ``kbp:globalId``, openings excluded (the IFC
+    import types every element so). Uses the named query ``schedule_element_index`` (one row per
+    element and storey).
     """
     found: dict[URIRef, _ElementRecord] = {}
     for row in model.query(query_text("schedule_element_index")):
@@ -226,9 +228,10 @@ def _resolve_elements(
         elif _GLOBAL_ID_RE.fullmatch(entry):
             hits = by_gid.get(entry)
             if not hits:
-                raise row.error("elements", f"GlobalId '{entry}' is not in the model",
-                                "check the GlobalId against the IFC file the model was imported from, "
-                                "or use a selector such as class=IfcWall;storey=Level 1")
+                raise row.error("elements", f"GlobalId '{entry}' is not a building element of the model",
+                                "check the GlobalId against the IFC file the model was imported from "
+                                "(storeys, spaces and openings are not built by tasks), or use a selector "
+                                "such as class=IfcWall;storey=Level 1")
             out.extend(e.iri for e in hits)
         else:
             raise row.error("elements", f"'{entry}' is neither a 22-character IFC GlobalId nor a selector",
@@ -292,7 +295,10 @@ def read_csv_schedule(path: Path, model: Graph) -> Schedule:
         >>> from kbplanner.vocab import KBP
         >>> import tempfile
         >>> model = Graph()
+        >>> from rdflib import RDF
+        >>> from kbplanner.vocab import BOT
         >>> wall = URIRef("https://w3id.org/kbplanner/data/demo/element/2O2Fr$t4X7Zf8NOew3FLOH")
+        >>> _ = model.add((wall, RDF.type, BOT.Element))
         >>> _ = model.add((wall, KBP.globalId, Literal("2O2Fr$t4X7Zf8NOew3FLOH")))
         >>> _ = model.add((wall, KBP.ifcClass, Literal("IfcWallStandardCase")))
         >>> d = Path(tempfile.mkdtemp())

@@ -13,14 +13,13 @@ import logging
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from datetime import date, datetime, time
-from functools import cache
 from pathlib import Path
 
 import networkx as nx
 from rdflib import URIRef
 
-from kbplanner.errors import QueryError, ScheduleCycleError
-from kbplanner.resources import queries_dir
+from kbplanner.errors import ScheduleCycleError
+from kbplanner.named_queries import get_query
 
 logger = logging.getLogger(__name__)
 
@@ -143,11 +142,7 @@ def check_acyclic(tasks: Iterable[Task], file: str | Path) -> None:
         raise ScheduleCycleError(cycle, file=file)
 
 
-@cache
+
 def query_text(name: str) -> str:
-    """The constant text of the named query ``queries/<name>.rq`` (read once, never formatted)."""
-    path = queries_dir() / f"{name}.rq"
-    if not path.is_file():
-        raise QueryError(f"named query '{name}' not found", file=path,
-                         fix="reinstall kbplanner (the .rq files are package data)")
-    return path.read_text(encoding="utf-8")
+    """The constant text of the named query ``queries/<name>.rq`` (never formatted; values are bound)."""
+    return get_query(name).text
