@@ -8,9 +8,9 @@ from pathlib import Path
 import ifcopenshell
 import ifcopenshell.api.sequence as seq
 import pytest
-from ifc_factory import TestBuilding, write_test_building
 from rdflib import Graph, URIRef
 
+from ifc_factory import TestBuilding, write_test_building
 from kbplanner.ifc_import import import_ifc_graph
 from kbplanner.iris import base_iri, element_iri
 from kbplanner.schedule import element_states, read_csv_schedule, read_ifc_schedule, schedule_to_graph
