@@ -295,3 +295,21 @@ def test_schedule_errors_are_kbplanner_errors_so_the_cli_prints_them_plainly(tmp
     p = write(tmp_path, "T1,A,2024-03-04,yesterday,,,,")
     with pytest.raises(KbplannerError):
         read_csv_schedule(p, build_model())
+
+
+def test_the_example_in_docs_schedule_md_reads_as_documented(tmp_path: Path) -> None:
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "schedule.md").read_text(encoding="utf-8")
+    example = doc.split("```csv\n", 1)[1].split("```", 1)[0]
+    p = tmp_path / "example.csv"
+    p.write_text(example, encoding="utf-8")
+    model = build_model()
+    documented = URIRef(BASE + "element/documented")
+    model.add((documented, RDF.type, BOT.Element))
+    model.add((documented, KBP.globalId, Literal("2O2Fr$t4X7Zf8NOew3FLOH")))
+    s = read_csv_schedule(p, model)
+    assert [t.task_id for t in s.tasks] == ["T1", "T2", "T3"]
+    assert set(s.task("T1").element_iris) == {el(1)}
+    assert s.task("T2").element_iris == (el(2),) and s.task("T2").task_specification_id == "I-W-F-#1"
+    assert s.task("T2").finish == datetime(2024, 3, 8, 16, 30)
+    assert s.task("T3").element_iris == (el(4), documented) and s.task("T3").predecessors == ("T1", "T2")
+    assert s.task("T1").finish == datetime(2024, 3, 6, 23, 59, 59)
