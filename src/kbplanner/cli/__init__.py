@@ -25,6 +25,7 @@ EXIT_BAD_INPUT = 2
 COMMANDS: tuple[str, ...] = (
     "info",
     "query",
+    "import_ifc",
 )
 
 

@@ -1,0 +1,126 @@
+"""``kbplanner import-ifc MODEL.ifc --out PROJECT_DIR [--name NAME]``: import an IFC model into a project.
+
+Writes ``PROJECT_DIR/model.ttl`` and ``PROJECT_DIR/meshes/`` (nothing else is copied), and a starter
+``project.toml`` naming the IFC when the directory has none. An existing ``project.toml`` is kept and
+its project name (or ``base_iri``) decides the IRIs, so the import matches what the project loader
+builds. Prints counts per class, storeys with elevations, and skipped elements. Exit 2 on bad input.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import tomllib
+from pathlib import Path
+
+from rich.progress import Progress
+
+from kbplanner.errors import IfcError, ProjectError
+from kbplanner.ifc_import import MESH_DIR, MODEL_FILE, ImportResult, import_ifc
+from kbplanner.iris import base_iri
+
+MANIFEST = "project.toml"
+
+
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    p = sub.add_parser(
+        "import-ifc",
+        help="import an IFC model (IFC2X3/IFC4) into a project directory: model.ttl + meshes/",
+    )
+    p.add_argument("model", type=Path, help="the IFC file (.ifc)")
+    p.add_argument("--out", type=Path, required=True, metavar="PROJECT_DIR",
+                   help="project directory to write model.ttl, meshes/ (and a starter project.toml) into")
+    p.add_argument("--name", help="project name (default: the name in PROJECT_DIR/project.toml, "
+                                  "else the IFC file's name)")
+    p.add_argument("--processes", type=int, default=1,
+                   help="geometry worker processes (default 1)")
+    p.set_defaults(func=run)
+
+
+def _existing_manifest(path: Path) -> tuple[str | None, str | None]:
+    """(name, base_iri) of an existing project.toml."""
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise ProjectError(f"cannot read the existing project.toml: {exc}", file=path,
+                           fix="correct the TOML syntax, or remove the file to get a starter one") from None
+    project = data.get("project") or {}
+    name = project.get("name")
+    base = project.get("base_iri")
+    return (str(name) if name else None), (str(base) if base else None)
+
+
+def starter_manifest(name: str, ifc_relative: str) -> str:
+    """Text of a starter project.toml (TOML basic strings are JSON strings)."""
+    return (
+        "# Written by 'kbplanner import-ifc'; see docs/projects.md for schedule, site layout and scenarios.\n"
+        "[project]\n"
+        f"name = {json.dumps(name, ensure_ascii=False)}\n"
+        "\n"
+        "[model]\n"
+        f"ifc = {json.dumps(ifc_relative, ensure_ascii=False)}   # relative to the project directory\n"
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    model: Path = args.model
+    out: Path = args.out
+    if args.processes < 1:
+        raise IfcError("--processes must be at least 1", element=str(args.processes),
+                       fix="use --processes 1 (or 2 on a machine with two cores or more)")
+    if out.exists() and not out.is_dir():
+        raise IfcError("--out names a file, not a directory", file=out, fix="give a project directory")
+    manifest = out / MANIFEST
+    existing_name, existing_base = _existing_manifest(manifest) if manifest.is_file() else (None, None)
+    if args.name and existing_name and args.name != existing_name:
+        raise ProjectError(
+            f"project.toml already names the project {existing_name!r}, not {args.name!r}", file=manifest,
+            element="project.name",
+            fix="drop --name (the existing name is used), or change the name in project.toml",
+        )
+    name = args.name or existing_name or model.stem
+    base = existing_base or base_iri(name)
+
+    # A progress bar only on an interactive terminal; piped output stays plain.
+    progress_bar = Progress(transient=True) if sys.stderr.isatty() else None
+    if progress_bar is not None:
+        with progress_bar:
+            task = progress_bar.add_task("geometry", total=None)
+
+            def report(done: int, total: int) -> None:
+                progress_bar.update(task, completed=done, total=total)
+
+            result = import_ifc(model, out, base=base, progress=report, processes=args.processes)
+    else:
+        result = import_ifc(model, out, base=base, processes=args.processes)
+
+    wrote_manifest = False
+    if not manifest.exists():
+        relative = Path(os.path.relpath(model.resolve(), out.resolve())).as_posix()
+        manifest.write_text(starter_manifest(name, relative), encoding="utf-8")
+        wrote_manifest = True
+    sys.stdout.write(summary(result, out, name, wrote_manifest))
+    return 0
+
+
+def summary(result: ImportResult, out: Path, name: str, wrote_manifest: bool) -> str:
+    """The text the command prints after an import."""
+    lines = [
+        f"Imported {result.source.name} ({result.schema}, length unit {result.length_unit_m:g} m) "
+        f"into {out} in {result.seconds:.1f} s",
+        f"  {MODEL_FILE}: {len(result.graph)} triples; {MESH_DIR}/: {len(result.meshes)} meshes",
+        "Counts per class:",
+    ]
+    width = max((len(k) for k in result.counts), default=0)
+    lines += [f"  {cls:<{width}}  {n:>5}" for cls, n in result.counts.items()]
+    lines.append("Storeys (elevation, m):")
+    lines += [f"  {s.name or s.global_id:<20} {s.elevation_m:>8.3f}" for s in result.storeys]
+    if result.skipped:
+        lines.append(f"Skipped ({len(result.skipped)}):")
+        lines += [f"  {s.global_id} {s.ifc_class} {s.name!r}: {s.reason}" for s in result.skipped]
+    else:
+        lines.append("Skipped: none")
+    lines.append(f"project.toml: {'written (project ' + repr(name) + ')' if wrote_manifest else 'kept'}")
+    return "\n".join(lines) + "\n"

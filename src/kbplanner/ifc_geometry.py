@@ -1,0 +1,227 @@
+"""IFC import, geometry: meshes and poses of IFC products in the site frame (helper of ``ifc_import``).
+
+Takes an open IFC file and the products that should get a mesh; returns one ``trimesh.Trimesh`` per
+product (metres, in the site frame: the placement frame of the IfcSite, or the IFC world frame when
+there is no site) and, for each product whose geometry cannot be built, the reason. Also converts IFC
+placements to x, y, z, roll, pitch, yaw and writes meshes as byte-stable GLB.
+
+The GLB files hold site-frame coordinates as they are (z up), not glTF's y-up convention.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import re
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import ifcopenshell
+import ifcopenshell.geom
+import ifcopenshell.util.placement
+import numpy as np
+import trimesh
+
+log = logging.getLogger(__name__)
+
+ProgressCallback = Callable[[int, int], None]
+
+# Lengths written to the graph are rounded to 1 micrometre, angles to 1 nanoradian: enough for
+# robots, and it keeps floating-point noise (3.100000000000378) out of the model.
+LENGTH_DIGITS = 6
+ANGLE_DIGITS = 9
+
+
+def round_length(value: float) -> float:
+    """A length in metres rounded to 1 µm, without negative zero."""
+    return round(float(value), LENGTH_DIGITS) + 0.0
+
+
+def round_angle(value: float) -> float:
+    """An angle in radians rounded to 1 nrad, without negative zero."""
+    return round(float(value), ANGLE_DIGITS) + 0.0
+
+
+@dataclass(frozen=True)
+class Pose:
+    """x, y, z (m) and roll, pitch, yaw (rad, extrinsic X-Y-Z: R = Rz(yaw) Ry(pitch) Rx(roll))."""
+
+    x: float
+    y: float
+    z: float
+    roll: float
+    pitch: float
+    yaw: float
+
+
+def matrix_to_pose(matrix: np.ndarray) -> Pose:
+    """The pose of a 4x4 rigid transform (translation in metres), rounded for writing.
+
+    Example:
+        >>> m = np.eye(4); m[:3, :3] = [[0, -1, 0], [1, 0, 0], [0, 0, 1]]; m[:3, 3] = [1, 2, 3]
+        >>> matrix_to_pose(m)
+        Pose(x=1.0, y=2.0, z=3.0, roll=0.0, pitch=0.0, yaw=1.570796327)
+    """
+    r = np.asarray(matrix, dtype=float)[:3, :3]
+    # Normalise the axes: IFC placements may carry unnormalised direction ratios.
+    norms = np.linalg.norm(r, axis=0)
+    r = r / np.where(norms > 0, norms, 1.0)
+    sin_pitch = -r[2, 0]
+    pitch = math.asin(max(-1.0, min(1.0, sin_pitch)))
+    if abs(sin_pitch) < 1.0 - 1e-9:
+        roll = math.atan2(r[2, 1], r[2, 2])
+        yaw = math.atan2(r[1, 0], r[0, 0])
+    else:  # gimbal lock: put the whole rotation about z into yaw
+        roll = 0.0
+        yaw = math.atan2(-r[0, 1], r[1, 1])
+    t = np.asarray(matrix, dtype=float)[:3, 3]
+    return Pose(
+        round_length(t[0]), round_length(t[1]), round_length(t[2]),
+        round_angle(roll), round_angle(pitch), round_angle(yaw),
+    )
+
+
+def placement_matrix(product: Any, length_scale: float) -> np.ndarray | None:
+    """The product's absolute placement (IFC world frame) with the translation in metres."""
+    placement = getattr(product, "ObjectPlacement", None)
+    if placement is None:
+        return None
+    m = np.array(ifcopenshell.util.placement.get_local_placement(placement), dtype=float)
+    m[:3, 3] *= length_scale
+    return m
+
+
+def site_matrix(ifc_file: ifcopenshell.file, length_scale: float) -> np.ndarray:
+    """The placement of the (first, by GlobalId) IfcSite in metres; identity when there is none."""
+    sites = sorted(ifc_file.by_type("IfcSite"), key=lambda s: str(s.GlobalId))
+    for site in sites:
+        m = placement_matrix(site, length_scale)
+        if m is not None:
+            return m
+    return np.eye(4)
+
+
+@dataclass(frozen=True)
+class MeshResult:
+    """Meshes by GlobalId, and the reasons for the products whose geometry failed."""
+
+    meshes: dict[str, trimesh.Trimesh]
+    failures: dict[str, str]
+    processes: int
+
+
+def _settings() -> Any:
+    settings = ifcopenshell.geom.settings()
+    settings.set("use-world-coords", True)  # vertices already placed, in metres
+    settings.set("site-local-placement", True)  # ... relative to the site: the site frame
+    return settings
+
+
+def _to_mesh(geometry: Any) -> trimesh.Trimesh:
+    vertices = np.asarray(geometry.verts, dtype=np.float64).reshape(-1, 3)
+    faces = np.asarray(geometry.faces, dtype=np.int64).reshape(-1, 3)
+    # process=True merges coincident vertices, which makes closed solids watertight.
+    return trimesh.Trimesh(vertices=vertices, faces=faces, process=True)
+
+
+_LOG_LINE = re.compile(r"^\[(\w+)\]\s*(?:\[[^\]]*\]\s*)*(.*)$")
+
+
+def _log_errors(text: str) -> list[str]:
+    """The error messages of an ifcopenshell log, without their level, code and timestamp."""
+    errors: list[str] = []
+    in_error = False
+    for line in text.splitlines():
+        m = _LOG_LINE.match(line)
+        if m:
+            in_error = m.group(1) == "error"
+            if in_error:
+                errors.append(m.group(2).strip())
+        elif in_error and errors:
+            errors[-1] = f"{errors[-1]} {line.strip()}".strip()
+    return errors
+
+
+def build_meshes(
+    ifc_file: ifcopenshell.file,
+    products: Sequence[Any],
+    *,
+    processes: int = 1,
+    progress: ProgressCallback | None = None,
+) -> MeshResult:
+    """Triangulate ``products`` (their Body representation) with ifcopenshell's geometry iterator.
+
+    A product the iterator does not return is retried alone, to get the reason it fails (or a mesh
+    from another representation); products without triangles are reported as failures too.
+    ``progress(done, total)`` is called as shapes arrive.
+    """
+    total = len(products)
+    meshes: dict[str, trimesh.Trimesh] = {}
+    failures: dict[str, str] = {}
+    if total == 0:
+        return MeshResult(meshes, failures, processes)
+    settings = _settings()
+    ifcopenshell.get_log()  # drop earlier messages
+    iterator = ifcopenshell.geom.iterator(settings, ifc_file, max(1, processes), include=list(products))
+    done = 0
+    if iterator.initialize():
+        while True:
+            shape: Any = iterator.get()
+            guid = str(shape.guid)
+            mesh = _to_mesh(shape.geometry)
+            if len(mesh.faces) > 0:
+                meshes[guid] = mesh
+            else:
+                failures[guid] = "geometry has no triangles"
+            done += 1
+            if progress is not None:
+                progress(min(done, total), total)
+            if not iterator.next():
+                break
+    ifcopenshell.get_log()
+    for product in products:
+        guid = str(product.GlobalId)
+        if guid in meshes or guid in failures:
+            continue
+        try:
+            single: Any = ifcopenshell.geom.create_shape(settings, product)
+        except RuntimeError as exc:
+            errors = _log_errors(ifcopenshell.get_log())
+            failures[guid] = "geometry failed: " + (errors[0] if errors else str(exc))
+            continue
+        mesh = _to_mesh(single.geometry)
+        if len(mesh.faces) > 0:
+            meshes[guid] = mesh
+        else:
+            failures[guid] = "no body geometry (no triangles from any representation)"
+    if progress is not None:
+        progress(total, total)
+    for guid in sorted(failures):
+        log.warning("skipped geometry of %s: %s", guid, failures[guid])
+    return MeshResult(meshes, failures, processes)
+
+
+def mesh_volume(mesh: trimesh.Trimesh) -> tuple[float, str] | None:
+    """Volume (m3) of a closed mesh, or the sum over its pieces when every piece is closed."""
+    with np.errstate(divide="ignore", invalid="ignore"):  # flat pieces have zero volume
+        if mesh.is_watertight:
+            return abs(float(mesh.volume)), "closed mesh"
+        pieces = mesh.split(only_watertight=False)
+        if len(pieces) > 1 and all(p.is_watertight for p in pieces):
+            return sum(abs(float(p.volume)) for p in pieces), f"{len(pieces)} closed mesh pieces"
+    return None
+
+
+def glb_bytes(mesh: trimesh.Trimesh) -> bytes:
+    """The mesh as binary glTF; equal meshes give equal bytes (no timestamps, ids or randomness)."""
+    data = trimesh.exchange.gltf.export_glb(mesh, include_normals=False)
+    return bytes(data)
+
+
+def local_extent(mesh: trimesh.Trimesh, placement: np.ndarray) -> np.ndarray:
+    """Size (m) of the mesh along the x, y, z axes of ``placement`` (a site-frame 4x4 transform)."""
+    inverse = np.linalg.inv(placement)
+    local = trimesh.transform_points(mesh.vertices, inverse)
+    extent: np.ndarray = local.max(axis=0) - local.min(axis=0)
+    return extent
