@@ -9,7 +9,7 @@ from __future__ import annotations
 import csv
 import io
 import json
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from datetime import date, datetime
 from typing import Any
 
@@ -35,8 +35,10 @@ def _cell(value: Any) -> str:
 
 
 def render(columns: Sequence[str], rows: Sequence[Sequence[Any]], fmt: str = "table",
-           title: str | None = None) -> str:
+           title: str | None = None, shorten: Callable[[str], str] | None = None) -> str:
     """Render rows as ``table`` (aligned text), ``csv`` or ``json`` (a list of objects).
+
+    ``shorten`` rewrites long strings (IRIs) in the ``table`` format only.
 
     Example:
         >>> print(render(["a", "b"], [(1, "x")], "csv").strip())
@@ -55,7 +57,8 @@ def render(columns: Sequence[str], rows: Sequence[Sequence[Any]], fmt: str = "ta
                           indent=2, ensure_ascii=False) + "\n"
     if fmt != "table":
         raise ValueError(f"unknown format {fmt!r}; use one of {FORMATS}")
-    cells = [[_cell(v) for v in r] for r in rows]
+    cut = shorten or (lambda s: s)
+    cells = [[cut(_cell(v)) for v in r] for r in rows]
     widths = [len(c) for c in columns]
     for r in cells:
         for i, v in enumerate(r):
@@ -69,3 +72,23 @@ def render(columns: Sequence[str], rows: Sequence[Sequence[Any]], fmt: str = "ta
         lines.append("  ".join(v[:80].ljust(widths[i]) for i, v in enumerate(r)).rstrip())
     lines.append(f"({len(rows)} row{'s' if len(rows) != 1 else ''})")
     return "\n".join(lines) + "\n"
+
+
+def iri_shortener(base: str) -> Callable[[str], str]:
+    """Shorten IRIs for display: the project's data IRIs to ``element/<GlobalId>``, kbp/bot to prefixes."""
+    from urllib.parse import unquote
+
+    prefixes = {
+        "https://w3id.org/kbplanner/ontology#": "kbp:",
+        "https://w3id.org/bot#": "bot:",
+    }
+
+    def cut(s: str) -> str:
+        if s.startswith(base):
+            return unquote(s[len(base):])
+        for ns, pre in prefixes.items():
+            if s.startswith(ns):
+                return pre + s[len(ns):]
+        return s
+
+    return cut

@@ -16,7 +16,7 @@ from rdflib.term import Identifier
 from kbplanner.errors import InputFileError, QueryError
 from kbplanner.named_queries import catalogue, get_query, result_rows, run_text, to_term
 from kbplanner.project import Project
-from kbplanner.tables import FORMATS, render
+from kbplanner.tables import FORMATS, iri_shortener, render
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -81,5 +81,5 @@ def run(args: argparse.Namespace) -> int:
         get_query(args.name)  # fail fast on an unknown name, before loading the project
         project = Project.load(args.project, scenario=args.scenario)
         result = project.query(args.name, **binds)
-    sys.stdout.write(render(result.columns, result.rows, args.format))
+    sys.stdout.write(render(result.columns, result.rows, args.format, shorten=iri_shortener(project.base)))
     return 0
