@@ -13,9 +13,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
-from ifc_factory import TestBuilding, write_test_building
 from rdflib import RDF, RDFS, XSD, Graph, Literal, URIRef
 
+from ifc_factory import TestBuilding, write_test_building
 from kbplanner.errors import IfcError
 from kbplanner.ifc_geometry import matrix_to_pose
 from kbplanner.ifc_import import ImportResult, import_ifc, import_ifc_graph
@@ -355,7 +355,8 @@ def tree_digest(directory: Path) -> dict[str, str]:
 def test_output_is_byte_identical_across_runs_hash_seeds_and_process_counts(tmp_path: Path) -> None:
     b = write_test_building(tmp_path / "m.ifc", furniture_per_space=1, space_boundaries=True)
     script = ("import sys; from pathlib import Path; from kbplanner.ifc_import import import_ifc; "
-              "import_ifc(Path(sys.argv[1]), Path(sys.argv[2]), base=sys.argv[3], processes=int(sys.argv[4]))")
+              "a = sys.argv; "
+              "import_ifc(Path(a[1]), Path(a[2]), base=a[3], processes=int(a[4]))")
     digests = []
     for seed, processes in (("1", "1"), ("2", "2")):
         out = tmp_path / f"out-{seed}"
