@@ -1,0 +1,5 @@
+"""``python -m kbplanner``: the same as the ``kbplanner`` console script."""
+
+from kbplanner.cli import main
+
+raise SystemExit(main())
