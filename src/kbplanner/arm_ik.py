@@ -1,0 +1,211 @@
+"""Arm inverse kinematics (B4 arm poses per skill): can the arm reach a tool pose, and from where?
+
+Takes a :class:`~kbplanner.robot_model.RobotModel` (a robot loaded in PyBullet) and a target tool
+pose in the site frame (position, optionally roll/pitch/yaw); returns an :class:`IkResult` with the
+joint angles and whether the pose is *reachable*: PyBullet's damped least squares IK
+(``calculateInverseKinematics`` with joint limits and rest poses, refined from a few seeds), then
+forward kinematics must land within 1 cm and 3 degrees of the target, inside the joint limits and
+without the arm touching the base. :func:`reach_base_poses` samples base poses around a target
+from which the arm reaches it and the base footprint is free on an occupancy grid. Everything is
+deterministic: fixed seeds, the robot's joint state restored afterwards.
+
+Example:
+    >>> from kbplanner.robot_model import RobotModel
+    >>> robot = RobotModel.load("husky_ur5")
+    >>> solve_ik(robot, (0.7, 0.0, 0.5), (0.0, math.pi, 0.0)).reachable
+    True
+    >>> solve_ik(robot, (3.0, 0.0, 0.5)).reason
+    'unreachable: best position error 2.08 m > 0.01 m'
+    >>> robot.close()
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from kbplanner.footprint import ConfigurationSpace
+from kbplanner.occupancy import OccupancyGrid
+from kbplanner.robot_model import RobotModel
+
+log = logging.getLogger(__name__)
+
+POS_TOL_M = 0.01
+ROT_TOL_RAD = math.radians(3.0)
+
+Vec3 = tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class IkResult:
+    """Outcome of an IK query: joint angles (arm order) and whether they reach the target."""
+
+    reachable: bool
+    joints: tuple[float, ...]
+    position_error_m: float
+    orientation_error_rad: float
+    reason: str
+
+
+@dataclass(frozen=True)
+class ReachPose:
+    """A base pose (x, y, yaw) from which the arm reaches a target, with the arm solution."""
+
+    x: float
+    y: float
+    yaw: float
+    ik: IkResult
+    clearance_m: float  # distance from the base centre to the nearest occupied cell
+
+
+def _quat_angle(q1: Sequence[float], q2: Sequence[float]) -> float:
+    d = abs(float(np.dot(np.asarray(q1), np.asarray(q2))))
+    return 2.0 * math.acos(min(1.0, d))
+
+
+def _directed_seeds(robot: RobotModel, target_xyz: Vec3) -> list[tuple[float, ...]]:
+    """Elbow-up and elbow-down seeds with the shoulder panned towards the target."""
+    import pybullet as p
+
+    base_pos, base_orn = robot.link_pose(robot.links["arm_base_link"])
+    inv_pos, inv_orn = p.invertTransform(base_pos, base_orn)
+    local, _ = p.multiplyTransforms(inv_pos, inv_orn, target_xyz, (0.0, 0.0, 0.0, 1.0))
+    # At pan 0 the DH arm stretches along -x of its base, so pan phi - pi points it at phi.
+    pan = math.atan2(local[1], local[0]) - math.pi
+    pan = (pan + math.pi) % (2 * math.pi) - math.pi
+    return [(pan, -1.2, 1.6, -1.9, -1.5708, 0.0), (pan, -1.9, -1.6, -1.2, -1.5708, 0.0),
+            (pan, -0.6, 1.2, -2.2, 1.5708, 0.0)]
+
+
+def solve_ik(
+    robot: RobotModel,
+    target_xyz: Vec3,
+    target_rpy: Vec3 | None = None,
+    *,
+    pos_tol_m: float = POS_TOL_M,
+    rot_tol_rad: float = ROT_TOL_RAD,
+    seeds: Sequence[Sequence[float]] | None = None,
+    check_collision: bool = True,
+    refinements: int = 8,
+) -> IkResult:
+    """Solve IK for the tool centre point at ``target_xyz`` (and ``target_rpy`` if given), site frame.
+
+    The robot's base stays where it is. Seeds default to the robot's named poses (sorted by name)
+    and the zero pose; the first reachable solution wins, otherwise the closest one is returned with
+    the reason it is not reachable. The arm's joint angles are restored afterwards.
+    """
+    import pybullet as p
+
+    robot._need_arm()
+    assert robot.tool_link is not None
+    orn = p.getQuaternionFromEuler(target_rpy) if target_rpy is not None else None
+    lower_all = [robot.lower[j] for j in robot.movable]
+    upper_all = [robot.upper[j] for j in robot.movable]
+    ranges_all = [hi - lo for lo, hi in zip(lower_all, upper_all, strict=True)]
+    arm_idx = [robot.movable.index(j) for j in robot.arm_joints]
+    lo_arm, hi_arm = robot.arm_limits()
+    if seeds is None:
+        named = [robot.spec.poses[k] for k in sorted(robot.spec.poses)]
+        seeds = [*_directed_seeds(robot, target_xyz), *named, (0.0,) * len(robot.arm_joints)]
+    saved = robot.arm_positions()
+    best: IkResult | None = None
+    try:
+        for seed in seeds:
+            robot.set_arm(seed)
+            rest_all = [0.0] * len(robot.movable)
+            for k, i in enumerate(arm_idx):
+                rest_all[i] = float(seed[k])
+            q: tuple[float, ...] = tuple(seed)
+            for _ in range(refinements):
+                kwargs = dict(lowerLimits=lower_all, upperLimits=upper_all, jointRanges=ranges_all,
+                              restPoses=rest_all, maxNumIterations=200, residualThreshold=1e-6,
+                              physicsClientId=robot.client)
+                if orn is not None:
+                    sol = p.calculateInverseKinematics(robot.body, robot.tool_link, target_xyz, orn, **kwargs)
+                else:
+                    sol = p.calculateInverseKinematics(robot.body, robot.tool_link, target_xyz, **kwargs)
+                q = tuple(float(np.clip(sol[i], lo_arm[k], hi_arm[k])) for k, i in enumerate(arm_idx))
+                robot.set_arm(q)
+                pos, cur = robot.tool_pose()
+                perr = math.dist(pos, target_xyz)
+                rerr = _quat_angle(cur, orn) if orn is not None else 0.0
+                if perr < pos_tol_m / 10 and rerr < rot_tol_rad / 10:
+                    break
+            pos, cur = robot.tool_pose()
+            perr = math.dist(pos, target_xyz)
+            rerr = _quat_angle(cur, orn) if orn is not None else 0.0
+            if perr > pos_tol_m:
+                reason = f"unreachable: best position error {perr:.2f} m > {pos_tol_m} m"
+            elif rerr > rot_tol_rad:
+                reason = (f"unreachable: best orientation error {math.degrees(rerr):.1f} deg > "
+                          f"{math.degrees(rot_tol_rad):.0f} deg")
+            elif check_collision and robot.arm_clearance() < 0.0:
+                reason = "unreachable: the arm would touch the robot's base or sensors"
+            else:
+                reason = "reachable"
+            result = IkResult(reason == "reachable", q, perr, rerr, reason)
+            if result.reachable:
+                return result
+            if best is None or (perr, rerr) < (best.position_error_m, best.orientation_error_rad):
+                best = result
+    finally:
+        robot.set_arm(saved)
+    assert best is not None
+    return best
+
+
+def reach_base_poses(
+    target_xyz: Vec3,
+    robot: RobotModel,
+    occupancy: OccupancyGrid,
+    n_samples: int = 64,
+    seed: int = 0,
+    *,
+    target_rpy: Vec3 | None = None,
+    cspace: ConfigurationSpace | None = None,
+    min_distance_m: float = 0.3,
+) -> list[ReachPose]:
+    """Base poses around ``target_xyz`` from which the arm reaches it and the footprint is free.
+
+    ``n_samples`` candidate poses are drawn (seeded): the arm's mount at a horizontal distance
+    between ``min_distance_m`` and the arm's horizontal reach at the target's height, any base yaw.
+    Candidates whose footprint is blocked on ``occupancy`` are dropped, the rest are checked with
+    :func:`solve_ik`. Returns the reachable ones, most clearance first. The robot is put back.
+    """
+    robot._need_arm()
+    arm = robot.spec.arm
+    assert arm is not None
+    cs = cspace or ConfigurationSpace.build(occupancy, robot.spec.footprint())
+    mx, my, mz = robot.spec.arm_mount_xyz
+    shoulder_z = mz + arm.d[0]
+    dz = target_xyz[2] - shoulder_z
+    reach = arm.reach_m + robot.spec.tcp_m
+    horizontal = math.sqrt(max(0.0, reach * reach - dz * dz))
+    if horizontal <= min_distance_m:
+        return []
+    rng = np.random.default_rng(seed)
+    dist = rng.uniform(min_distance_m, horizontal, n_samples)
+    phi = rng.uniform(-math.pi, math.pi, n_samples)
+    yaw = rng.uniform(-math.pi, math.pi, n_samples)
+    saved_base = robot.base_pose()
+    out: list[ReachPose] = []
+    try:
+        for d, f, t in zip(dist.tolist(), phi.tolist(), yaw.tolist(), strict=True):
+            ax, ay = target_xyz[0] - d * math.cos(f), target_xyz[1] - d * math.sin(f)
+            x = ax - (math.cos(t) * mx - math.sin(t) * my)
+            y = ay - (math.sin(t) * mx + math.cos(t) * my)
+            if not cs.is_free(x, y, t):
+                continue
+            robot.set_base_pose(x, y, t)
+            ik = solve_ik(robot, target_xyz, target_rpy)
+            if ik.reachable:
+                out.append(ReachPose(x, y, t, ik, occupancy.clearance_at(x, y)))
+    finally:
+        robot.set_base_pose(*saved_base)
+    out.sort(key=lambda r: (-r.clearance_m, r.ik.position_error_m, r.x, r.y))
+    log.info("reach_base_poses: %d of %d samples reach (%.2f, %.2f, %.2f)", len(out), n_samples, *target_xyz)
+    return out
