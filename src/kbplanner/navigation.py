@@ -298,7 +298,7 @@ def _solve(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSet
             poses = simplified
             how = "found and simplified"
         else:
-            log.warning("simplified path failed the dense re-check; keeping the unsimplified path")
+            log.info("simplified path failed the dense re-check; keeping the unsimplified path")
     elapsed = time.perf_counter() - t0
     del ss, planner
     if not _dense_ok(cs, poses, step):

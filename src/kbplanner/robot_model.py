@@ -636,6 +636,10 @@ class RobotModel:
         self.arm_links: tuple[int, ...] = tuple(
             self.links[n] for n in (*ARM_LINK_NAMES, "gripper_link") if n in self.links
         )
+        # PyBullet places a body by its root's centre of mass; keep the offset to the link frame.
+        dyn = p.getDynamicsInfo(body, -1, physicsClientId=client)
+        self._com_pos: Vec3 = tuple(float(v) for v in dyn[3])  # type: ignore[assignment]
+        self._com_orn: Quat = tuple(float(v) for v in dyn[4])  # type: ignore[assignment]
 
     @classmethod
     def load(
@@ -692,14 +696,15 @@ class RobotModel:
         """Place the base frame (on the ground below the chassis centre) at (x, y, z) facing ``yaw``."""
         import pybullet as p
 
-        p.resetBasePositionAndOrientation(self.body, (x, y, z), p.getQuaternionFromEuler((0.0, 0.0, yaw)),
-                                          physicsClientId=self.client)
+        pos, orn = p.multiplyTransforms((x, y, z), p.getQuaternionFromEuler((0.0, 0.0, yaw)),
+                                        self._com_pos, self._com_orn)
+        p.resetBasePositionAndOrientation(self.body, pos, orn, physicsClientId=self.client)
 
     def base_pose(self) -> tuple[float, float, float]:
         """(x, y, yaw) of the base frame in the site frame."""
         import pybullet as p
 
-        pos, orn = p.getBasePositionAndOrientation(self.body, physicsClientId=self.client)
+        pos, orn = self.link_pose(-1)
         yaw = p.getEulerFromQuaternion(orn)[2]
         return (float(pos[0]), float(pos[1]), float(yaw))
 
@@ -752,7 +757,9 @@ class RobotModel:
         import pybullet as p
 
         if link == -1:
-            pos, orn = p.getBasePositionAndOrientation(self.body, physicsClientId=self.client)
+            com_pos, com_orn = p.getBasePositionAndOrientation(self.body, physicsClientId=self.client)
+            inv_pos, inv_orn = p.invertTransform(self._com_pos, self._com_orn)
+            pos, orn = p.multiplyTransforms(com_pos, com_orn, inv_pos, inv_orn)
         else:
             state = p.getLinkState(self.body, link, computeForwardKinematics=True,
                                    physicsClientId=self.client)
