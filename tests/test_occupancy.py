@@ -83,7 +83,8 @@ def test_objects_entirely_above_or_below_the_band_are_ignored() -> None:
 
 def test_a_sloped_triangle_crossing_the_band_marks_only_its_in_band_part() -> None:
     # A ramp rising from z=0 at x=0 to z=3 at x=3 (a thin sheet); in band for x in [0.05, 1.5].
-    ramp = trimesh.Trimesh(vertices=[[0, 0, 0], [3, 0, 3], [3, 1, 3], [0, 1, 0]], faces=[[0, 1, 2], [0, 2, 3]])
+    ramp = trimesh.Trimesh(vertices=[[0, 0, 0], [3, 0, 3], [3, 1, 3], [0, 1, 0]],
+                           faces=[[0, 1, 2], [0, 2, 3]])
     g = occupancy_from_meshes([ramp], BAND, Box(0, 0, 3, 1), 0.05)
     assert g.is_occupied(1.0, 0.5) and g.is_occupied(0.06, 0.5) and g.is_occupied(1.49, 0.5)
     assert not g.is_occupied(0.02, 0.5) and not g.is_occupied(1.6, 0.5) and not g.is_occupied(2.5, 0.5)
@@ -96,7 +97,9 @@ def test_clearance_is_the_distance_to_the_nearest_occupied_cell(room_grid: Occup
     assert room_grid.clearance_at(99.0, 99.0) == 0.0
 
 
-def test_the_map_is_written_in_ros_map_server_format_and_reads_back(room_grid: OccupancyGrid, tmp_path: Path) -> None:
+def test_the_map_is_written_in_ros_map_server_format_and_reads_back(
+    room_grid: OccupancyGrid, tmp_path: Path
+) -> None:
     pgm, yaml = room_grid.to_pgm_yaml(tmp_path)
     raw = pgm.read_bytes()
     ny, nx = room_grid.shape

@@ -117,8 +117,9 @@ def test_the_stow_pose_keeps_the_arm_inside_the_footprint_and_clear_of_lidar_and
     robot = husky_ur5
     robot.set_base_pose(0.0, 0.0, 0.0)
     robot.set_named_pose("stow")
-    lo = np.min([p.getAABB(robot.body, link, physicsClientId=robot.client)[0] for link in robot.arm_links], axis=0)
-    hi = np.max([p.getAABB(robot.body, link, physicsClientId=robot.client)[1] for link in robot.arm_links], axis=0)
+    boxes = [p.getAABB(robot.body, link, physicsClientId=robot.client) for link in robot.arm_links]
+    lo = np.min([b[0] for b in boxes], axis=0)
+    hi = np.max([b[1] for b in boxes], axis=0)
     assert lo[0] > -0.495 and hi[0] < 0.495 and lo[1] > -0.335 and hi[1] < 0.335
     assert lo[2] > robot.spec.base.height_m  # above the top plate: the lidar plane (0.3 m) is free
     assert robot.min_distance(robot.arm_links, [robot.lidar_link, robot.camera_link]) > 0.02
@@ -182,7 +183,8 @@ def test_a_broken_robot_table_is_reported_with_its_file_and_the_fix(tmp_path: Pa
     bad.write_text("[robot.x\n", encoding="utf-8")
     with pytest.raises(InputFileError, match="not valid TOML"):
         load_robot_specs(bad)
-    text = robots_toml().read_text(encoding="utf-8").replace("d = [0.089159, 0.0, 0.0, 0.10915", "d = [0.089159")
+    text = robots_toml().read_text(encoding="utf-8")
+    text = text.replace("d = [0.089159, 0.0, 0.0, 0.10915", "d = [0.089159")
     bad.write_text(text, encoding="utf-8")
     with pytest.raises(InputFileError, match=r"arm\.ur5\.d"):
         load_robot_specs(bad)

@@ -1,4 +1,4 @@
-"""Arm IK (B4): reachable tool poses are reached within 1 cm / 3 degrees, far ones are reported, all deterministic."""
+"""Arm IK (B4): poses in reach are reached within 1 cm / 3 deg, far ones are reported, deterministically."""
 
 from __future__ import annotations
 
@@ -70,7 +70,9 @@ def test_ik_works_in_the_site_frame_wherever_the_base_stands(robot: RobotModel) 
 
 
 @pytest.mark.parametrize("xyz", [(3.0, 0.0, 0.5), (0.0, 0.0, 2.5), (-1.6, 0.4, 0.6)])
-def test_far_targets_are_reported_unreachable_with_the_error(robot: RobotModel, xyz: tuple[float, float, float]) -> None:
+def test_far_targets_are_reported_unreachable_with_the_error(
+    robot: RobotModel, xyz: tuple[float, float, float]
+) -> None:
     robot.set_base_pose(0.0, 0.0, 0.0)
     res = solve_ik(robot, xyz)
     assert not res.reachable
@@ -97,14 +99,17 @@ def test_ik_is_deterministic_and_leaves_the_arm_as_it_was(robot: RobotModel) -> 
 
 def _room_meshes() -> list[trimesh.Trimesh]:
     walls = []
-    for x0, y0, x1, y1 in [(-0.2, -0.2, 6.2, 0.0), (-0.2, 4.0, 6.2, 4.2), (-0.2, 0.0, 0.0, 4.0), (6.0, 0.0, 6.2, 4.0)]:
+    sides = [(-0.2, -0.2, 6.2, 0.0), (-0.2, 4.0, 6.2, 4.2), (-0.2, 0.0, 0.0, 4.0), (6.0, 0.0, 6.2, 4.0)]
+    for x0, y0, x1, y1 in sides:
         box = trimesh.creation.box(extents=(x1 - x0, y1 - y0, 2.7))
         box.apply_translation(((x0 + x1) / 2, (y0 + y1) / 2, 1.35))
         walls.append(box)
     return walls
 
 
-def test_reach_base_poses_finds_free_base_poses_from_which_the_arm_reaches_a_wall_target(robot: RobotModel) -> None:
+def test_reach_base_poses_finds_free_base_poses_from_which_the_arm_reaches_a_wall_target(
+    robot: RobotModel,
+) -> None:
     grid = occupancy_from_meshes(_room_meshes(), (0.05, 1.5), Box(-0.5, -0.5, 6.5, 4.5))
     cs = ConfigurationSpace.build(grid, robot.spec.footprint())
     target = (3.0, 0.35, 0.9)  # 0.35 m in front of the south wall
@@ -123,6 +128,8 @@ def test_reach_base_poses_finds_free_base_poses_from_which_the_arm_reaches_a_wal
     assert [r.clearance_m for r in poses] == sorted((r.clearance_m for r in poses), reverse=True)
 
 
-def test_reach_base_poses_returns_none_for_a_target_out_of_reach_of_any_free_pose(robot: RobotModel) -> None:
+def test_reach_base_poses_returns_none_for_a_target_out_of_reach_of_any_free_pose(
+    robot: RobotModel,
+) -> None:
     grid = occupancy_from_meshes(_room_meshes(), (0.05, 1.5), Box(-0.5, -0.5, 6.5, 4.5))
     assert reach_base_poses((3.0, 2.0, 2.6), robot, grid, n_samples=20, seed=1) == []  # at the ceiling
