@@ -13,7 +13,6 @@ that cannot be read raises :class:`kbplanner.errors.IfcError`.
 
 from __future__ import annotations
 
-import io
 import logging
 import os
 import shutil
@@ -30,11 +29,10 @@ import ifcopenshell.util.unit
 import numpy as np
 import trimesh
 from rdflib import RDF, RDFS, XSD, Graph, Literal, URIRef
-from rdflib.plugins.serializers.turtle import TurtleSerializer
-from rdflib.term import Node
 
 from kbplanner import ifc_geometry as geo
 from kbplanner import ifc_semantics as sem
+from kbplanner import ifc_turtle
 from kbplanner.errors import IfcError
 from kbplanner.iris import element_iri
 from kbplanner.rdf_io import new_graph
@@ -528,24 +526,9 @@ def _atomic_write(path: Path, data: bytes) -> None:
             tmp.unlink()
 
 
-class ExactTurtleSerializer(TurtleSerializer):
-    """Turtle that writes xsd:double literals in full (``"3.1"^^xsd:double``).
-
-    rdflib's Turtle shorthand for doubles keeps 7 significant digits (``1.234568e+04``), which would
-    lose millimetres on site coordinates and make the written file differ from the graph in memory.
-    """
-
-    def label(self, node: Node, position: int) -> str:
-        if isinstance(node, Literal) and node.datatype == XSD.double:
-            return node._literal_n3(use_plain=False, qname_callback=lambda dt: self.get_pname(dt, False))
-        return str(super().label(node, position))
-
-
 def serialize_model(graph: Graph) -> bytes:
     """The graph as Turtle; the same graph always gives the same bytes (sorted, no blank nodes)."""
-    stream = io.BytesIO()
-    ExactTurtleSerializer(graph).serialize(stream, encoding="utf-8")
-    return stream.getvalue()
+    return ifc_turtle.serialize(graph)
 
 
 def write_import(result: ImportResult, out_dir: Path) -> None:
