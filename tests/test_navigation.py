@@ -1,0 +1,159 @@
+"""Navigation (B5, NV-1/NV-2): OMPL plans through doors, carries a wide load narrow only where it must."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import trimesh
+
+from kbplanner.footprint import ConfigurationSpace, Footprint, Rect
+from kbplanner.navigation import (
+    NavSettings,
+    grid_shortest_path_length,
+    plan_path,
+    plan_with_carry_modes,
+    time_parameterize,
+)
+from kbplanner.occupancy import Box, OccupancyGrid, occupancy_from_meshes
+
+BASE = Footprint((Rect(0.0, 0.0, 0.99, 0.67),), name="husky")
+# A 1.2 m wide panel: flat across the robot (normal mode), or on its side along the robot (narrow mode).
+WIDE = BASE.with_rect(Rect(0.0, 0.0, 0.6, 1.2), name="panel flat across")
+NARROW = BASE.with_rect(Rect(0.0, 0.0, 1.2, 0.1), name="panel on its side")
+DOOR_X = (4.0, 4.2)  # the dividing wall
+START = (1.5, 1.0, 0.5)
+GOAL = (6.5, 3.0, -1.0)
+
+
+def box(x0: float, y0: float, x1: float, y1: float) -> trimesh.Trimesh:
+    mesh = trimesh.creation.box(extents=(x1 - x0, y1 - y0, 2.7))
+    mesh.apply_translation(((x0 + x1) / 2, (y0 + y1) / 2, 1.35))
+    return mesh
+
+
+def two_rooms(door_width: float, door_center_y: float = 2.0, closed_east_room: bool = False) -> OccupancyGrid:
+    """Two 4 x 4 m rooms side by side, joined by one door in the 0.2 m wall at x = 4.0-4.2."""
+    lo, hi = door_center_y - door_width / 2, door_center_y + door_width / 2
+    walls = [box(-0.2, -0.2, 8.4, 0.0), box(-0.2, 4.0, 8.4, 4.2), box(-0.2, 0.0, 0.0, 4.0),
+             box(8.2, 0.0, 8.4, 4.0), box(4.0, 0.0, 4.2, lo), box(4.0, hi, 4.2, 4.0)]
+    if closed_east_room:
+        walls.append(box(4.0, lo, 4.2, hi))
+    return occupancy_from_meshes(walls, (0.05, 1.5), Box(-0.5, -0.5, 8.7, 4.5), 0.05)
+
+
+@pytest.fixture(scope="module")
+def door_09() -> OccupancyGrid:
+    return two_rooms(0.9)
+
+
+def _dense_free(cs: ConfigurationSpace, poses: tuple[tuple[float, float, float], ...], step: float = 0.01
+                ) -> bool:
+    from kbplanner.navigation import _densify
+
+    return bool(cs.is_free_many(_densify(poses, step, math.radians(1.0))).all())
+
+
+def test_the_wide_load_is_carried_narrow_only_through_the_door(door_09: OccupancyGrid) -> None:
+    plan = plan_with_carry_modes(door_09, START, GOAL, WIDE, NARROW, NavSettings(seed=3), margin_m=0.5)
+    assert plan.ok and plan.mode == "narrow", plan.reason
+    assert plan.normal_attempt is not None and not plan.normal_attempt.ok
+    assert "walled off" in plan.normal_attempt.reason  # the wide load cannot pass the 0.9 m door at all
+    assert [e.kind for e in plan.events] == ["rotate_to_narrow", "rotate_back"]
+    (seg,) = plan.segments
+    poses = plan.path.poses
+    to_narrow, back = poses[seg.start_index], poses[seg.end_index]
+    # Rotations happen on either side of the door, close to it, and nowhere else.
+    assert to_narrow[0] < DOOR_X[0] and back[0] > DOOR_X[1]
+    for x, y, _ in (to_narrow, back):
+        assert math.hypot(x - sum(DOOR_X) / 2, y - 2.0) < 1.6
+    cs_wide = ConfigurationSpace.build(door_09, WIDE)
+    cs_narrow = ConfigurationSpace.build(door_09, NARROW)
+    assert _dense_free(cs_narrow, poses)
+    assert _dense_free(cs_wide, poses[: seg.start_index + 1]) and _dense_free(cs_wide, poses[seg.end_index :])
+    assert not _dense_free(cs_wide, poses[seg.start_index : seg.end_index + 1])
+    assert plan.extra["narrow_length_m"] == pytest.approx(seg.end_s_m - seg.start_s_m)
+    assert seg.end_s_m - seg.start_s_m < 0.5 * plan.path.length_m
+
+
+def test_a_wide_enough_door_needs_no_rotation() -> None:
+    plan = plan_with_carry_modes(two_rooms(1.8), START, GOAL, WIDE, NARROW, NavSettings(seed=3))
+    assert plan.ok and plan.mode == "normal" and plan.events == () and plan.segments == ()
+
+
+def test_a_door_too_narrow_even_for_the_narrow_mode_fails_with_both_reasons() -> None:
+    plan = plan_with_carry_modes(two_rooms(0.6), START, GOAL, WIDE, NARROW, NavSettings(seed=3))
+    assert not plan.ok and plan.status == "failed"
+    assert "narrow carry mode" in plan.reason and "normal mode" in plan.reason
+    assert "walled off" in plan.reason
+
+
+def test_a_start_in_collision_is_a_failed_result_not_an_exception(door_09: OccupancyGrid) -> None:
+    path = plan_path(door_09, (4.1, 0.5, 0.0), GOAL, BASE)  # inside the dividing wall
+    assert not path.ok and path.reason == "no path: start in collision" and path.poses == ()
+    path = plan_path(door_09, START, (0.2, 0.2, 0.0), BASE)  # base overlaps the corner walls
+    assert not path.ok and path.reason == "no path: goal in collision"
+    path = plan_path(door_09, START, (20.0, 2.0, 0.0), BASE)
+    assert not path.ok and "off the map" in path.reason
+
+
+def test_a_walled_off_goal_fails_with_its_reason_without_using_the_time_budget() -> None:
+    closed = two_rooms(0.9, closed_east_room=True)
+    path = plan_path(closed, START, GOAL, BASE, NavSettings(time_limit_s=30.0))
+    assert not path.ok and "walled off" in path.reason
+    assert path.planning_time_s < 1.0
+
+
+def test_the_time_budget_ends_planning_with_a_reason(door_09: OccupancyGrid) -> None:
+    # The door needs hundreds of tree states (about 0.05 s here); 0.1 ms is not enough on any machine.
+    path = plan_path(door_09, START, GOAL, NARROW, NavSettings(time_limit_s=0.0001, seed=3))
+    assert not path.ok and path.reason.startswith("no path within 0.0001 s")
+    assert path.planning_time_s < 0.5
+
+
+def test_the_same_seed_gives_the_same_path(door_09: OccupancyGrid) -> None:
+    cs = ConfigurationSpace.build(door_09, NARROW)
+    a = plan_path(cs, START, GOAL, settings=NavSettings(seed=11))
+    b = plan_path(cs, START, GOAL, settings=NavSettings(seed=11))
+    assert a.ok and a.poses == b.poses and a.length_m == b.length_m
+    plans = {plan_path(cs, START, GOAL, settings=NavSettings(seed=s)).poses for s in (1, 2, 3, 4)}
+    assert len(plans) > 1  # the seed is really used
+
+
+def test_planned_paths_are_collision_free_and_within_10_percent_of_the_grid_shortest_path(
+    door_09: OccupancyGrid,
+) -> None:
+    cs = ConfigurationSpace.build(door_09, NARROW)
+    shortest = grid_shortest_path_length(cs, START, GOAL)
+    assert 5.0 < shortest < 6.5
+    for seed in (1, 2, 3):
+        path = plan_path(cs, START, GOAL, settings=NavSettings(seed=seed))
+        assert path.ok and path.poses[0] == START and path.poses[-1] == pytest.approx(GOAL)
+        assert _dense_free(cs, path.poses)
+        assert path.length_m <= 1.10 * shortest, (seed, path.length_m, shortest)
+
+
+def test_grid_shortest_path_length_is_infinite_when_walled_off_and_straight_in_the_open() -> None:
+    closed = two_rooms(0.9, closed_east_room=True)
+    assert grid_shortest_path_length(closed, START, GOAL, BASE) == math.inf
+    assert grid_shortest_path_length(closed, (1.0, 1.0), (3.0, 3.0), BASE) == pytest.approx(math.hypot(2, 2))
+
+
+def test_time_parameterisation_respects_speed_and_yaw_rate_and_ends_at_the_goal(
+    door_09: OccupancyGrid,
+) -> None:
+    path = plan_path(door_09, START, GOAL, NARROW, NavSettings(seed=3))
+    traj = time_parameterize(path, max_speed_mps=1.0, max_yaw_rate_rps=1.0, max_accel_mps2=0.5,
+                             max_yaw_accel_rps2=1.0, rate_hz=20.0)
+    t = np.array(traj.t_s)
+    xyz = np.array(traj.poses)
+    assert t[0] == 0.0 and np.allclose(np.diff(t)[:-1], 0.05)
+    assert xyz[0] == pytest.approx(START) and xyz[-1] == pytest.approx(GOAL)
+    dt = np.diff(t)
+    speed = np.hypot(np.diff(xyz[:, 0]), np.diff(xyz[:, 1])) / dt
+    yaw_rate = np.abs((np.diff(xyz[:, 2]) + math.pi) % (2 * math.pi) - math.pi) / dt
+    assert speed.max() <= 1.0 + 1e-6 and yaw_rate.max() <= 1.0 + 1e-6
+    assert traj.duration_s >= path.length_m / 1.0
+    # Rest-to-rest per segment: the robot stops at each waypoint.
+    assert speed[0] < 0.1 and speed[-1] < 0.1
