@@ -26,6 +26,9 @@ COMMANDS: tuple[str, ...] = (
     "info",
     "query",
     "import_ifc",
+    "requirements",
+    "validate",
+    "robots",
 )
 
 

@@ -1,0 +1,58 @@
+"""``kbplanner requirements PROJECT``: the additional modeling requirements (A3) of a project.
+
+Prints one row per requirement (``--format table``), one line per element (``csv``), the full
+result (``json``) or RDF (``ttl``). ``--template FILE`` also writes a Turtle skeleton of exactly what is
+missing. Exit code 0 whether or not requirements remain (they are a result); 2 on bad input.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from kbplanner.project import Project
+from kbplanner.requirements import RequirementsResult, derive_requirements
+from kbplanner.tables import render
+
+FORMATS = ("table", "csv", "json", "ttl")
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = sub.add_parser("requirements",
+                       help="list the additional modeling requirements of the robotized tasks (A3)")
+    p.add_argument("project", help="project directory (holding project.toml)")
+    p.add_argument("--scenario", help="scenario overlay to apply (default: the bare model)")
+    p.add_argument("--task", help="only this robotized task id")
+    p.add_argument("--format", choices=FORMATS, default="table")
+    p.add_argument("--template", metavar="FILE", type=Path,
+                   help="write a Turtle skeleton of what is missing (fill it in, add it to the project)")
+    p.set_defaults(func=run)
+
+
+def format_result(result: RequirementsResult, fmt: str) -> str:
+    """The result in one of ``FORMATS``."""
+    if fmt == "csv":
+        return result.to_csv()
+    if fmt == "json":
+        return result.to_json()
+    if fmt == "ttl":
+        return str(result.to_graph().serialize(format="turtle"))
+    if not result.requirements:
+        return result.text()
+    table = render(list(RequirementsResult.TABLE_COLUMNS), result.table_rows(), "table",
+                   title=f"Additional modeling requirements ({len(result.requirements)})")
+    met = [c for c in result.checks if c.unmet == 0]
+    tail = "".join(f"already in the model: {c.task_id} action {c.action_order} {c.skill_id} "
+                   f"'{c.input_name}' ({c.needs})\n" for c in met)
+    return table + tail
+
+
+def run(args: argparse.Namespace) -> int:
+    project = Project.load(args.project, scenario=args.scenario)
+    result = derive_requirements(project.model, project.kb, task_id=args.task)
+    sys.stdout.write(format_result(result, args.format))
+    if args.template is not None:
+        args.template.write_text(result.template(project.base), encoding="utf-8")
+        sys.stderr.write(f"wrote template {args.template}\n")
+    return 0

@@ -1,0 +1,38 @@
+"""``kbplanner validate PROJECT``: validate the (augmented) 4D model with SHACL (A4, A5).
+
+Checks the well-formedness shapes of ``shapes/`` and the requirement shapes generated from the
+knowledge base. Exit code 0 when the model conforms, 1 when it does not (the readable list is
+printed), 2 on bad input. ``--report FILE`` writes the standard SHACL report as Turtle, or the
+readable text when FILE ends in ``.txt``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from kbplanner.cli import EXIT_NEGATIVE, EXIT_OK
+from kbplanner.project import Project
+from kbplanner.validation import validate_model
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = sub.add_parser("validate", help="validate the 4D model and its augmentation with SHACL (A4)")
+    p.add_argument("project", help="project directory (holding project.toml)")
+    p.add_argument("--scenario", help="scenario overlay to apply (default: the bare model)")
+    p.add_argument("--report", metavar="FILE", type=Path,
+                   help="write the SHACL report (Turtle), or the text report if FILE ends in .txt")
+    p.add_argument("--well-formedness-only", action="store_true",
+                   help="skip the generated requirement shapes (check only shapes/*.ttl)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    project = Project.load(args.project, scenario=args.scenario)
+    result = validate_model(project.model, project.kb, include_requirements=not args.well_formedness_only)
+    sys.stdout.write(result.text())
+    if args.report is not None:
+        result.write(args.report)
+        sys.stderr.write(f"wrote report {args.report}\n")
+    return EXIT_OK if result.conforms else EXIT_NEGATIVE
