@@ -176,10 +176,10 @@ def jobsite_parameters(model: Graph, scenario: str | None = None) -> JobsitePara
     zones = []
     for r in select(model, "no_go_zones"):
         z = r["zone"]
-        vals = [_float(r[k]) for k in ("x", "y", "sizeX", "sizeY")]
-        if not isinstance(z, URIRef) or any(v is None for v in vals):
+        nums = [_float(r[k]) for k in ("x", "y", "sizeX", "sizeY")]
+        if not isinstance(z, URIRef) or any(v is None for v in nums):
             continue  # incomplete zones are reported by validation (shapes/jobsite.ttl)
-        x, y, sx, sy = (float(v) for v in vals if v is not None)
+        x, y, sx, sy = (float(v) for v in nums if v is not None)
         zones.append(NoGoZone(iri=z, label=str(r["label"] or ""), x=x, y=y, yaw=_float(r["yaw"]) or 0.0,
                               size_x=sx, size_y=sy))
     return JobsiteParameters(

@@ -105,8 +105,9 @@ def load_robots(kb: Graph) -> list[RobotProfile]:
     """
     caps: dict[Node, list[URIRef]] = {}
     for r in select(kb, "robot_capabilities"):
-        if isinstance(r["capability"], URIRef):
-            caps.setdefault(r["robot"], []).append(r["capability"])
+        robot, cap = r["robot"], r["capability"]
+        if isinstance(robot, URIRef) and isinstance(cap, URIRef):
+            caps.setdefault(robot, []).append(cap)
     out = []
     for r in select(kb, "robots"):
         robot = r["robot"]

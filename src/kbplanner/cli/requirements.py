@@ -18,7 +18,7 @@ from kbplanner.tables import render
 FORMATS = ("table", "csv", "json", "ttl")
 
 
-def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("requirements",
                        help="list the additional modeling requirements of the robotized tasks (A3)")
     p.add_argument("project", help="project directory (holding project.toml)")

@@ -17,7 +17,7 @@ from kbplanner.tables import render
 from kbplanner.task_specs import robotized_tasks
 
 
-def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("robots", help="assess every robot of the knowledge base for a robotized task (B3)")
     p.add_argument("project", help="project directory (holding project.toml)")
     p.add_argument("--scenario", help="scenario overlay to apply (default: the bare model)")

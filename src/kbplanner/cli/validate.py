@@ -17,7 +17,7 @@ from kbplanner.project import Project
 from kbplanner.validation import validate_model
 
 
-def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("validate", help="validate the 4D model and its augmentation with SHACL (A4)")
     p.add_argument("project", help="project directory (holding project.toml)")
     p.add_argument("--scenario", help="scenario overlay to apply (default: the bare model)")
