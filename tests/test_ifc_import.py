@@ -433,3 +433,26 @@ def test_matrix_to_pose_recovers_roll_pitch_yaw() -> None:
     pose = matrix_to_pose(m)
     assert (pose.x, pose.y, pose.z) == (1.0, -2.0, 0.5)
     assert (pose.roll, pose.pitch, pose.yaw) == pytest.approx(angles, abs=1e-9)
+
+
+def test_an_element_whose_data_cannot_be_read_is_dropped_and_reported(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from kbplanner import ifc_semantics
+
+    b = write_test_building(tmp_path / "m.ifc")
+    bad = next(gid for gid, w in b.walls.items() if not w.is_external)
+    real = ifc_semantics.material_names
+
+    def failing(product: object) -> list[str]:
+        if getattr(product, "GlobalId", None) == bad:
+            raise ValueError("malformed material association")
+        return real(product)
+
+    monkeypatch.setattr(ifc_semantics, "material_names", failing)
+    r = import_ifc_graph(b.path, base=BASE)
+    assert [(s.global_id, s.reason) for s in r.skipped] == [
+        (bad, "could not read its data (ValueError: malformed material association)")]
+    g = r.graph
+    assert not list(g.triples((el(bad), None, None))) and not list(g.triples((None, None, el(bad))))
+    assert r.counts["kbp:Wall"] == len(b.walls) - 1

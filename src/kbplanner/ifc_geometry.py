@@ -113,13 +113,15 @@ class MeshResult:
 
 def _settings() -> Any:
     settings = ifcopenshell.geom.settings()
-    settings.set("use-world-coords", True)  # vertices already placed, in metres
-    settings.set("site-local-placement", True)  # ... relative to the site: the site frame
+    settings.set("use-world-coords", True)  # vertices placed in the IFC world frame, in metres
     return settings
 
 
-def _to_mesh(geometry: Any) -> trimesh.Trimesh:
+def _to_mesh(geometry: Any, world_to_site: np.ndarray) -> trimesh.Trimesh:
     vertices = np.asarray(geometry.verts, dtype=np.float64).reshape(-1, 3)
+    # The same transform as for poses (not ifcopenshell's site-local-placement, which only strips
+    # the site from placement chains that pass through it).
+    vertices = trimesh.transform_points(vertices, world_to_site)
     faces = np.asarray(geometry.faces, dtype=np.int64).reshape(-1, 3)
     # process=True merges coincident vertices, which makes closed solids watertight.
     return trimesh.Trimesh(vertices=vertices, faces=faces, process=True)
@@ -147,11 +149,13 @@ def build_meshes(
     ifc_file: ifcopenshell.file,
     products: Sequence[Any],
     *,
+    world_to_site: np.ndarray | None = None,
     processes: int = 1,
     progress: ProgressCallback | None = None,
 ) -> MeshResult:
     """Triangulate ``products`` (their Body representation) with ifcopenshell's geometry iterator.
 
+    ``world_to_site`` (4x4, metres) moves the IFC world frame to the site frame (default: identity).
     A product the iterator does not return is retried alone, to get the reason it fails (or a mesh
     from another representation); products without triangles are reported as failures too.
     ``progress(done, total)`` is called as shapes arrive.
@@ -162,6 +166,7 @@ def build_meshes(
     if total == 0:
         return MeshResult(meshes, failures, processes)
     settings = _settings()
+    to_site = np.eye(4) if world_to_site is None else np.asarray(world_to_site, dtype=float)
     ifcopenshell.get_log()  # drop earlier messages
     iterator = ifcopenshell.geom.iterator(settings, ifc_file, max(1, processes), include=list(products))
     done = 0
@@ -169,7 +174,7 @@ def build_meshes(
         while True:
             shape: Any = iterator.get()
             guid = str(shape.guid)
-            mesh = _to_mesh(shape.geometry)
+            mesh = _to_mesh(shape.geometry, to_site)
             if len(mesh.faces) > 0:
                 meshes[guid] = mesh
             else:
@@ -190,7 +195,7 @@ def build_meshes(
             errors = _log_errors(ifcopenshell.get_log())
             failures[guid] = "geometry failed: " + (errors[0] if errors else str(exc))
             continue
-        mesh = _to_mesh(single.geometry)
+        mesh = _to_mesh(single.geometry, to_site)
         if len(mesh.faces) > 0:
             meshes[guid] = mesh
         else:

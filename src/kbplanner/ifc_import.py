@@ -20,6 +20,7 @@ import time
 from collections import Counter
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -41,6 +42,8 @@ from kbplanner.vocab import BOT, KBP
 log = logging.getLogger(__name__)
 
 ProgressCallback = Callable[[int, int], None]
+
+_NOT_COUNTED = frozenset({KBP.Element, BOT.Element, KBP.Pose, KBP.Box})
 
 # ifcopenshell reads these; IFC4X3_ADD2 geometry was checked on files written by ifcopenshell.api.
 SUPPORTED_SCHEMAS: tuple[str, ...] = ("IFC2X3", "IFC4", "IFC4X3_ADD2")
@@ -214,8 +217,8 @@ class _GraphBuilder:
         self.units = unit_scales(ifc_file)
         self.site_m = geo.site_matrix(ifc_file, self.units.length_m)
         self.site_inv = np.linalg.inv(self.site_m)
-        self.counts: Counter[str] = Counter()
         self.skipped: list[SkippedElement] = []
+        self.dropped: list[Any] = []
         self.seen_ids: set[str] = set()
         self.boundaries = sem.space_boundary_index(ifc_file)
 
@@ -224,9 +227,37 @@ class _GraphBuilder:
     def iri(self, product: Any) -> URIRef:
         return element_iri(self.base, str(product.GlobalId))
 
-    def typed(self, node: URIRef, cls: URIRef, curie: str) -> None:
+    def typed(self, node: URIRef, cls: URIRef) -> None:
         self.g.add((node, RDF.type, cls))
-        self.counts[curie] += 1
+
+    def counts(self) -> dict[str, int]:
+        """Instances per kbp/BOT class given by the import (not the materialised supertypes)."""
+        found: Counter[str] = Counter()
+        for cls in self.g.objects(None, RDF.type):
+            if cls in _NOT_COUNTED:
+                continue
+            for prefix, ns in (("kbp", str(KBP._NS)), ("bot", str(BOT._NS))):
+                if str(cls).startswith(ns):
+                    found[f"{prefix}:{str(cls)[len(ns):]}"] += 1
+        return dict(sorted(found.items()))
+
+    def drop(self, product: Any) -> None:
+        """Remove every triple about a product (after its data could not be read)."""
+        node = self.iri(product)
+        for subject in (node, URIRef(f"{node}/installed-pose"), URIRef(f"{node}/bounds")):
+            self.g.remove((subject, None, None))
+        self.g.remove((None, None, node))
+
+    def guarded(self, product: Any, add: Callable[[], None]) -> None:
+        """Run ``add``; a product whose data cannot be read is dropped and reported, not fatal."""
+        try:
+            add()
+        except Exception as exc:  # malformed IFC data of one product must not stop the import
+            log.debug("cannot read %s", product, exc_info=True)
+            self.drop(product)
+            self.dropped.append(product)
+            self.skipped.append(SkippedElement(str(product.GlobalId), product.is_a(), str(product.Name or ""),
+                                               f"could not read its data ({type(exc).__name__}: {exc})"))
 
     def unique(self, products: Iterable[Any]) -> list[Any]:
         """Products sorted by GlobalId; a repeated or empty GlobalId is skipped and reported."""
@@ -282,17 +313,17 @@ class _GraphBuilder:
 
     def add_spatial(self) -> list[StoreyInfo]:
         for site in self.unique(self.f.by_type("IfcSite")):
-            self.typed(self.identity(site), BOT.Site, "bot:Site")
+            self.typed(self.identity(site), BOT.Site)
         for building in self.unique(self.f.by_type("IfcBuilding")):
             node = self.identity(building)
-            self.typed(node, BOT.Building, "bot:Building")
+            self.typed(node, BOT.Building)
             site = _nearest(building, "IfcSite")
             if site is not None:
                 self.g.add((self.iri(site), BOT.hasBuilding, node))
         storeys: list[StoreyInfo] = []
         for storey in self.unique(self.f.by_type("IfcBuildingStorey")):
             node = self.identity(storey)
-            self.typed(node, BOT.Storey, "bot:Storey")
+            self.typed(node, BOT.Storey)
             if storey.Elevation is not None:
                 elevation = geo.round_length(float(storey.Elevation) * self.units.length_m)
             else:  # no Elevation attribute: the height of the storey's placement
@@ -307,7 +338,7 @@ class _GraphBuilder:
 
     def add_space(self, space: Any, mesh: trimesh.Trimesh | None) -> None:
         node = self.identity(space, space.LongName or space.Name)
-        self.typed(node, BOT.Space, "bot:Space")
+        self.typed(node, BOT.Space)
         self.add_type_attributes(node, space)
         parent = _nearest(space, "IfcBuildingStorey") or _nearest(space, "IfcBuilding")
         if parent is not None:
@@ -360,8 +391,7 @@ class _GraphBuilder:
     ) -> None:
         node = self.identity(element)
         cls = sem.kbp_class(element)
-        curie = "kbp:" + str(cls).rsplit("#", 1)[-1]
-        self.typed(node, cls, curie)
+        self.typed(node, cls)
         self.g.add((node, RDF.type, KBP.Element))
         self.g.add((node, RDF.type, BOT.Element))
         self.add_type_attributes(node, element)
@@ -472,7 +502,8 @@ def import_ifc_graph(
     # Openings keep their RDF but get no mesh: they are voids, already cut from their hosts.
     with_geometry = [p for p in (*elements, *spaces)
                      if p.Representation is not None and not p.is_a("IfcFeatureElementSubtraction")]
-    result = geo.build_meshes(ifc_file, with_geometry, processes=processes, progress=progress)
+    result = geo.build_meshes(ifc_file, with_geometry, world_to_site=b.site_inv, processes=processes,
+                             progress=progress)
     meshes = result.meshes
     by_guid = {str(p.GlobalId): p for p in with_geometry}
     for guid in sorted(result.failures):
@@ -480,7 +511,7 @@ def import_ifc_graph(
         b.skipped.append(SkippedElement(guid, product.is_a(), str(product.Name or ""), result.failures[guid]))
 
     for space in spaces:
-        b.add_space(space, meshes.get(str(space.GlobalId)))
+        b.guarded(space, partial(b.add_space, space, meshes.get(str(space.GlobalId))))
     for element in elements:
         guid = str(element.GlobalId)
         mesh = meshes.get(guid)
@@ -491,14 +522,16 @@ def import_ifc_graph(
             if parts:
                 stacked = np.vstack([m.bounds for m in parts])
                 parts_bounds = np.array([stacked.min(axis=0), stacked.max(axis=0)])
-        b.add_element(element, mesh, parts_bounds)
+        b.guarded(element, partial(b.add_element, element, mesh, parts_bounds))
+    for product in b.dropped:  # links that products read later made to a dropped one
+        b.drop(product)
 
     seconds = time.perf_counter() - started
     log.info("imported %d triples, %d meshes, %d skipped in %.1f s", len(b.g), len(meshes),
              len(b.skipped), seconds)
     return ImportResult(
         graph=b.g,
-        counts=dict(sorted(b.counts.items())),
+        counts=b.counts(),
         skipped=tuple(sorted(b.skipped, key=lambda s: (s.global_id, s.reason))),
         schema=str(ifc_file.schema_identifier),
         length_unit_m=b.units.length_m,
