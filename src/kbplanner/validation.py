@@ -106,6 +106,7 @@ def well_formedness_shapes(extra: Graph | None = None) -> Graph:
     return g
 
 
+SHAPES_NS = "https://w3id.org/kbplanner/shapes#"
 _INDEX_TYPES = (KBP.TaskSpecification, KBP.Skill, KBP.Action)
 _INDEX_PROPS = (KBP.specificationId, KBP.skillId)
 
@@ -114,6 +115,7 @@ def _data_copy(model: Graph, kb: Graph) -> Graph:
     """The model plus the KB class hierarchy and KB index, in a new graph."""
     data = Graph()
     bind_prefixes(data)
+    data.bind("kbps", SHAPES_NS)
     for t in model:
         data.add(t)
     for t in kb.triples((None, RDFS.subClassOf, None)):
@@ -127,7 +129,8 @@ def _data_copy(model: Graph, kb: Graph) -> Graph:
     return data
 
 
-def _focus_words(data: Graph, node: Node) -> tuple[str, str]:
+def _focus_words(data: Graph, node: Node, *, owner: bool = True) -> tuple[str, str]:
+    """How a node is named in a row: GlobalId, task id, or (for a pose or box) whose property it is."""
     gid = data.value(node, KBP.globalId)
     if gid is not None:
         return str(gid), str(data.value(node, RDFS.label) or "")
@@ -135,6 +138,11 @@ def _focus_words(data: Graph, node: Node) -> tuple[str, str]:
     if tid is not None:
         return f"task {tid}", str(data.value(node, RDFS.label) or "")
     lbl = data.value(node, RDFS.label)
+    if lbl is None and owner:
+        for s, p in sorted(data.subject_predicates(node), key=lambda sp: (str(sp[0]), str(sp[1]))):
+            sid, slabel = _focus_words(data, s, owner=False)
+            if slabel or data.value(s, KBP.globalId) is not None or data.value(s, KBP.taskId) is not None:
+                return f"{curie(data, p)} of {sid}", slabel
     return curie(data, node), str(lbl) if lbl is not None else ""
 
 
