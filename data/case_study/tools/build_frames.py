@@ -22,6 +22,7 @@ the header time stamp is fixed) and checked in::
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import uuid
@@ -44,9 +45,9 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 PROJECT = HERE.parent
 SOURCE_IFC = PROJECT / "model" / "Duplex_A_20110907.ifc"
-OUT_IFC = PROJECT / "model" / "Duplex_A_frames.ifc"
-OUT_JSON = PROJECT / "model" / "frames.json"
-OUT_GRASP = PROJECT / "augmentation" / "grasp_points.ttl"
+OUT_IFC = Path("model") / "Duplex_A_frames.ifc"          # outputs, relative to the output directory
+OUT_JSON = Path("model") / "frames.json"
+OUT_GRASP = Path("augmentation") / "grasp_points.ttl"
 BASE_IRI = "https://w3id.org/kbplanner/data/duplex/"
 
 N_PANELS = 11
@@ -121,8 +122,8 @@ def panel_pieces(length: float) -> list[Piece]:
               Piece("top plate", -half, half, z1, PANEL_HEIGHT)]
     pieces += [Piece("stud", c - STUD_WIDTH / 2, c + STUD_WIDTH / 2, z0, z1) for c in centres]
     zm = PANEL_HEIGHT / 2.0
-    pieces += [Piece("nogging", a + STUD_WIDTH / 2, b - STUD_WIDTH / 2, zm - STUD_WIDTH / 2, zm + STUD_WIDTH / 2)
-               for a, b in zip(centres, centres[1:], strict=False)]
+    h = STUD_WIDTH / 2
+    pieces += [Piece("nogging", a + h, b - h, zm - h, zm + h) for a, b in itertools.pairwise(centres)]
     return pieces
 
 
@@ -149,7 +150,8 @@ def unit_a_partitions(f: Any, settings: Any) -> list[dict[str, Any]]:
         lo, hi = v.min(axis=0), v.max(axis=0)
         if lo[2] > storey.Elevation + 0.01 or hi[2] - lo[2] < PANEL_HEIGHT:
             continue  # bulkheads above the ceiling, not floor-standing partitions
-        if not any(np.all(lo[:2] - 0.2 <= smax[:2]) and np.all(smin[:2] <= hi[:2] + 0.2) for smin, smax in spaces):
+        near = [np.all(lo[:2] - 0.2 <= b[:2]) and np.all(a[:2] <= hi[:2] + 0.2) for a, b in spaces]
+        if not any(near):
             continue  # unit B
         m = ifcopenshell.util.placement.get_local_placement(w.ObjectPlacement)
         axis_rep = next(r for r in w.Representation.Representations if r.RepresentationIdentifier == "Axis")
@@ -252,11 +254,14 @@ def add_panels(f: Any, panels: list[tuple[Panel, list[Piece]]]) -> None:
     context = next(c for c in f.by_type("IfcGeometricRepresentationContext", include_subtypes=False)
                    if c.ContextType == "Model")
     material = ifcopenshell.api.material.add_material(f, name=MATERIAL)
+    containment = storey.ContainsElements[0]
+    contained_before = list(containment.RelatedElements)
     z_dir = f.createIfcDirection((0.0, 0.0, 1.0))
     x_dir = f.createIfcDirection((1.0, 0.0, 0.0))
     products = []
     for panel, pieces in panels:
-        m = ifcopenshell.api.root.create_entity(f, ifc_class="IfcMember", name=f"Stud frame panel {panel.panel_id}")
+        m = ifcopenshell.api.root.create_entity(f, ifc_class="IfcMember",
+                                                name=f"Stud frame panel {panel.panel_id}")
         m.GlobalId = panel.global_id
         m.ObjectType = "Interior stud frame panel"
         m.Tag = panel.panel_id
@@ -273,7 +278,8 @@ def add_panels(f: Any, panels: list[tuple[Panel, list[Piece]]]) -> None:
                 "AREA", p.kind, f.createIfcAxis2Placement2D(
                     f.createIfcCartesianPoint(((p.x_min + p.x_max) / 2, 0.0)), None),
                 p.x_max - p.x_min, STUD_DEPTH)
-            position = f.createIfcAxis2Placement3D(f.createIfcCartesianPoint((0.0, 0.0, p.z_min)), z_dir, x_dir)
+            origin = f.createIfcCartesianPoint((0.0, 0.0, p.z_min))
+            position = f.createIfcAxis2Placement3D(origin, z_dir, x_dir)
             items.append(f.createIfcExtrudedAreaSolid(profile, position, z_dir, p.z_max - p.z_min))
         rep = f.createIfcShapeRepresentation(context, "Body", "SweptSolid", items)
         ifcopenshell.api.geometry.assign_representation(f, product=m, representation=rep)
@@ -297,6 +303,9 @@ def add_panels(f: Any, panels: list[tuple[Panel, list[Piece]]]) -> None:
             "NetVolume": float(panel.volume_m3), "NetWeight": float(panel.mass_kg)})
         products.append(m)
     ifcopenshell.api.material.assign_material(f, products=products, type="IfcMaterial", material=material)
+    # The API keeps relations as sets; write a stable order: the source's order, then F01..F11.
+    assert storey.ContainsElements == (containment,)
+    containment.RelatedElements = contained_before + sorted(products, key=lambda e: e.Tag)
     for rel in f.get_inverse(material):
         if rel.is_a("IfcRelAssociatesMaterial"):
             rel.RelatedObjects = sorted(rel.RelatedObjects, key=lambda e: e.Tag)
@@ -329,7 +338,8 @@ def grasp_turtle(panels: list[Panel]) -> str:
         "# Augmentation (paper A4, MM-G-1 'pick frame'): where the gripper holds each frame panel.",
         "# A kbp:graspPoint is a pose in the frame's own coordinates (origin at the middle of the bottom",
         "# plate on the wall axis, x along the panel, y across it, z up), metres and radians. It is the",
-        "# panel's centre of mass, on the centre stud or the mid-height nogging, so a lifted panel hangs level.",
+        "# panel's centre of mass, on the centre stud or the mid-height nogging, so a lifted panel hangs",
+        "# level.",
         "# Generated by tools/build_frames.py; do not edit by hand.",
         "",
     ]
@@ -348,7 +358,10 @@ def grasp_turtle(panels: list[Panel]) -> str:
     return "\n".join(lines)
 
 
-def main() -> None:
+def main(out_dir: Path = PROJECT) -> list[Panel]:
+    """Build everything into ``out_dir`` (the project directory unless a test asks for another)."""
+    for rel in (OUT_IFC, OUT_JSON, OUT_GRASP):
+        (out_dir / rel).parent.mkdir(parents=True, exist_ok=True)
     f = ifcopenshell.open(str(SOURCE_IFC))
     settings = ifcopenshell.geom.settings()
     settings.set("use-world-coords", True)
@@ -359,9 +372,9 @@ def main() -> None:
     owner_history = f.by_type("IfcOwnerHistory")[0]
     add_panels(f, panels)
     make_deterministic(f, before, owner_history)
-    f.write(str(OUT_IFC))
+    f.write(str(out_dir / OUT_IFC))
     plain = [p for p, _ in panels]
-    OUT_JSON.write_text(json.dumps({
+    (out_dir / OUT_JSON).write_text(json.dumps({
         "source": SOURCE_IFC.name,
         "panel_height_m": PANEL_HEIGHT,
         "stud_section_m": [STUD_WIDTH, STUD_DEPTH],
@@ -370,12 +383,17 @@ def main() -> None:
         "total_mass_kg": round(sum(p.mass_kg for p in plain), 2),
         "panels": [asdict(p) for p in plain],
     }, indent=2) + "\n", encoding="utf-8")
-    OUT_GRASP.write_text(grasp_turtle(plain), encoding="utf-8")
+    (out_dir / OUT_GRASP).write_text(grasp_turtle(plain), encoding="utf-8")
+    return plain
+
+
+def report(plain: list[Panel]) -> None:
     for p in plain:
         print(f"{p.panel_id} {p.global_id} wall {p.host_wall} ({p.x:.3f}, {p.y:.3f}) yaw {p.yaw:+.4f} "
-              f"L {p.length:.3f} studs {p.studs} @ {p.stud_spacing:.3f}  {p.volume_m3:.5f} m3  {p.mass_kg:.2f} kg")
-    print(f"total {sum(p.mass_kg for p in plain):.2f} kg -> {OUT_IFC.relative_to(PROJECT)}")
+              f"L {p.length:.3f} studs {p.studs} @ {p.stud_spacing:.3f}  {p.volume_m3:.5f} m3  "
+              f"{p.mass_kg:.2f} kg")
+    print(f"total {sum(p.mass_kg for p in plain):.2f} kg -> {OUT_IFC}")
 
 
 if __name__ == "__main__":
-    main()
+    report(main())

@@ -106,7 +106,8 @@ def turtle(storage: Storage, frames: list[dict[str, object]]) -> str:
         f'    rdfs:label "{storage.label}" ;',
         f'    rdfs:comment "{storage.comment}" ;',
         "    kbp:obstructs true ;",
-        f"    kbp:sizeX {num(storage.size_x)} ; kbp:sizeY {num(storage.size_y)} ; kbp:sizeZ {num(BEARER_HEIGHT)} ;",
+        f"    kbp:sizeX {num(storage.size_x)} ; kbp:sizeY {num(storage.size_y)} ; "
+        f"kbp:sizeZ {num(BEARER_HEIGHT)} ;",
         f"    kbp:installedPose {s_pose} ;",
         f"    kbp:pickupLocation {pickup} .",
         f"{s_pose} a kbp:Pose ;",
@@ -127,15 +128,20 @@ def turtle(storage: Storage, frames: list[dict[str, object]]) -> str:
     return "\n".join(out) + "\n"
 
 
-def main() -> None:
-    table = json.loads((PROJECT / "model" / "frames.json").read_text(encoding="utf-8"))
+def main(frames_json: Path = PROJECT / "model" / "frames.json", out_dir: Path = PROJECT) -> list[Path]:
+    """Write both scenario files into ``out_dir/scenarios`` from the frame table ``frames_json``."""
+    table = json.loads(frames_json.read_text(encoding="utf-8"))
     frames = sorted(table["panels"], key=lambda p: p["install_order"])
+    written = []
     for storage in STORAGES:
         name = storage.key.replace("frame-", "").replace("-", "_") + ".ttl"
-        path = PROJECT / "scenarios" / name
+        path = out_dir / "scenarios" / name
+        path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(turtle(storage, frames), encoding="utf-8")
         px, py, pyaw = storage.pickup()
-        print(f"{path.relative_to(PROJECT)}: storage ({storage.x}, {storage.y}) pickup ({px}, {py}, yaw {pyaw:.4f})")
+        print(f"{path}: storage ({storage.x}, {storage.y}) pickup ({px}, {py}, yaw {pyaw:.4f})")
+        written.append(path)
+    return written
 
 
 if __name__ == "__main__":

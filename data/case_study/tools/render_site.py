@@ -20,10 +20,10 @@ import ifcopenshell.geom
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.patches import Polygon, Rectangle  # noqa: E402
-from rdflib import RDF, RDFS, Graph, Namespace, URIRef  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.patches import Polygon, Rectangle
+from rdflib import RDF, RDFS, Graph, Namespace, URIRef
 
 PROJECT = Path(__file__).resolve().parents[1]
 KBP = Namespace("https://w3id.org/kbplanner/ontology#")
@@ -126,7 +126,8 @@ def main() -> None:
     g = Graph()
     for rel in ("site/site_layout.ttl", "site/workers.ttl"):
         g.parse(PROJECT / rel)
-    scenarios = [Graph().parse(PROJECT / "scenarios" / n) for n in ("storage_outside.ttl", "storage_inside.ttl")]
+    names = ("storage_outside.ttl", "storage_inside.ttl")
+    scenarios = [Graph().parse(PROJECT / "scenarios" / n) for n in names]
     outlines = level1_outlines(PROJECT / "model" / "Duplex_A_frames.ifc")
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(18, 10), gridspec_kw={"width_ratios": [1.3, 1]})
     draw(a1, g, outlines, scenarios, zoom=False)
