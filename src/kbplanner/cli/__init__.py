@@ -29,6 +29,7 @@ COMMANDS: tuple[str, ...] = (
     "requirements",
     "validate",
     "robots",
+    "world",
 )
 
 
