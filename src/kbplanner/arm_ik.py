@@ -15,7 +15,7 @@ Example:
     >>> solve_ik(robot, (0.7, 0.0, 0.5), (0.0, math.pi, 0.0)).reachable
     True
     >>> solve_ik(robot, (3.0, 0.0, 0.5)).reason
-    'unreachable: best position error 2.08 m > 0.01 m'
+    'unreachable: best position error 2.05 m > 0.01 m'
     >>> robot.close()
 """
 

@@ -17,7 +17,7 @@ distance transform for clearance look-ups.
 Example:
     >>> import trimesh
     >>> wall = trimesh.creation.box(extents=(4.0, 0.2, 2.5))
-    >>> wall.apply_translation((2.0, 1.0, 1.25))
+    >>> _ = wall.apply_translation((2.0, 1.0, 1.25))
     >>> grid = occupancy_from_meshes([wall], band=(0.05, 1.5), extent=Box(0.0, 0.0, 4.0, 2.0))
     >>> grid.is_occupied(2.0, 1.0), grid.is_occupied(2.0, 0.5)
     (True, False)
