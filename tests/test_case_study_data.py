@@ -587,3 +587,23 @@ def test_each_storage_scenario_meets_every_requirement_and_conforms(projects: di
     assert len(requirements) == EXPECTED["requirements"]["scenario_requirements"]
     result = validate_model(p.model, p.kb)
     assert result.conforms, result.rows[:5]
+
+
+def test_the_jobsite_admits_a_robot_through_the_front_door_and_slows_it_down_with_a_frame(
+        projects: dict[str | None, Any]) -> None:
+    from kbplanner.jobsite import action_parameters, jobsite_parameters
+    from kbplanner.task_specs import task_specification
+
+    exp = EXPECTED["jobsite"]
+    p = projects[None]
+    js = jobsite_parameters(p.model)
+    assert js.max_robot_width_m == pytest.approx(exp["max_robot_width_m"])
+    assert js.max_robot_width_m <= EXPECTED["route"]["entrance_door_width_m"] - 0.2
+    assert (js.max_robot_length_m, js.max_robot_height_m, js.max_robot_mass_kg) == pytest.approx(
+        (exp["max_robot_length_m"], exp["max_robot_height_m"], exp["max_robot_mass_kg"]))
+    assert [z.label for z in js.no_go_zones] == exp["no_go_zones"]
+    actions = {a.action.skill.skill_id: a for a in
+               action_parameters(task_specification(p.kb, EXPECTED["schedule"]["framing_specification"]), js)}
+    assert [actions["NV-1"].value(KBP.minSpeed), actions["NV-1"].value(KBP.maxSpeed)] == exp["nv1_speed_mps"]
+    assert [actions["NV-2"].value(KBP.minSpeed), actions["NV-2"].value(KBP.maxSpeed)] == exp["nv2_speed_mps"]
+    assert actions["NV-2"].value(KBP.safetyStopDistance) == exp["nv2_stop_distance_m"]
