@@ -19,7 +19,7 @@ from kbplanner.project import Project
 from kbplanner.tables import FORMATS, iri_shortener, render
 
 
-def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("query", help="run a named SPARQL query (or --sparql FILE) with bound values")
     p.add_argument("project", nargs="?", help="project directory")
     p.add_argument("name", nargs="?", help="named query (see --list)")
