@@ -72,7 +72,7 @@ def test_closed_vocabulary_rejects_a_typo() -> None:
 
     assert str(K.installedPose).endswith("#installedPose")
     with pytest.raises(AttributeError):
-        _ = K.instaledPose  # noqa: B018
+        _ = K.instaledPose
 
 
 @pytest.mark.skipif(shutil.which("java") is None, reason="HermiT needs a Java runtime")

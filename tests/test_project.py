@@ -6,10 +6,10 @@ from datetime import datetime
 from pathlib import Path
 
 import pytest
-from project_factory import make_project
 
 from kbplanner.errors import ProjectError
 from kbplanner.project import Project, read_manifest
+from project_factory import make_project
 
 
 @pytest.fixture(scope="module")
@@ -76,7 +76,8 @@ def test_unknown_scenario_names_the_known_ones(project_dir: Path) -> None:
         ("[model]\nifc = 'model.ifc'\nsite = 3\n", "must be a path or a list"),
     ],
 )
-def test_a_bad_manifest_is_one_clear_error_naming_project_toml(tmp_path: Path, toml: str, needle: str) -> None:
+def test_a_bad_manifest_is_one_clear_error_naming_project_toml(tmp_path: Path, toml: str,
+                                                               needle: str) -> None:
     (tmp_path / "model.ifc").write_text("ISO-10303-21;")
     (tmp_path / "project.toml").write_text(toml)
     with pytest.raises(ProjectError) as err:
@@ -87,5 +88,5 @@ def test_a_bad_manifest_is_one_clear_error_naming_project_toml(tmp_path: Path, t
 
 
 def test_a_directory_without_manifest_is_an_error(tmp_path: Path) -> None:
-    with pytest.raises(ProjectError, match="no project.toml"):
+    with pytest.raises(ProjectError, match=r"no project\.toml"):
         read_manifest(tmp_path)
