@@ -469,19 +469,26 @@ def test_each_scenario_stacks_every_frame_once_in_one_storage_with_a_grasp_point
 
 
 @pytest.mark.parametrize("name", sorted(SCENARIOS))
-def test_the_robot_picks_inside_the_site_extent_0_8_to_1_0_m_from_the_stack_facing_it(name: str) -> None:
+def test_the_robot_picks_inside_the_site_extent_1_m_from_the_stack_facing_it_without_touching_it(
+        name: str) -> None:
     g = scenario_graph(name)
     storage = next(g.subjects(KBP.pickupLocation, None))
     x, y, _, _, _, pick_yaw = pose_of(g, g.value(storage, KBP.pickupLocation))
     min_x, min_y, max_x, max_y = layout_extent(g)
     assert min_x < x < max_x and min_y < y < max_y
-    assert [x, y, pick_yaw] == pytest.approx(EXPECTED["scenarios"][name]["pickup"])
+    exp = EXPECTED["scenarios"]
+    assert [x, y, pick_yaw] == pytest.approx(exp[name]["pickup"])
     sx, sy, _, _, _, syaw = pose_of(g, g.value(storage, KBP.installedPose))
     half_x, half_y = float(g.value(storage, KBP.sizeX)) / 2, float(g.value(storage, KBP.sizeY)) / 2
     c, s = math.cos(syaw), math.sin(syaw)
     lx, ly = c * (x - sx) + s * (y - sy), -s * (x - sx) + c * (y - sy)  # robot in the storage's frame
-    gap = max(abs(lx) - half_x, abs(ly) - half_y)
-    assert 0.8 - 1e-9 <= gap <= 1.0 + 1e-9
+    size_z = float(g.value(storage, KBP.sizeZ))
+    assert [2 * half_x, 2 * half_y, size_z] == pytest.approx(exp["storage_size_m"])
+    assert abs(lx) < 1e-9 and abs(ly) == pytest.approx(exp["pickup_to_stack_centre_m"])
+    assert 0.8 <= abs(ly) <= 1.0
+    assert abs(ly) - exp["robot_footprint_m"][0] / 2 - half_y > 0.05  # the base stops short of the bearers
+    frames = list(g.subjects(KBP.storedIn, storage))
+    assert frames and all((f, KBP.graspPoint, None) in g for f in frames)
     to_storage = math.atan2(sy - y, sx - x)
     assert math.cos(to_storage - pick_yaw) == pytest.approx(1.0, abs=1e-6)
 
@@ -502,11 +509,13 @@ def test_the_outside_storage_is_in_the_yard_and_the_inside_storage_in_the_living
     sx, sy = pose_of(ins, ins.value(storage, KBP.installedPose))[:2]
     for px, py in [(pi[0], pi[1]), (sx, sy)]:
         assert lo[0] < px < hi[0] and lo[1] < py < hi[1]
-    # clear of the install locations: the stack is over 1.5 m from every frame
+    # clear of the install locations: the stack (its yaw is 0) is over 1.5 m from every frame
+    half = np.array([float(ins.value(storage, KBP.sizeX)), float(ins.value(storage, KBP.sizeY))]) / 2
+    assert pose_of(ins, ins.value(storage, KBP.installedPose))[5] == 0.0
     for p in frame_panels(ifc):
         plo, phi = mesh(geom_settings, p).bounds
-        gap = np.maximum(0, np.maximum(plo[:2] - np.array([sx + 1.4, sy + 0.6]),
-                                       np.array([sx - 1.4, sy - 0.6]) - phi[:2]))
+        gap = np.maximum(0, np.maximum(plo[:2] - (np.array([sx, sy]) + half),
+                                       (np.array([sx, sy]) - half) - phi[:2]))
         assert float(np.linalg.norm(gap)) > 1.5, p.Name
 
 

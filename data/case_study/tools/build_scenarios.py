@@ -3,17 +3,18 @@
 Takes ``model/frames.json`` (written by ``build_frames.py``) and writes
 
 - ``scenarios/storage_outside.ttl``: case 1, the frame material storage in the east yard, next to the
-  carpenters' frame preparation area, 8.3 m from the apartment entrance;
+  carpenters' frame preparation area, 8.2 m from the apartment entrance;
 - ``scenarios/storage_inside.ttl``: case 2, the same storage moved into the apartment's living room.
 
 Each file holds a ``kbp:MaterialStorage`` with its installed pose, size and ``kbp:pickupLocation`` (the
 pose where the robot stands to pick), and for every frame ``kbp:storedIn`` and ``kbp:stackIndex``.
 
 Conventions (also in README.md): the storage pose is the centre of its footprint at ground level; the
-storage box is the timber bearers (0.1 m high) the frames lie on. Frames lie flat with their 2.4 m side
-along the storage's local x, one on another (89 mm each); stack index 0 is the bottom. F01, installed
-first, is on top (index 10). The robot stands on the storage's local +y side, its centre 0.8 m from
-the storage's edge, facing it.
+storage box is the timber bearers (2.6 x 0.8 x 0.1 m) the frames lie on. Frames lie flat with their
+2.4 m side along the storage's local x, one on another (89 mm each); stack index 0 is the bottom. F01,
+installed first, is on top (index 10). The robot stands on the storage's local +y side, its centre
+1.0 m from the stack's centre line (so the grasp point, the frame's centre, is 1.0 m ahead of it and
+a 0.99 m long base stops 0.1 m short of the bearers), facing it.
 
 Run from the repository root after build_frames.py::
 
@@ -31,7 +32,7 @@ from urllib.parse import quote
 HERE = Path(__file__).resolve().parent
 PROJECT = HERE.parent
 BASE_IRI = "https://w3id.org/kbplanner/data/duplex/"
-PICKUP_STANDOFF = 0.8   # m, robot base centre to the near edge of the storage
+PICKUP_STANDOFF = 1.0   # m, robot base centre to the stack's centre line (its front 0.1 m off the bearers)
 BEARER_HEIGHT = 0.1     # m
 
 
@@ -44,12 +45,12 @@ class Storage:
     x: float
     y: float
     yaw: float
-    size_x: float = 2.8
-    size_y: float = 1.2
+    size_x: float = 2.6   # bearers under 2.4 m long frames
+    size_y: float = 0.8   # ... up to 0.73 m wide
 
     def pickup(self) -> tuple[float, float, float]:
         """Pickup pose (x, y, yaw): on the storage's local +y side, facing it."""
-        d = self.size_y / 2 + PICKUP_STANDOFF
+        d = PICKUP_STANDOFF
         px = self.x - math.sin(self.yaw) * d
         py = self.y + math.cos(self.yaw) * d
         return round(px, 4) + 0.0, round(py, 4) + 0.0, self.yaw - math.pi / 2
@@ -114,7 +115,8 @@ def turtle(storage: Storage, frames: list[dict[str, object]]) -> str:
         f"    kbp:x {num(storage.x)} ; kbp:y {num(storage.y)} ; kbp:z 0.0e0 ;",
         f"    kbp:roll 0.0e0 ; kbp:pitch 0.0e0 ; kbp:yaw {num(storage.yaw)} .",
         f"{pickup} a kbp:Pose ;",
-        f'    rdfs:label "robot pickup location: {PICKUP_STANDOFF} m from the stack, facing it" ;',
+        f'    rdfs:label "robot pickup location: {PICKUP_STANDOFF} m from the middle of the stack, '
+        'facing it" ;',
         f"    kbp:x {num(px)} ; kbp:y {num(py)} ; kbp:z 0.0e0 ;",
         f"    kbp:roll 0.0e0 ; kbp:pitch 0.0e0 ; kbp:yaw {num(pyaw)} .",
         "",
