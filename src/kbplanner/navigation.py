@@ -77,11 +77,17 @@ class NavSettings:
     simplify: bool = True
     margin_m: float = 0.0
     check_step_m: float | None = None  # motion check step; default: a quarter of a grid cell
+    base_motion: str = "turn_drive_turn"  # or "holonomic": keep OMPL's SE(2) segments as they are
+    allow_reverse: bool = True  # turn_drive_turn may drive backwards when that turns less
 
     def __post_init__(self) -> None:
         if self.planner not in PLANNERS:
             raise KbplannerError(f"unknown planner '{self.planner}'", element="NavSettings.planner",
                                  fix=f"use one of {sorted(PLANNERS)}")
+        if self.base_motion not in ("turn_drive_turn", "holonomic"):
+            raise KbplannerError(f"unknown base motion '{self.base_motion}'",
+                                 element="NavSettings.base_motion",
+                                 fix="use 'turn_drive_turn' (skid-steer) or 'holonomic'")
         if not self.time_limit_s > 0:
             raise KbplannerError("time_limit_s must be positive", element="NavSettings.time_limit_s",
                                  fix="give the planning budget in seconds, e.g. 10")
@@ -202,9 +208,94 @@ def _set_seed(seed: int) -> None:
     ou.setLogLevel(level)
 
 
-def _dense_ok(cs: ConfigurationSpace, poses: Sequence[Pose2D], step_m: float) -> bool:
-    dense = _densify(poses, step_m, cs.bin_width / 4)
-    return bool(cs.is_free_many(dense).all())
+class _ExactMotion:
+    """Exact motion checks in a configuration space for SE(2) straight-line motions.
+
+    A motion (x, y, yaw linear, yaw the short way round) is cut where the yaw crosses a bin border;
+    within each piece the bin is fixed and the centre moves along a straight segment, so the piece
+    is free exactly when every cell that segment touches (its supercover) is free in that bin.
+    Sampled checks can miss a cell that a segment only clips at a corner; this cannot.
+    """
+
+    def __init__(self, cs: ConfigurationSpace) -> None:
+        self.free = cs.free.tobytes()
+        self.ny, self.nx = cs.grid.shape
+        self.ox, self.oy = cs.grid.origin
+        self.inv_res = 1.0 / cs.grid.resolution
+        self.n_bins = cs.n_bins
+        self.w = cs.bin_width
+        self.plane = self.ny * self.nx
+
+    def pose_free(self, x: float, y: float, yaw: float) -> bool:
+        ix = math.floor((x - self.ox) * self.inv_res)
+        iy = math.floor((y - self.oy) * self.inv_res)
+        if not (0 <= ix < self.nx and 0 <= iy < self.ny):
+            return False
+        k = math.floor(yaw / self.w + 0.5) % self.n_bins
+        return self.free[k * self.plane + iy * self.nx + ix] == 1
+
+    def _segment_free(self, k: int, x0: float, y0: float, x1: float, y1: float) -> bool:
+        """Every cell the segment touches is free in bin ``k`` (cell units)."""
+        if x0 > x1:
+            x0, y0, x1, y1 = x1, y1, x0, y0
+        nx, ny = self.nx, self.ny
+        base = k * self.plane
+        ixa, ixb = math.floor(x0), math.floor(x1)
+        if ixa < 0 or ixb >= nx:
+            return False
+        slope = (y1 - y0) / (x1 - x0) if x1 > x0 else 0.0
+        for ix in range(ixa, ixb + 1):
+            if x1 > x0:
+                ya = y0 + (max(x0, ix) - x0) * slope
+                yb = y0 + (min(x1, ix + 1) - x0) * slope
+            else:
+                ya, yb = y0, y1
+            lo, hi = math.floor(min(ya, yb)), math.floor(max(ya, yb))
+            if lo < 0 or hi >= ny:
+                return False
+            if 0 in self.free[base + lo * nx + ix : base + hi * nx + ix + 1 : nx]:
+                return False
+        return True
+
+    def motion_free(self, a: Sequence[float], b: Sequence[float]) -> bool:
+        """Whether the straight SE(2) motion from ``a`` to ``b`` is free (both ends included)."""
+        t0 = float(a[2])
+        d = _wrap(float(b[2]) - t0)
+        cuts = [0.0]
+        if d != 0.0:
+            k0 = math.floor(t0 / self.w + 0.5)
+            k1 = math.floor((t0 + d) / self.w + 0.5)
+            borders = range(k0, k1) if d > 0 else range(k0 - 1, k1 - 1, -1)
+            cuts += [((k + 0.5) * self.w - t0) / d for k in borders]
+        cuts.append(1.0)
+        ax, ay = (a[0] - self.ox) * self.inv_res, (a[1] - self.oy) * self.inv_res
+        dx, dy = (b[0] - self.ox) * self.inv_res - ax, (b[1] - self.oy) * self.inv_res - ay
+        for ua, ub in itertools.pairwise(cuts):
+            k = math.floor((t0 + 0.5 * (ua + ub) * d) / self.w + 0.5) % self.n_bins
+            if not self._segment_free(k, ax + ua * dx, ay + ua * dy, ax + ub * dx, ay + ub * dy):
+                return False
+        return True
+
+    def path_free(self, poses: Sequence[Sequence[float]]) -> bool:
+        """Whether every motion between consecutive poses is free."""
+        if len(poses) == 1:
+            return self.pose_free(*poses[0][:3])
+        return all(self.motion_free(p, q) for p, q in itertools.pairwise(poses))
+
+
+def path_is_free(cs: ConfigurationSpace, poses: Sequence[Sequence[float]]) -> bool:
+    """Exact check of a path (straight SE(2) motions between waypoints) in a configuration space."""
+    return _ExactMotion(cs).path_free(poses)
+
+
+class _OmplMotionValidator(ob.MotionValidator):
+    def __init__(self, si: ob.SpaceInformation, exact: _ExactMotion) -> None:
+        super().__init__(si)
+        self.exact = exact
+
+    def checkMotion(self, s1: ob.State, s2: ob.State) -> bool:  # OMPL's method name
+        a = (s1.getX(), s1.getY(), s1.getYaw())
+        return self.exact.motion_free(a, (s2.getX(), s2.getY(), s2.getYaw()))
 
 
 def plan_path(
@@ -273,6 +364,9 @@ def _solve(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSet
     si = ss.getSpaceInformation()
     step = settings.check_step_m or grid.resolution / 4
     si.setStateValidityCheckingResolution(min(0.5, step / space_se2.getMaximumExtent()))
+    motion = _ExactMotion(cs)
+    validator = _OmplMotionValidator(si, motion)  # kept referenced until planning ends
+    si.setMotionValidator(validator)
     planner = PLANNERS[name](si)
     ss.setPlanner(planner)
     s, g = space_se2.allocState(), space_se2.allocState()
@@ -294,18 +388,82 @@ def _solve(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSet
     if settings.simplify:
         ss.simplifySolution()
         simplified = _states(ss.getSolutionPath())
-        if _dense_ok(cs, simplified, step):
+        if motion.path_free(simplified):
             poses = simplified
             how = "found and simplified"
         else:
             log.info("simplified path failed the dense re-check; keeping the unsimplified path")
     elapsed = time.perf_counter() - t0
     del ss, planner
-    if not _dense_ok(cs, poses, step):
+    if not motion.path_free(poses):
         return _failed("no path: the planner's path failed the dense re-check", name, fp, elapsed)
     poses[0] = (start[0], start[1], _wrap(start[2]))
+    if settings.base_motion == "turn_drive_turn":
+        poses, kept = turn_drive_turn(cs, poses, allow_reverse=settings.allow_reverse)
+        how += "; turn-drive-turn" + (f" ({kept} segment(s) partly turning while driving)" if kept else "")
+        elapsed = time.perf_counter() - t0
     return NavPath(poses=tuple(poses), length_m=_path_length(poses), planning_time_s=elapsed,
                    planner=name, status=OK, reason=how, footprint=fp)
+
+
+def turn_drive_turn(
+    cs: ConfigurationSpace,
+    poses: Sequence[Pose2D],
+    *,
+    allow_reverse: bool = True,
+) -> tuple[list[Pose2D], int]:
+    """Rewrite an SE(2) path for a skid-steer base: turn in place, drive straight, turn at the goal.
+
+    Each segment becomes a rotation on the spot to face along it (or away from it, driving backwards,
+    when that turns less and ``allow_reverse``) and a straight drive; the goal yaw is reached by a
+    final turn. Where such a turn is blocked (next to a door jamb, say), the shortest leading part of
+    the segment (1/8, 1/4, ... of it) is driven as in SE(2), turning while moving, and the rest turn-
+    drive-turn. Every motion is checked densely. Returns the waypoints and how many segments needed
+    such an SE(2) part; if one cannot be rejoined at all, the SE(2) path itself is returned.
+    """
+    if len(poses) < 2:
+        return list(poses), 0
+    exact = _ExactMotion(cs)
+
+    def free(seq: Sequence[Pose2D]) -> bool:
+        return exact.path_free(seq)
+
+    def tdt(frm: Pose2D, b: Pose2D, last: bool) -> list[Pose2D]:
+        x, y, cur = frm
+        moves: list[Pose2D] = []
+        if math.hypot(b[0] - x, b[1] - y) > 1e-9:
+            heading = math.atan2(b[1] - y, b[0] - x)
+            back = _wrap(heading + math.pi)
+            if allow_reverse and abs(_wrap(back - cur)) < abs(_wrap(heading - cur)):
+                heading = back
+            moves = [(x, y, heading), (b[0], b[1], heading)]
+        if last:
+            moves.append(b)
+        return [m for i, m in enumerate(moves) if m != ([frm, *moves][i])]
+
+    out: list[Pose2D] = [poses[0]]
+    mixed = 0
+    n = len(poses) - 1
+    for i, (a, b) in enumerate(itertools.pairwise(poses)):
+        last = i == n - 1
+        moves = tdt(out[-1], b, last)
+        if free([out[-1], *moves]):
+            out.extend(moves)
+            continue
+        for u in (0.125, 0.25, 0.5, 0.75, 1.0):
+            m = (a[0] + u * (b[0] - a[0]), a[1] + u * (b[1] - a[1]), _wrap(a[2] + u * _wrap(b[2] - a[2])))
+            rest = tdt(m, b, last) if u < 1.0 else []
+            if free([out[-1], m]) and free([m, *rest]):
+                out.append(m)
+                out.extend(rest)
+                mixed += 1
+                break
+        else:
+            if not (free([out[-1], a]) and free([a, b])):
+                return list(poses), n
+            out.extend(p for p in (a, b) if p != out[-1])
+            mixed += 1
+    return out, mixed
 
 
 def _states(path: og.PathGeometric) -> list[Pose2D]:
@@ -403,6 +561,10 @@ def narrow_intervals(
     return intervals
 
 
+def _floats3(p: Sequence[float]) -> Pose2D:
+    return (float(p[0]), float(p[1]), float(p[2]))
+
+
 def _insert_at(poses: list[Pose2D], s_target: float) -> int:
     """Insert a waypoint at arc length ``s_target`` (or reuse one within 1 mm); return its index."""
     s = _arc_lengths(poses)
@@ -411,7 +573,7 @@ def _insert_at(poses: list[Pose2D], s_target: float) -> int:
             return i
     i = int(np.searchsorted(s, s_target))  # s[i-1] < s_target < s[i]
     (x0, y0, t0), (x1, y1, t1) = poses[i - 1], poses[i]
-    u = (s_target - s[i - 1]) / (s[i] - s[i - 1])
+    u = float((s_target - s[i - 1]) / (s[i] - s[i - 1]))
     poses.insert(i, (x0 + u * (x1 - x0), y0 + u * (y1 - y0), _wrap(t0 + u * _wrap(t1 - t0))))
     return i
 
@@ -459,10 +621,10 @@ def plan_with_carry_modes(
         i0 = int(np.argmin(np.abs(s_all - lo)))
         i1 = int(np.argmin(np.abs(s_all - hi)))
         segments.append(CarrySegment(i0, i1, float(s_all[i0]), float(s_all[i1])))
-        events.append(CarryEvent("rotate_to_narrow", i0, float(s_all[i0]), poses[i0]))
-        events.append(CarryEvent("rotate_back", i1, float(s_all[i1]), poses[i1]))
+        events.append(CarryEvent("rotate_to_narrow", i0, float(s_all[i0]), _floats3(poses[i0])))
+        events.append(CarryEvent("rotate_back", i1, float(s_all[i1]), _floats3(poses[i1])))
     del bounds
-    path = NavPath(poses=tuple(poses), length_m=_path_length(poses),
+    path = NavPath(poses=tuple(_floats3(q) for q in poses), length_m=_path_length(poses),
                    planning_time_s=first.planning_time_s + second.planning_time_s,
                    planner=second.planner, status=OK,
                    reason=f"{second.reason} with the narrow carry mode; normal mode: {first.reason}",
