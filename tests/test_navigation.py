@@ -12,6 +12,7 @@ from kbplanner.footprint import ConfigurationSpace, Footprint, Rect
 from kbplanner.navigation import (
     NavSettings,
     grid_shortest_path_length,
+    path_is_free,
     plan_path,
     plan_with_carry_modes,
     time_parameterize,
@@ -157,3 +158,38 @@ def test_time_parameterisation_respects_speed_and_yaw_rate_and_ends_at_the_goal(
     assert traj.duration_s >= path.length_m / 1.0
     # Rest-to-rest per segment: the robot stops at each waypoint.
     assert speed[0] < 0.1 and speed[-1] < 0.1
+
+
+def test_the_exact_motion_check_catches_a_segment_that_only_clips_a_cell_corner() -> None:
+    grid = OccupancyGrid(np.zeros((20, 20), dtype=bool), origin=(0.0, 0.0), resolution=0.05)
+    free = np.ones((72, 20, 20), dtype=bool)
+    free[:, 10, 10] = False  # one blocked cell: x, y in [0.50, 0.55)
+    cs = ConfigurationSpace(grid=grid, footprint=BASE, free=free)
+    # A diagonal passing 1 mm inside the cell's top-left corner (0.50, 0.55): it clips 1 mm of it.
+    clip = [(0.30, 0.349, 0.0), (0.70, 0.749, 0.0)]
+    dense = np.linspace(clip[0], clip[1], 30)  # 1.4 cm samples step over the clipped corner
+    assert cs.is_free_many(dense).all()
+    assert not path_is_free(cs, clip)
+    assert path_is_free(cs, [(0.30, 0.351, 0.0), (0.70, 0.751, 0.0)])  # 1 mm outside the corner
+    assert not path_is_free(cs, [(0.525, 0.2, 0.0), (0.525, 0.9, 1.0)])  # straight through, turning
+    free[36, 3, 3] = False  # one yaw bin blocked at one cell: turning on the spot through it fails
+    assert not path_is_free(cs, [(0.175, 0.175, 3.0), (0.175, 0.175, -3.0)])
+    assert path_is_free(cs, [(0.175, 0.175, 2.0), (0.175, 0.175, 0.5)])
+
+
+def test_skid_steer_paths_turn_on_the_spot_and_drive_straight(door_09: OccupancyGrid) -> None:
+    path = plan_path(door_09, START, GOAL, BASE, NavSettings(seed=4))
+    assert path.ok and "turn-drive-turn" in path.reason
+    mixed = 0
+    for (x0, y0, t0), (x1, y1, t1) in zip(path.poses[:-1], path.poses[1:], strict=True):
+        if math.hypot(x1 - x0, y1 - y0) < 1e-9:
+            continue  # a turn on the spot
+        heading = math.atan2(y1 - y0, x1 - x0)
+        along = min(abs(math.remainder(t0 - heading, 2 * math.pi)),
+                    abs(math.remainder(t0 - heading - math.pi, 2 * math.pi)))
+        if not (along < 1e-9 and t0 == t1):
+            mixed += 1
+    assert mixed == 0 or f"{mixed} segment(s) partly turning while driving" in path.reason
+    holonomic = plan_path(door_09, START, GOAL, BASE, NavSettings(seed=4, base_motion="holonomic"))
+    assert holonomic.ok and len(holonomic.poses) < len(path.poses)
+    assert holonomic.length_m == pytest.approx(path.length_m)
