@@ -147,10 +147,12 @@ def _storage_ttl(panels: tuple[str, ...], stack: dict[str, int]) -> str:
     return text
 
 
-def make_world_project(directory: Path) -> WorldProject:
-    """Write the test project into ``directory`` (see module docstring)."""
+def make_world_project(directory: Path, *, storeys: int = 2, bays: int = 2) -> WorldProject:
+    """Write the test project into ``directory`` (see module docstring; more storeys and bays for
+    benchmarks: the site extent stays the same)."""
     directory.mkdir(parents=True, exist_ok=True)
-    building = write_test_building(directory / "model.ifc", schema="IFC4", furniture_per_space=1)
+    building = write_test_building(directory / "model.ifc", schema="IFC4", furniture_per_space=1,
+                                   storeys=storeys, bays=bays)
     panels = _add_panels(directory / "model.ifc")
     stack = {gid: len(panels) - 1 - n for n, gid in enumerate(panels)}  # P1, installed first, on top
     (directory / "schedule.csv").write_text(SCHEDULE, encoding="utf-8")
