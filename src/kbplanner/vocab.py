@@ -64,6 +64,8 @@ class KBP(DefinedNamespace):
     OtherElement: URIRef
     ParameterSetting: URIRef
     PathStart: URIRef
+    Plan: URIRef
+    PlanStep: URIRef
     Pose: URIRef
     Railing: URIRef
     Robot: URIRef
@@ -82,6 +84,7 @@ class KBP(DefinedNamespace):
     Stair: URIRef
     StartAtElement: URIRef
     StartAtTask: URIRef
+    StepInput: URIRef
     TaskSpecification: URIRef
     TemporaryStructure: URIRef
     Wall: URIRef
@@ -103,15 +106,19 @@ class KBP(DefinedNamespace):
     doorClearance: URIRef
     dwellTime: URIRef
     elevation: URIRef
+    feasible: URIRef
     fillsOpening: URIRef
     finish: URIRef
     footprintLength: URIRef
     footprintWidth: URIRef
     forAction: URIRef
     forBinding: URIRef
+    forElement: URIRef
     forInput: URIRef
+    forRobot: URIRef
     forScenario: URIRef
     forSkill: URIRef
+    forSpecification: URIRef
     forTask: URIRef
     globalId: URIRef
     graspPoint: URIRef
@@ -130,6 +137,7 @@ class KBP(DefinedNamespace):
     howToAdd: URIRef
     ifcClass: URIRef
     ifcSchema: URIRef
+    infeasibleReason: URIRef
     inputName: URIRef
     inputSource: URIRef
     installedPose: URIRef
@@ -161,6 +169,7 @@ class KBP(DefinedNamespace):
     objectType: URIRef
     obstructs: URIRef
     order: URIRef
+    orderRule: URIRef
     overallHeight: URIRef
     overallWidth: URIRef
     parameterKind: URIRef
@@ -168,6 +177,8 @@ class KBP(DefinedNamespace):
     payload: URIRef
     pickupLocation: URIRef
     pitch: URIRef
+    planScenario: URIRef
+    planStep: URIRef
     predecessor: URIRef
     predefinedType: URIRef
     reach: URIRef
@@ -192,6 +203,7 @@ class KBP(DefinedNamespace):
     specificationId: URIRef
     stackIndex: URIRef
     start: URIRef
+    stepInput: URIRef
     storedIn: URIRef
     surveyReference: URIRef
     taskId: URIRef
