@@ -192,3 +192,17 @@ def test_a_pose_typed_in_the_model_but_stored_elsewhere_still_counts(kb: Graph) 
         model.add((el, KBP.graspPoint, add_pose(model, mint(BASE, "pose", f"g{i}"), 0.0, 0.0, 1.2)))
     [req] = derive_requirements(model, kb).requirements
     assert [e.global_id for e in req.elements] == [frame_gid(2), frame_gid(4)]
+
+
+def test_an_oxigraph_backed_model_gives_the_same_requirements_and_validation(kb: Graph) -> None:
+    from kbplanner.rdf_io import new_graph
+    from kbplanner.validation import validate_model
+
+    memory = make_model(n_frames=3)
+    oxi = new_graph("oxigraph")
+    oxi += memory
+    one, two = derive_requirements(memory, kb), derive_requirements(oxi, kb)
+    assert [(r.skill_id, r.elements) for r in one.requirements] == [(r.skill_id, r.elements)
+                                                                    for r in two.requirements]
+    assert one.template() == two.template()
+    assert len(validate_model(oxi, kb).violations) == 6
