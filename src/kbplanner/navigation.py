@@ -261,6 +261,12 @@ class _ExactMotion:
         """Whether the straight SE(2) motion from ``a`` to ``b`` is free (both ends included)."""
         t0 = float(a[2])
         d = _wrap(float(b[2]) - t0)
+        # Cheap rejection first: most motions a planner tries run into a wall somewhere.
+        n = max(2, math.ceil(max(abs(b[0] - a[0]), abs(b[1] - a[1])) * self.inv_res / 2))
+        for i in (n // 2, n, *range(1, n)):
+            u = i / n
+            if not self.pose_free(a[0] + u * (b[0] - a[0]), a[1] + u * (b[1] - a[1]), t0 + u * d):
+                return False
         cuts = [0.0]
         if d != 0.0:
             k0 = math.floor(t0 / self.w + 0.5)
@@ -281,6 +287,20 @@ class _ExactMotion:
         if len(poses) == 1:
             return self.pose_free(*poses[0][:3])
         return all(self.motion_free(p, q) for p, q in itertools.pairwise(poses))
+
+
+def _shortcut(motion: _ExactMotion, poses: Sequence[Pose2D], step_m: float) -> list[Pose2D]:
+    """Greedy string pulling: from each kept pose, jump to the farthest free pose of the densified path."""
+    dense = _densify(poses, step_m, math.pi)
+    out = [dense[0]]
+    i, n = 0, len(dense)
+    while i < n - 1:
+        j = n - 1
+        while j > i + 1 and not motion.motion_free(dense[i], dense[j]):
+            j -= 1
+        out.append(dense[j])
+        i = j
+    return out if _path_length(out) <= _path_length(poses) else list(poses)
 
 
 def path_is_free(cs: ConfigurationSpace, poses: Sequence[Sequence[float]]) -> bool:
@@ -393,11 +413,14 @@ def _solve(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSet
             how = "found and simplified"
         else:
             log.info("simplified path failed the dense re-check; keeping the unsimplified path")
-    elapsed = time.perf_counter() - t0
     del ss, planner
     if not motion.path_free(poses):
+        elapsed = time.perf_counter() - t0
         return _failed("no path: the planner's path failed the dense re-check", name, fp, elapsed)
     poses[0] = (start[0], start[1], _wrap(start[2]))
+    if settings.simplify:
+        poses = _shortcut(motion, poses, grid.resolution * 5)
+    elapsed = time.perf_counter() - t0
     if settings.base_motion == "turn_drive_turn":
         poses, kept = turn_drive_turn(cs, poses, allow_reverse=settings.allow_reverse)
         how += "; turn-drive-turn" + (f" ({kept} segment(s) partly turning while driving)" if kept else "")
