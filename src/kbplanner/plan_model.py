@@ -101,6 +101,8 @@ class Plan:
     storey_elevation_m: float = 0.0
     selection: list[dict[str, JsonValue]] = field(default_factory=list)  # every robot, fit or not, reasons
     notes: list[str] = field(default_factory=list)
+    task_iri: str = ""  # the construction task (plan.ttl links to it)
+    spec_iri: str = ""  # the task specification of the knowledge base
 
     def steps_for(self, element_iri: str) -> list[SkillCall]:
         """The skill calls of one element, in order."""

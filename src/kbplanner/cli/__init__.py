@@ -30,6 +30,7 @@ COMMANDS: tuple[str, ...] = (
     "validate",
     "robots",
     "world",
+    "plan",
 )
 
 
