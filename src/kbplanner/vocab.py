@@ -109,6 +109,7 @@ class KBP(DefinedNamespace):
     feasible: URIRef
     fillsOpening: URIRef
     finish: URIRef
+    fitsWindow: URIRef
     footprintLength: URIRef
     footprintWidth: URIRef
     forAction: URIRef
@@ -193,6 +194,8 @@ class KBP(DefinedNamespace):
     scenarioName: URIRef
     sensor: URIRef
     setsParameter: URIRef
+    simulatedDuration: URIRef
+    simulatedFinish: URIRef
     siteExtent: URIRef
     sizeX: URIRef
     sizeY: URIRef
