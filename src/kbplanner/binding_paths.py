@@ -10,7 +10,6 @@ walked through a model to find where information stops (``walk``).
 
 from __future__ import annotations
 
-from collections.abc import Iterable
 from dataclasses import dataclass
 
 from rdflib import RDF, RDFS, Graph, URIRef
@@ -270,8 +269,3 @@ def walk(graph: Graph, start: Node, path: ShaclPath) -> Gap | None:
             return Gap(i, first_gap if first_gap is not None else start)
         frontier = sorted(set(nxt), key=str)
     return None
-
-
-def all_declared(kb: Graph, props: Iterable[URIRef]) -> list[URIRef]:
-    """The properties of ``props`` that the knowledge base does not declare."""
-    return [p for p in props if not is_declared_property(kb, p)]
