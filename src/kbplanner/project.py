@@ -28,6 +28,10 @@ from kbplanner.rdf_io import bind_prefixes, parse_turtle
 
 if TYPE_CHECKING:
     from kbplanner.ifc_import import ImportResult
+    from kbplanner.requirements import RequirementsResult
+    from kbplanner.robot_selection import RobotSelection
+    from kbplanner.validation import ValidationResult
+    from kbplanner.world import World
 
 log = logging.getLogger(__name__)
 
@@ -323,6 +327,50 @@ class Project:
         names = {"Built": "built", "InProgress": "in progress", "NotStarted": "not started"}
         return {str(el): names.get(str(st).rsplit("#", 1)[-1], str(st))
                 for el, st in element_states(self.model, at).items()}
+
+    # ---- later steps, as methods (the CLI mirrors these) ------------------------------------------
+    def default_task(self) -> str | None:
+        """The robotized task simulated by default: ``[simulation] task`` or the only robotized task."""
+        task = self.manifest.simulation.get("task")
+        if task:
+            return str(task)
+        robotized = [r[1] for r in self.query("tasks_and_elements").rows if r[5]]
+        return str(robotized[0]) if len(robotized) == 1 else None
+
+    def requirements(self, task_id: str | None = None) -> RequirementsResult:
+        """A3: the additional modeling requirements of the robotized tasks (or one task)."""
+        from kbplanner.requirements import derive_requirements
+
+        return derive_requirements(self.model, self.kb, task_id=task_id)
+
+    def validate(self) -> ValidationResult:
+        """A4: validate the model (well-formedness + requirement shapes); never changes the model."""
+        from kbplanner.validation import validate_model
+
+        return validate_model(self.model, self.kb)
+
+    def select_robots(self, task_id: str | None = None) -> RobotSelection:
+        """B3 preview: every robot of the knowledge base, fit or not, with reasons, for a task."""
+        from kbplanner.robot_selection import select_robots
+
+        task = task_id or self.default_task()
+        if task is None:
+            raise ProjectError("no task given and no single robotized task to default to",
+                               file=self.manifest.path, fix="name the task (its task_id in the schedule)")
+        return select_robots(self.model, self.kb, task, scenario=self.scenario)
+
+    def world(self, at: datetime | str | None = None, task_id: str | None = None) -> World:
+        """A6: the simulation world at a date (default: ``[simulation] date``)."""
+        from kbplanner.world import build_world, parse_date
+
+        when = at if at is not None else self.manifest.simulation.get("date")
+        if when is None:
+            raise ProjectError("no date given and no [simulation] date in project.toml",
+                               file=self.manifest.path,
+                               fix='add date = "2022-05-10T07:00:00" under [simulation]')
+        if isinstance(when, str):
+            when = parse_date(when)
+        return build_world(self, when, task_id=task_id)
 
     def info(self) -> ProjectInfo:
         """Counts per class, storeys, tasks, robotized tasks and date range of the loaded model."""

@@ -23,6 +23,7 @@ from rdflib.compare import to_canonical_graph
 from rdflib.term import Node
 
 from kbplanner.knowledge_base import SH, curie
+from kbplanner.outputs import atomic_write_text
 from kbplanner.rdf_io import bind_prefixes, parse_turtle
 from kbplanner.requirement_shapes import RequirementShapes, requirement_shapes
 from kbplanner.resources import shape_files
@@ -84,7 +85,7 @@ class ValidationResult:
         """Write the report as Turtle (standard SHACL, canonical blank nodes), or as text for ``.txt``."""
         path = Path(path)
         if path.suffix == ".txt":
-            path.write_text(self.text(), encoding="utf-8")
+            atomic_write_text(path, self.text())
             return
         canon = to_canonical_graph(self.report_graph)
         out = Graph()
@@ -92,7 +93,7 @@ class ValidationResult:
         out.bind("sh", SH)
         for t in canon:
             out.add(t)
-        path.write_text(out.serialize(format="turtle"), encoding="utf-8")
+        atomic_write_text(path, out.serialize(format="turtle"))
 
 
 _TARGETS = (SH.targetClass, SH.targetNode, SH.targetSubjectsOf, SH.targetObjectsOf)

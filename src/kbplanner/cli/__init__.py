@@ -31,6 +31,7 @@ COMMANDS: tuple[str, ...] = (
     "robots",
     "world",
     "plan",
+    "run",
 )
 
 

@@ -1,0 +1,58 @@
+"""``kbplanner run PROJECT --out DIR``: the main job, every step on every scenario, with a summary."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from rich.console import Console
+from rich.table import Table
+
+from kbplanner.pipeline import PipelineResult, run_pipeline
+
+
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    p = sub.add_parser("run", help="the full pipeline on a project: requirements, validation, robots, "
+                                   "world, for every scenario, into one run directory")
+    p.add_argument("project", help="project directory (holding project.toml)")
+    p.add_argument("--out", required=True, help="run directory to write (replaced when the run completes)")
+    p.add_argument("--scenario", action="append", dest="scenarios",
+                   help="only this scenario (repeatable; default: all)")
+    p.set_defaults(func=run)
+
+
+def summary_table(result: PipelineResult) -> Table:
+    """The final summary as a rich table."""
+    t = Table(title=f"kbplanner run: {result.project}")
+    t.add_column("scenario")
+    t.add_column("conforms")
+    t.add_column("fit robots")
+    t.add_column("world (static / at storage)")
+    t.add_column("map cells")
+    for s in result.scenarios:
+        t.add_row(s.name, "yes" if s.conforms else f"no ({s.violations})", ", ".join(s.fit_robots) or "none",
+                  f"{s.world_static} / {s.world_task_elements}", f"{s.map_cells[1]} x {s.map_cells[0]}")
+    return t
+
+
+def run(args: argparse.Namespace) -> int:
+    err = Console(stderr=True)
+    out = Console()
+    with err.status("starting") as status:
+        result = run_pipeline(Path(args.project), Path(args.out), scenarios=args.scenarios,
+                              say=lambda m: status.update(m))
+    out.print(f"Bare model: {result.requirements} additional modeling requirement(s) "
+              f"covering {result.requirement_elements} element(s) (requirements.csv)")
+    out.print(summary_table(result))
+    stages = Table(title="time per stage")
+    stages.add_column("stage")
+    stages.add_column("scenario")
+    stages.add_column("seconds", justify="right")
+    stages.add_column("peak MiB", justify="right")
+    for tm in result.timings:
+        stages.add_row(tm.stage, tm.scenario or "", f"{tm.seconds:.2f}", f"{tm.peak_rss_mb:.0f}")
+    out.print(stages)
+    out.print(f"Total {result.seconds:.1f} s. Results in {result.out_dir}/")
+    sys.stdout.flush()
+    return 0 if result.ok else 1

@@ -1,0 +1,50 @@
+"""The main job on the case study: every stage runs and the run directory holds what it says."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+Run = tuple[Path, subprocess.CompletedProcess[str]]
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, subprocess.CompletedProcess[str]]:
+    out = tmp_path_factory.mktemp("run") / "case_study"
+    proc = subprocess.run([sys.executable, "-m", "kbplanner", "run", str(REPO / "data" / "case_study"),
+                           "--out", str(out)], capture_output=True, text=True, timeout=900)
+    return out, proc
+
+
+def test_run_exits_0_and_prints_a_summary_naming_the_results(run_dir: Run) -> None:
+    out, proc = run_dir
+    assert proc.returncode == 0, proc.stderr
+    assert "2 additional modeling requirement(s)" in proc.stdout
+    assert str(out) in proc.stdout.replace("\n", "")
+    assert not out.with_name(out.name + ".partial").exists()
+
+
+def test_the_run_directory_holds_requirements_validation_and_worlds(run_dir: Run) -> None:
+    out, _ = run_dir
+    reqs = (out / "requirements.csv").read_text().splitlines()
+    assert len(reqs) == 1 + 22  # one row per (requirement, element): 2 requirements x 11 frames
+    assert (out / "requirements_template.ttl").is_file()
+    for scenario in ("storage-inside", "storage-outside"):
+        s = out / "scenarios" / scenario
+        assert "conforms" in (s / "validation.txt").read_text().lower()
+        assert (s / "validation.ttl").is_file()
+        assert "NOT FIT" in (s / "robots.txt").read_text()
+        assert (s / "world" / "map.pgm").is_file() and (s / "world" / "world_existing.sdf").is_file()
+    metrics = json.loads((out / "metrics.json").read_text())
+    stages = {m["stage"] for m in metrics["stages"]}
+    assert stages >= {"import and load", "requirements", "validation", "world"}
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert any(k.endswith(".ifc") for k in manifest["inputs"])
+    assert manifest["versions"]["rdflib"]
