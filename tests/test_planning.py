@@ -274,3 +274,10 @@ def test_assign_poses_fills_a_copy_and_can_mark_a_step_infeasible(tmp_path: Path
     assert filled.steps[1].arm_poses == {"final": [0.0] * 6}
     assert (filled.steps[3].feasible, filled.steps[3].reason) == (False, "no IK solution within reach")
     assert Plan.from_json(filled.to_json()) == filled
+
+
+def test_a_robotized_task_without_elements_gives_an_empty_plan_with_a_note(tmp_path: Path) -> None:
+    g = make_model(0)
+    plan = plan_task(small_project(tmp_path, g))
+    assert plan.steps == [] and plan.elements == []
+    assert any("builds no elements" in n for n in plan.notes)

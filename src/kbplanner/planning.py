@@ -427,6 +427,9 @@ def plan_task(project: Project, task_id: str | None = None, robot_id: str | None
     start = world.robot_start
     order = element_order(project.model, task.iri, (start.x, start.y) if start is not None else None)  # B1
     elements = _elements(project, task, order.elements, world, notes)
+    if not elements:
+        notes.append(f"task {task.task_id} builds no elements: the plan has no steps "
+                     "(link its elements with kbp:buildsElement, e.g. by the schedule's elements column)")
     runtime = _runtime_inputs(spec)
     if runtime:
         notes.append(runtime)
