@@ -32,6 +32,7 @@ COMMANDS: tuple[str, ...] = (
     "world",
     "plan",
     "run",
+    "generate_building",
 )
 
 
