@@ -146,7 +146,8 @@ def select(graph: Graph, name: str, **bindings: Identifier) -> list[dict[str, No
     ``initBindings``. Unlike :func:`kbplanner.named_queries.run_named`, nothing is converted to Python.
     """
     query: str | Query = _prepared(name)
-    if "oxigraph" in type(graph.store).__name__.lower():  # oxrdflib evaluates query text itself
+    if "oxigraph" in type(graph.store).__name__.lower() or hasattr(graph.store, "query_endpoint"):
+        # oxrdflib and SPARQL endpoint stores (kbplanner.stores) evaluate query text themselves
         query = _text(name)
     result = graph.query(query, initBindings=dict(bindings))
     names = [str(v) for v in (result.vars or [])]

@@ -244,8 +244,12 @@ class Project:
         scenario: str | None = None,
         *,
         progress: ProgressFn | None = None,
+        store: str | None = None,
     ) -> Project:
         """Load a project directory, optionally with a scenario overlay.
+
+        ``store`` puts the model and the merged graph on another backend (:mod:`kbplanner.stores`:
+        ``oxigraph``, ``oxigraph:DIR``, ``sparql+http://HOST:PORT/query``); default: rdflib in memory.
 
         Example:
             >>> p = Project.load("data/case_study", scenario="storage-outside")  # doctest: +SKIP
@@ -253,6 +257,10 @@ class Project:
             'T/FDN'
         """
         manifest = read_manifest(Path(path))
+        if store is not None:
+            from kbplanner.stores import parse_store
+
+            parse_store(store)  # a bad spec fails before the import
         if scenario is not None and scenario not in manifest.scenarios:
             known = ", ".join(sorted(manifest.scenarios)) or "none"
             raise ProjectError(f"unknown scenario {scenario!r}", file=manifest.path, element=scenario,
@@ -275,8 +283,15 @@ class Project:
             parse_turtle(p, into=model)
         say("loading knowledge base")
         kb, kb_files = _load_kb(manifest.knowledge_base)
+        merged: Graph | None = None
+        if store is not None:
+            from kbplanner.stores import place_graphs
+
+            say(f"placing the model on {store}")
+            model, merged = place_graphs(store, model, kb,
+                                         graph_base=f"{manifest.base}graph/{scenario or 'bare'}/")
         return cls(manifest=manifest, scenario=scenario, model=model, kb=kb, import_dir=import_dir,
-                   kb_files=kb_files)
+                   kb_files=kb_files, _merged=merged)
 
     # ---- basic properties ----------------------------------------------------------------------
     @property
