@@ -8,18 +8,20 @@ import sys
 from dataclasses import asdict
 
 from kbplanner.project import Project
+from kbplanner.stores import add_store_argument
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("info", help="summarise a project: elements per class, storeys, tasks, date range")
     p.add_argument("project", help="project directory (holding project.toml)")
     p.add_argument("--scenario", help="scenario overlay to apply (default: the bare model)")
+    add_store_argument(p)
     p.add_argument("--format", choices=("text", "json"), default="text")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    project = Project.load(args.project, scenario=args.scenario)
+    project = Project.load(args.project, scenario=args.scenario, store=args.store)
     info = project.info()
     if args.format == "json":
         sys.stdout.write(json.dumps(asdict(info), indent=2, default=str) + "\n")

@@ -16,6 +16,7 @@ from rdflib.term import Identifier
 from kbplanner.errors import InputFileError, QueryError
 from kbplanner.named_queries import catalogue, get_query, result_rows, run_text, to_term
 from kbplanner.project import Project
+from kbplanner.stores import add_store_argument
 from kbplanner.tables import FORMATS, iri_shortener, render
 
 
@@ -28,6 +29,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--bind", action="append", default=[], metavar="VAR=VALUE",
                    help="bind a query variable (repeatable); for --sparql, <...> binds an IRI")
     p.add_argument("--scenario", help="scenario overlay to apply (default: the bare model)")
+    add_store_argument(p)
     p.add_argument("--format", choices=FORMATS, default="table")
     p.set_defaults(func=run)
 
@@ -69,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
         terms: dict[str, Identifier] = {}
         for k, v in binds.items():
             terms[k] = URIRef(v[1:-1]) if v.startswith("<") and v.endswith(">") else to_term(v, "xsd:string")
-        project = Project.load(args.project, scenario=args.scenario)
+        project = Project.load(args.project, scenario=args.scenario, store=args.store)
         try:
             result = result_rows(run_text(project.graph, text, terms))
         except Exception as exc:  # pyparsing / rdflib errors: report the file, not a traceback
@@ -79,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
         if not args.name:
             raise QueryError("no query name given", fix="kbplanner query --list shows the names")
         get_query(args.name)  # fail fast on an unknown name, before loading the project
-        project = Project.load(args.project, scenario=args.scenario)
+        project = Project.load(args.project, scenario=args.scenario, store=args.store)
         result = project.query(args.name, **binds)
     sys.stdout.write(render(result.columns, result.rows, args.format, shorten=iri_shortener(project.base)))
     return 0

@@ -13,6 +13,7 @@ from pathlib import Path
 
 from kbplanner.project import Project
 from kbplanner.requirements import RequirementsResult, derive_requirements
+from kbplanner.stores import add_store_argument
 from kbplanner.tables import render
 
 FORMATS = ("table", "csv", "json", "ttl")
@@ -23,6 +24,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                        help="list the additional modeling requirements of the robotized tasks (A3)")
     p.add_argument("project", help="project directory (holding project.toml)")
     p.add_argument("--scenario", help="scenario overlay to apply (default: the bare model)")
+    add_store_argument(p)
     p.add_argument("--task", help="only this robotized task id")
     p.add_argument("--format", choices=FORMATS, default="table")
     p.add_argument("--template", metavar="FILE", type=Path,
@@ -49,7 +51,7 @@ def format_result(result: RequirementsResult, fmt: str) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    project = Project.load(args.project, scenario=args.scenario)
+    project = Project.load(args.project, scenario=args.scenario, store=args.store)
     result = derive_requirements(project.model, project.kb, task_id=args.task)
     sys.stdout.write(format_result(result, args.format))
     if args.template is not None:

@@ -14,6 +14,7 @@ from pathlib import Path
 
 from kbplanner.cli import EXIT_NEGATIVE, EXIT_OK
 from kbplanner.project import Project
+from kbplanner.stores import add_store_argument
 from kbplanner.validation import validate_model
 
 
@@ -21,6 +22,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("validate", help="validate the 4D model and its augmentation with SHACL (A4)")
     p.add_argument("project", help="project directory (holding project.toml)")
     p.add_argument("--scenario", help="scenario overlay to apply (default: the bare model)")
+    add_store_argument(p)
     p.add_argument("--report", metavar="FILE", type=Path,
                    help="write the SHACL report (Turtle), or the text report if FILE ends in .txt")
     p.add_argument("--well-formedness-only", action="store_true",
@@ -29,7 +31,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    project = Project.load(args.project, scenario=args.scenario)
+    project = Project.load(args.project, scenario=args.scenario, store=args.store)
     result = validate_model(project.model, project.kb, include_requirements=not args.well_formedness_only)
     sys.stdout.write(result.text())
     if args.report is not None:
