@@ -153,6 +153,7 @@ class GeneratedBuilding:
     counts: dict[str, int]  # IFC class -> number of instances (products only)
     elements: int  # building elements (IfcElement without openings)
     frames: int
+    frames_per_storey: tuple[int, ...]
     frame_mass_kg: tuple[float, float]
     tasks: tuple[str, ...]
     robotized_tasks: tuple[str, ...]
@@ -1333,6 +1334,8 @@ def generate_building(
         counts=dict(sorted(counts.items())),
         elements=elements,
         frames=len(builder.panels),
+        frames_per_storey=tuple(sum(1 for p in builder.panels if p.storey == k)
+                                for k in range(1, storeys + 1)),
         frame_mass_kg=(min(masses), max(masses)),
         tasks=tuple(t["task_id"] for t in tasks),
         robotized_tasks=tuple(t["task_id"] for t in tasks if t["robotized"] == "true"),
