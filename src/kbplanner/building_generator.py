@@ -431,6 +431,21 @@ class _Ifc:
             solids.append(f.createIfcExtrudedAreaSolid(profile, position, self.z_dir, z1 - z0))
         return f.createIfcShapeRepresentation(self.body, "Body", "SweptSolid", solids)
 
+    def stair(self, risers: int, rise: float, going: float, width: float) -> Any:
+        """A Body of one straight flight: the stepped y-z profile extruded along x by ``width``."""
+        f = self.f
+        pts = [(0.0, 0.0)]
+        for i in range(risers - 1):
+            pts += [(i * going, (i + 1) * rise), ((i + 1) * going, (i + 1) * rise)]
+        pts += [((risers - 1) * going, 0.0), (0.0, 0.0)]
+        curve = f.createIfcPolyline([f.createIfcCartesianPoint((round(u, 6), round(v, 6))) for u, v in pts])
+        profile = f.createIfcArbitraryClosedProfileDef("AREA", None, curve)
+        # profile x along the stair's y, profile y up; extruded along the stair's x
+        position = f.createIfcAxis2Placement3D(f.createIfcCartesianPoint((0.0, 0.0, 0.0)), self.x_dir,
+                                               f.createIfcDirection((0.0, 1.0, 0.0)))
+        solid = f.createIfcExtrudedAreaSolid(profile, position, self.z_dir, width)
+        return f.createIfcShapeRepresentation(self.body, "Body", "SweptSolid", [solid])
+
     def finish(self, time_stamp: str) -> None:
         """Deterministic GlobalIds on everything the API created without one of ours."""
         for e in sorted(self.f.by_type("IfcRoot"), key=lambda e: e.id()):
@@ -633,13 +648,13 @@ class _Builder:
             z,
             False,
         )
-        # Stair: 15 risers of 0.2 m, 0.28 m goings, 1.2 m wide, rising northwards along the core's west side.
+        # Stair: 15 risers of 0.2 m, 0.28 m goings, 1.2 m wide, rising northwards along the core's west side;
+        # one solid (the stepped side profile extruded across the width), so that it is watertight.
         stair = ifc.create("IfcStair", f"Stair {lvl}", f"{lvl}/stair", predefined_type="STRAIGHT_RUN_STAIR")
         ifc.contain(stair, st)
         ifc.place(stair, _matrix(mw + 0.4, 0.6, z))
-        risers, rise, going, width = 15, STOREY_HEIGHT / 15, 0.28, 1.2
-        steps = [(0.0, i * going, 0.0, width, (i + 1) * going, (i + 1) * rise) for i in range(risers - 1)]
-        ifcopenshell.api.geometry.assign_representation(ifc.f, product=stair, representation=ifc.boxes(steps))
+        ifcopenshell.api.geometry.assign_representation(ifc.f, product=stair, representation=ifc.stair(
+            risers=15, rise=STOREY_HEIGHT / 15, going=0.28, width=1.2))
 
     def unit(self, k: int, j: int, st: Any, z: float, lvl: str, sequence: int) -> int:
         ifc = self.ifc
