@@ -113,6 +113,7 @@ class RefineSettings:
     grasp_tilts_deg: tuple[float, ...] = tuple(float(t) for t in range(0, 65, 5))
     max_arm_penetration_m: float = 0.03  # accepted, and reported, only when no clear grasp exists
     ik_refinements: int = 4  # IK restarts per seed while searching (8 for the place pose)
+    escape_radius_m: float = 3.0  # after an install the robot must get this far (escapes())
     bearing_spread_rad: float = math.radians(70.0)
     yaw_spread_rad: float = math.radians(60.0)
 
@@ -191,6 +192,70 @@ class PoseChecker:
         else:
             window = g.occupied[lo_y:hi_y, lo_x:hi_x]
         return not bool((window & kern).any())
+
+
+def escapes(grid: OccupancyGrid, footprint: Footprint, pose: Pose2, *, radius_m: float = 3.0,
+            n_bins: int = N_YAW_BINS) -> bool:
+    """Whether a robot at ``pose`` is not shut in: its free configurations reach ``radius_m`` away.
+
+    The configuration space of ``footprint`` is built on the grid around the pose; free
+    (x, y, yaw-bin) cells are labelled with face connectivity only (6 neighbours, the yaw axis closed
+    into a ring), which under-connects, so "reaches the window border" means the robot can get out
+    of the neighbourhood (a 26-connected labelling would let it squeeze through diagonal gaps).
+
+    Example:
+        >>> occ = np.zeros((80, 80), dtype=bool); occ[20:60, [20, 59]] = True; occ[[20, 59], 20:60] = True
+        >>> g = OccupancyGrid(occ, origin=(0.0, 0.0), resolution=0.05)
+        >>> from kbplanner.footprint import Rect
+        >>> escapes(g, Footprint((Rect(0, 0, 0.5, 0.3),)), Pose2(2.0, 2.0, 0.0), radius_m=1.5)
+        False
+    """
+    from scipy import ndimage
+
+    from kbplanner.footprint import ConfigurationSpace
+
+    res = grid.resolution
+    ny, nx = grid.shape
+    ix0 = max(0, math.floor((pose.x - radius_m - grid.origin[0]) / res))
+    iy0 = max(0, math.floor((pose.y - radius_m - grid.origin[1]) / res))
+    ix1 = min(nx, math.ceil((pose.x + radius_m - grid.origin[0]) / res))
+    iy1 = min(ny, math.ceil((pose.y + radius_m - grid.origin[1]) / res))
+    sub = OccupancyGrid(occupied=grid.occupied[iy0:iy1, ix0:ix1], origin=(grid.origin[0] + ix0 * res,
+                        grid.origin[1] + iy0 * res), resolution=res, band=grid.band)
+    cs = ConfigurationSpace.build(sub, footprint, n_bins)
+    labels, _ = ndimage.label(cs.free, structure=ndimage.generate_binary_structure(3, 1))
+    parent: dict[int, int] = {}
+
+    def find(a: int) -> int:
+        while parent.get(a, a) != a:
+            a = parent.get(a, a)
+        return a
+
+    first, last = labels[0], labels[-1]
+    both = (first > 0) & (last > 0)
+    for a, b in sorted(set(zip(first[both].tolist(), last[both].tolist(), strict=True))):
+        ra, rb = find(a), find(b)
+        if ra != rb:
+            parent[max(ra, rb)] = min(ra, rb)
+    cx, cy = sub.cell_of(pose.x, pose.y)
+    own = labels[cs.yaw_bin(pose.yaw), cy, cx]
+    if own == 0:
+        return False
+    root = find(int(own))
+    # Off the window counts as occupied, so free cells stop a footprint radius short of its border:
+    # the band of that width (plus two cells) along the border is "away". The map's own edges are not.
+    band = math.ceil((footprint.radius_m + 2 * res) / res)
+    border = np.zeros(labels.shape[1:], dtype=bool)
+    if ix0 > 0:
+        border[:, :band] = True
+    if ix1 < nx:
+        border[:, -band:] = True
+    if iy0 > 0:
+        border[:band, :] = True
+    if iy1 < ny:
+        border[-band:, :] = True
+    found = {find(int(v)) for v in np.unique(labels[:, border]) if v}
+    return root in found
 
 
 # --------------------------------------------------------------------------------------------
@@ -612,6 +677,9 @@ class _Refiner:
                     last = res
                     continue
                 poses, clear = res
+                if not escapes(checker.grid, self.base_fp, base, radius_m=self.s.escape_radius_m):
+                    last = "the robot would be shut in by the installed element"
+                    continue
                 note = (f"base pose: sampled ({base.x:.3f}, {base.y:.3f}, {math.degrees(base.yaw):.1f} deg), "
                         f"nearest to the pick base pose of {free_count} free samples; arrives carrying "
                         f"{'/'.join(modes)}; element-robot clearance {clear:.3f} m"

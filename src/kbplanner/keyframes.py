@@ -1,0 +1,46 @@
+"""B5 key frames: offscreen images of the simulation at a few events (first pick, door rotations, ...).
+
+Takes the running :class:`~kbplanner.sim_env.SimEnv` (loaded with visual shapes) and returns PNG
+bytes rendered with PyBullet's TinyRenderer (CPU, no display needed), from a camera behind and above
+the robot looking at it. The executor writes them as ``keyframes/NN_<event>.png``.
+
+Example:
+    >>> data = render_png(env, (640, 480))  # doctest: +SKIP
+    >>> data[:4]  # doctest: +SKIP
+    b'\\x89PNG'
+"""
+
+from __future__ import annotations
+
+import io
+import math
+
+import numpy as np
+
+from kbplanner.sim_env import SimEnv
+
+CAMERA_DISTANCE_M = 5.0
+CAMERA_PITCH_DEG = -35.0
+CAMERA_OFFSET_DEG = 150.0  # camera azimuth relative to the robot's heading (behind, to its left)
+
+
+def render_png(env: SimEnv, size: tuple[int, int] = (640, 480)) -> bytes:
+    """A PNG of the scene around the robot, ``size`` = (width, height) pixels."""
+    import pybullet as p
+    from PIL import Image
+
+    width, height = size
+    x, y, yaw = env.base_pose()
+    target = [x, y, env.world.ground_z + 0.8]
+    view = p.computeViewMatrixFromYawPitchRoll(
+        cameraTargetPosition=target, distance=CAMERA_DISTANCE_M,
+        yaw=math.degrees(yaw) + CAMERA_OFFSET_DEG - 90.0, pitch=CAMERA_PITCH_DEG, roll=0.0, upAxisIndex=2,
+        physicsClientId=env.client)
+    proj = p.computeProjectionMatrixFOV(fov=60.0, aspect=width / height, nearVal=0.1, farVal=80.0,
+                                        physicsClientId=env.client)
+    _, _, rgba, _, _ = p.getCameraImage(width, height, viewMatrix=view, projectionMatrix=proj,
+                                        renderer=p.ER_TINY_RENDERER, physicsClientId=env.client)
+    pixels = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3]
+    buf = io.BytesIO()
+    Image.fromarray(pixels).save(buf, format="PNG")
+    return buf.getvalue()
