@@ -1,0 +1,165 @@
+"""Stages of the scale benchmark (benchmarks/run.py), run in one process per building size.
+
+``measure_size(storeys, units, workdir, endpoint=...)`` generates a building (kbplanner.building_generator),
+then times every pipeline stage that exists on it, in order, and returns JSON-ready records: wall time,
+the process's peak resident memory after the stage and how much the stage raised it (``ru_maxrss``,
+so a fresh process per size), and what the stage produced. Stages: generate, import (IFC -> graph and
+meshes, cache cleared first), load (bare model), requirements (A3), load of the scenario, validation
+(A4), named queries (every ``.rq`` once, unbound, on rdflib), world (A6, the simulation task), occupancy
+map (its storey), plan (B1-B3, the simulation task), plan of every robotized task (one per storey),
+then the same named queries on pyoxigraph and on a SPARQL endpoint (per-query times, rows compared).
+"""
+
+from __future__ import annotations
+
+import logging
+import resource
+import shutil
+import sys
+import time
+import traceback
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from kbplanner.building_generator import SCENARIO, generate_building
+from kbplanner.named_queries import catalogue, run_text
+from kbplanner.project import Project, import_cached, read_manifest
+from kbplanner.stores import result_json
+
+log = logging.getLogger(__name__)
+
+
+def peak_rss_mb() -> float:
+    """Peak resident memory of this process so far (MiB)."""
+    kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return kb / 1024.0 if sys.platform != "darwin" else kb / (1024.0 * 1024.0)
+
+
+class Recorder:
+    """Times stages; a stage that raises is recorded as failed (with the error) and the run goes on."""
+
+    def __init__(self) -> None:
+        self.stages: list[dict[str, Any]] = []
+
+    def run(self, name: str, fn: Callable[[], Any], **info: Any) -> Any:
+        before = peak_rss_mb()
+        t0 = time.perf_counter()
+        record: dict[str, Any] = {"stage": name}
+        try:
+            value = fn()
+            record["ok"] = True
+        except Exception as exc:  # a broken stage is a finding, not the end of the benchmark
+            value = None
+            record["ok"] = False
+            record["error"] = f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
+            record["where"] = traceback.format_exc(limit=-3).strip().splitlines()[-3:]
+        record["seconds"] = round(time.perf_counter() - t0, 4)
+        after = peak_rss_mb()
+        record["peak_rss_mb"] = round(after, 1)
+        record["peak_rss_raise_mb"] = round(after - before, 1)
+        record.update(info)
+        self.stages.append(record)
+        sys.stderr.write(f"  {name:<22} {record['seconds']:9.2f} s  peak {after:7.0f} MB"
+                         f"{'' if record['ok'] else '  FAILED ' + record['error']}\n")
+        sys.stderr.flush()
+        return value
+
+
+def _query_times(project: Project, repeats: int) -> dict[str, dict[str, Any]]:
+    """Best-of-``repeats`` time and canonical rows of every named query (unbound) on the project graph."""
+    out: dict[str, dict[str, Any]] = {}
+    for name, q in sorted(catalogue().items()):
+        best = float("inf")
+        rows = ""
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            rows = result_json(run_text(project.graph, q.text, {}))
+            best = min(best, time.perf_counter() - t0)
+        out[name] = {"seconds": round(best, 5), "rows": rows}
+    return out
+
+
+def _simulation_stage(rec: Recorder, project: Project, plan: Any, world: Any, grid: Any,
+                      workdir: Path) -> None:
+    """B5 when the executor is there and works; otherwise a record that says why not."""
+    try:
+        from kbplanner.executor import simulate
+        from kbplanner.manipulation import refine_plan
+    except ImportError as exc:
+        rec.stages.append({"stage": "simulation", "ok": False, "seconds": None,
+                           "error": f"not available: {exc}"})
+        return
+    seed = project.manifest.seed
+    refined = rec.run("refine (B4)", lambda: refine_plan(plan, world, seed=seed, grid=grid))
+    if refined is None:
+        return
+    result = rec.run("simulation (B5)", lambda: simulate(project, refined, seed=seed, out_dir=workdir / "run",
+                                                         world=world, grid=grid))
+    if result is not None:
+        last = rec.stages[-1]
+        last["sim_time_s"] = round(float(result.sim_time_s), 1)
+        last["installed"] = len(result.installed)
+        last["real_time_factor"] = round(float(result.sim_time_s) / max(float(last["seconds"]), 1e-9), 1)
+
+
+def measure_size(storeys: int, units: int, workdir: Path, *, endpoint: str | None = None, repeats: int = 2,
+                 simulate: bool = False) -> dict[str, Any]:
+    """Every stage on a generated ``storeys`` x ``units`` building (see the module docstring)."""
+    from kbplanner.planning import plan_task
+    from kbplanner.world_exports import storey_map
+
+    rec = Recorder()
+    directory = workdir / f"building-{storeys}x{units}"
+    gen = rec.run("generate", lambda: generate_building(directory, storeys=storeys, units_per_storey=units,
+                                                         force=True))
+    shutil.rmtree(directory / ".kbplanner-cache", ignore_errors=True)
+    rec.run("import", lambda: import_cached(read_manifest(directory)))
+    bare = rec.run("load (bare)", lambda: Project.load(directory))
+    req = rec.run("requirements", lambda: bare.requirements())
+    project = rec.run("load (scenario)", lambda: Project.load(directory, scenario=SCENARIO))
+    val = rec.run("validation", lambda: project.validate())
+    mem = rec.run("named queries", lambda: _query_times(project, 1))
+    world = rec.run("world", lambda: project.world())
+    smap = plan = None
+    if world is not None:
+        smap = rec.run("occupancy map", lambda: storey_map(world))
+        plan = rec.run("plan (one storey)", lambda: plan_task(project, world=world))
+    tasks = [r[1] for r in project.query("tasks_and_elements").rows if r[5]]
+    plans = rec.run("plan (every storey)", lambda: [plan_task(project, t) for t in tasks])
+    if simulate and plan is not None and smap is not None:
+        _simulation_stage(rec, project, plan, world, smap.grid, workdir)
+    stores: dict[str, Any] = {}
+    if mem is not None:
+        stores["memory"] = {k: v["seconds"] for k, v in mem.items()}
+        ox = rec.run("load (oxigraph)", lambda: Project.load(directory, scenario=SCENARIO, store="oxigraph"))
+        if ox is not None:
+            oxq = rec.run("named queries (oxigraph)", lambda: _query_times(ox, repeats))
+            if oxq is not None:
+                stores["oxigraph"] = {k: v["seconds"] for k, v in oxq.items()}
+                stores["oxigraph_different_rows"] = sorted(k for k in oxq
+                                                           if oxq[k]["rows"] != mem[k]["rows"])
+        if endpoint:
+            ep = rec.run("load (endpoint)",
+                         lambda: Project.load(directory, scenario=SCENARIO, store=endpoint))
+            if ep is not None:
+                epq = rec.run("named queries (endpoint)", lambda: _query_times(ep, repeats))
+                if epq is not None:
+                    stores["endpoint"] = {k: v["seconds"] for k, v in epq.items()}
+                    stores["endpoint_different_rows"] = sorted(k for k in epq
+                                                               if epq[k]["rows"] != mem[k]["rows"])
+    return {
+        "storeys": storeys,
+        "units_per_storey": units,
+        "elements": gen.elements if gen else None,
+        "frames": gen.frames if gen else None,
+        "triples": len(project.model) if project is not None else None,
+        "requirements": len(req.requirements) if req is not None else None,
+        "conforms": val.conforms if val is not None else None,
+        "plan_steps": len(plan.steps) if plan is not None else None,
+        "plan_feasible": plan.feasible if plan is not None else None,
+        "plans_every_storey_steps": sum(len(p.steps) for p in plans) if plans else None,
+        "map_cells": list(smap.grid.shape) if smap is not None else None,
+        "stages": rec.stages,
+        "queries": stores,
+    }
