@@ -36,12 +36,12 @@ from __future__ import annotations
 import hashlib
 import logging
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from kbplanner.carry import rect_dict
+from kbplanner.carry import pose_of, rect_dict
 from kbplanner.errors import KbplannerError
 from kbplanner.keyframes import render_png
 from kbplanner.manipulation import elements_in_order, robot_name
@@ -63,6 +63,7 @@ from kbplanner.world import World
 if TYPE_CHECKING:
     from kbplanner.occupancy import OccupancyGrid
     from kbplanner.project import Project
+    from kbplanner.workers import WorkerMotion
 
 log = logging.getLogger(__name__)
 
@@ -111,6 +112,7 @@ class ElementOutcome:
     steps: list[StepOutcome] = field(default_factory=list)
     placement_error_m: float | None = None
     placement_error_deg: float | None = None
+    final_pose: tuple[float, float, float, float, float, float] | None = None  # element frame at the end
 
     @property
     def duration_s(self) -> float:
@@ -209,6 +211,9 @@ class _Run:
         self.sample(force=True)
         self.emit("start", robot=self.plan.robot_id, elements=len(self.plan.elements))
         out = [self.element(iri) for iri in elements_in_order(self.plan)]
+        for e in out:  # where every element ended (site frame: x, y, z, roll, pitch, yaw)
+            if any(t.iri == e.iri for t in self.env.world.task_elements):
+                e.final_pose = tuple(round(v, 6) + 0.0 for v in pose_of(self.env.element_frame(e.iri)))  # type: ignore[assignment]
         self.ctx.step = None
         self.emit("end", installed=sum(1 for e in out if e.outcome == INSTALLED), elements=len(out))
         if self.settings.keyframes:
@@ -346,7 +351,8 @@ def _metrics(plan: Plan, elements: list[ElementOutcome], sim_time: float, settin
         per_element.append({"global_id": e.global_id, "label": e.label, "iri": e.iri, "outcome": e.outcome,
                             "reason": e.reason, "start_s": e.start_s, "end_s": e.end_s,
                             "duration_s": e.duration_s, "placement_error_m": e.placement_error_m,
-                            "placement_error_deg": e.placement_error_deg, "steps": steps})
+                            "placement_error_deg": e.placement_error_deg,
+                            "final_pose": list(e.final_pose) if e.final_pose else None, "steps": steps})
     installed = sum(1 for e in elements if e.outcome == INSTALLED)
     return clean({
         "project": plan.project, "scenario": plan.scenario, "task": plan.task_id, "robot": plan.robot_id,
@@ -376,11 +382,13 @@ def simulate(
     grid: OccupancyGrid | None = None,
     settings: ExecSettings | None = None,
     gui: bool = False,
+    workers: Sequence[WorkerMotion] | None = None,
 ) -> SimulationResult:
     """Execute a refined plan in PyBullet and write the run directory (see module docstring).
 
     ``progress(element_label, steps_done, steps_total)`` is called after each step. ``world`` and
-    ``grid`` (the task storey's occupancy grid) are built when not given.
+    ``grid`` (the task storey's occupancy grid) are built when not given; ``workers`` replaces the
+    model's workers (their motions, e.g. a scripted one for a test or a what-if).
 
     Raises:
         KbplannerError: no robot in the plan, no [simulation] date for the world, a robot whose URDF
@@ -397,8 +405,9 @@ def simulate(
     started = time.perf_counter()
     world = world or _world(project, plan)
     grid = grid if grid is not None else storey_map(world).grid
-    horizon = 1800.0 + WORKER_HORIZON_S_PER_STEP * len(plan.steps)  # past it workers hold their last pose
-    workers = plan_workers(project.model, grid, seed=seed, horizon_s=horizon)
+    if workers is None:
+        horizon = 1800.0 + WORKER_HORIZON_S_PER_STEP * len(plan.steps)  # past it workers hold their last pose
+        workers = plan_workers(project.model, grid, seed=seed, horizon_s=horizon)
     env = SimEnv(world, robot_name(plan), grid=grid, workers=workers, control_hz=settings.control_hz, gui=gui,
                  visuals=settings.keyframes)
     loaded = time.perf_counter()

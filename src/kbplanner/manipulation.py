@@ -446,6 +446,14 @@ class _Refiner:
         reach = self.arm.reach_m + self.robot.spec.tcp_m
         return math.sqrt(max(0.0, reach * reach - (z - shoulder) ** 2))
 
+    def beyond_reach(self, target: npt.NDArray[np.float64]) -> str:
+        """The reason for a target the arm cannot reach from any base pose (too high or too low)."""
+        shoulder = self.robot.spec.arm_mount_xyz[2] + self.arm.d[0]
+        reach = self.arm.reach_m + self.robot.spec.tcp_m
+        return (f"out of reach from any base pose: the tool would have to be at {float(target[2]):.2f} m, "
+                f"the arm of {self.robot.spec.name} reaches {shoulder - reach:.2f}..{shoulder + reach:.2f} m "
+                f"high and needs {self.s.min_reach_m} m in front of its mount")
+
     # ---- base pose candidates ----------------------------------------------------------------
     def candidates(self, target: npt.NDArray[np.float64], rng: np.random.Generator,
                    side: tuple[float, float] | None, ref: Pose2) -> list[Pose2]:
@@ -487,6 +495,8 @@ class _Refiner:
         target = (frame @ np.array([*gp, 1.0]))[:3]
         rng = np.random.default_rng([self.seed, zlib.crc32(we.iri.encode()), step.step])
         ref = nominal or self.robot_at
+        if self.horizontal_reach(float(target[2])) <= self.s.min_reach_m:
+            return self.beyond_reach(target)
         bases: list[tuple[Pose2, str]] = []
         if nominal is not None:
             bases.append((nominal, "the NV-1 destination (pickup location)"))
@@ -623,7 +633,8 @@ class _Refiner:
         for turned, goal in target_variants(we.local_bounds, target):
             res = self._install_target(step, we, pick, nav_q, goal)
             if isinstance(res, str):
-                reasons.append(res + (" (turned 180 deg)" if turned else ""))
+                if res not in reasons:
+                    reasons.append(res if not turned else f"turned 180 deg: {res}")
                 continue
             if turned:
                 res.note += ("; placed turned 180 deg about its vertical axis (its box is symmetric about "
@@ -655,6 +666,8 @@ class _Refiner:
         checker = self.checker.with_grid(mark_polygon(self.checker.grid, own))
         rng = np.random.default_rng([self.seed, zlib.crc32(we.iri.encode()), step.step])
         bases = self.candidates(tool[:3, 3], rng, side, pick.base)
+        if not bases:
+            return self.beyond_reach(tool[:3, 3])
         up = np.array([0.0, 0.0, 1.0])
         probe = ElementProbe(self.robot, we.local_bounds)
         tried = free_count = 0

@@ -31,6 +31,7 @@ COMMANDS: tuple[str, ...] = (
     "robots",
     "world",
     "plan",
+    "simulate",
     "run",
     "generate_building",
 )

@@ -1,0 +1,100 @@
+"""``kbplanner simulate PROJECT [--scenario S] [--seed N] [--task ID] [--robot R] [--gui] --out DIR`` (B1-B5).
+
+Builds the world at the project's ``[simulation] date``, the action-level plan (B1-B3,
+:func:`kbplanner.planning.plan_task`), refines it with arm and base poses (B4,
+:func:`kbplanner.manipulation.refine_plan`) and executes it in PyBullet (B5,
+:func:`kbplanner.executor.simulate`), writing the run directory ``DIR`` atomically. Shows progress
+over elements and steps and a summary table at the end.
+
+Exit codes: 0 every element installed; 1 some element not installed (the reasons are in the table
+and in ``DIR/metrics.json``), or no robot fits the task (nothing simulated); 2 bad input (unknown
+project, scenario, task or robot, no ``[simulation] date``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from kbplanner.errors import KbplannerError
+
+
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    p = sub.add_parser(
+        "simulate",
+        help="plan, refine and simulate the robotized task in PyBullet; write a run directory (B1-B5)",
+        description=__doc__.split("\n\n", 1)[1] if __doc__ else None,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("project", help="project directory (holding project.toml)")
+    p.add_argument("--scenario", help="scenario overlay to apply (default: the bare model)")
+    p.add_argument("--seed", type=int, help="random seed (default: [project] seed of project.toml)")
+    p.add_argument("--task", help="robotized task id (default: [simulation] task)")
+    p.add_argument("--robot", help="robot id of the knowledge base (default: the first fitting one)")
+    p.add_argument("--gui", action="store_true", help="show the PyBullet GUI when a display exists")
+    p.add_argument("--no-keyframes", action="store_true", help="do not render key frame images")
+    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="run directory (replaced)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.table import Table
+
+    from kbplanner.executor import INSTALLED, simulate
+    from kbplanner.manipulation import refine_plan
+    from kbplanner.planning import plan_task
+    from kbplanner.project import Project
+    from kbplanner.skills import ExecSettings
+    from kbplanner.world import build_world, parse_date
+    from kbplanner.world_exports import storey_map
+
+    console = Console(stderr=True)
+    project = Project.load(args.project, scenario=args.scenario)
+    date = project.manifest.simulation.get("date")
+    if date is None:
+        raise KbplannerError("no [simulation] date in project.toml", file=project.manifest.path,
+                             element="simulation.date",
+                             fix='add date = "YYYY-MM-DDTHH:MM" under [simulation] (the world of the task)')
+    seed = args.seed if args.seed is not None else project.manifest.seed
+    world = build_world(project, parse_date(str(date)), args.task)
+    plan = plan_task(project, args.task, args.robot, world=world)
+    if not plan.robot_id:
+        reasons = sorted({s.reason or "" for s in plan.steps if not s.feasible})
+        sys.stdout.write("no robot of the knowledge base fits the task; nothing simulated\n")
+        for r in reasons[:5]:
+            sys.stdout.write(f"  {r}\n")
+        return 1
+    grid = storey_map(world).grid
+    settings = ExecSettings(keyframes=not args.no_keyframes)
+    columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
+    with Progress(*columns, console=console, transient=False) as bar:
+        b4 = bar.add_task("B4 arm and base poses", total=len(plan.elements))
+        def refined_one(_label: str, done: int, total: int) -> None:
+            bar.update(b4, completed=done, total=total)
+
+        refined = refine_plan(plan, world, seed=seed, grid=grid, progress=refined_one)
+        b5 = bar.add_task("B5 simulation", total=len(refined.steps))
+
+        def tell(label: str, done: int, total: int) -> None:
+            bar.update(b5, completed=done, total=total, description=f"B5 simulation: {label}")
+
+        result = simulate(project, refined, seed=seed, out_dir=args.out, progress=tell, world=world,
+                          grid=grid, settings=settings, gui=args.gui)
+    table = Table(title=f"{plan.task_id} ({plan.spec_id}) with {plan.robot_label or plan.robot_id}, "
+                        f"{project.scenario or 'bare model'}, seed {seed}")
+    for col in ("element", "outcome", "time (s)", "placement error", "reason"):
+        table.add_column(col)
+    for e in result.elements:
+        err = (f"{1000 * e.placement_error_m:.1f} mm / {e.placement_error_deg:.2f} deg"
+               if e.placement_error_m is not None and e.placement_error_deg is not None else "")
+        table.add_row(e.label, e.outcome, f"{e.duration_s:.1f}", err, e.reason or "")
+    out = Console(width=160)
+    out.print(table)
+    totals = result.metrics["totals"]
+    out.print(f"installed {totals['installed']} of {totals['elements']}; simulated {result.sim_time_s:.1f} s "
+              f"in {result.wall_time_s:.1f} s wall; {totals['stops']} safety stop(s); wrote "
+              f"{len(result.files)} files to {args.out}")
+    return 0 if all(e.outcome == INSTALLED for e in result.elements) and result.elements else 1
