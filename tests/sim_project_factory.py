@@ -35,6 +35,13 @@ import numpy as np
 
 from ifc_factory import write_test_building
 from kbplanner.iris import element_iri
+from kbplanner.manipulation import refine_plan
+from kbplanner.occupancy import OccupancyGrid
+from kbplanner.plan_model import Plan
+from kbplanner.planning import plan_task
+from kbplanner.project import Project
+from kbplanner.world import World, build_world, parse_date
+from kbplanner.world_exports import storey_map
 
 BASE = "https://w3id.org/kbplanner/data/simtest/"
 PANEL_SIZE = (0.6, 0.09, 2.4)  # along the wall, thickness, height
@@ -99,8 +106,8 @@ def _add_panels(ifc_path: Path, names: tuple[str, ...]) -> dict[str, str]:
         ifcopenshell.api.geometry.assign_representation(f, product=panel, representation=rep)
         ifcopenshell.api.material.assign_material(f, products=[panel], material=wood)
         qty = f.create_entity("IfcQuantityWeight", Name="NetWeight", WeightValue=PANEL_MASS_KG)
-        f.create_entity("IfcRelDefinesByProperties", GlobalId=_guid(f"qto-rel-{name}"), RelatedObjects=[panel],
-                        RelatingPropertyDefinition=f.create_entity(
+        f.create_entity("IfcRelDefinesByProperties", GlobalId=_guid(f"qto-rel-{name}"),
+                        RelatedObjects=[panel], RelatingPropertyDefinition=f.create_entity(
                             "IfcElementQuantity", GlobalId=_guid(f"qto-{name}"), Name="BaseQuantities",
                             Quantities=[qty]))
         out[name] = panel.GlobalId
@@ -132,8 +139,10 @@ def _site_ttl() -> str:
                  f"    kbp:installedPose site:{name}-pose .\n" + _pose(f"{name}-pose", bx, by, 0.0))
     text += ("site:worker a kbp:Worker ; rdfs:label \"Carpenter\" ; kbp:role \"carpenter\" ;\n"
              "    kbp:walkingSpeed 1.0 ; kbp:routeStop site:stop-1 , site:stop-2 .\n"
-             "site:stop-1 a kbp:RouteStop ; kbp:order 1 ; kbp:location site:west-bench ; kbp:dwellTime 20.0 .\n"
-             "site:stop-2 a kbp:RouteStop ; kbp:order 2 ; kbp:location site:east-bench ; kbp:dwellTime 20.0 .\n")
+             "site:stop-1 a kbp:RouteStop ; kbp:order 1 ; kbp:location site:west-bench ;\n"
+             "    kbp:dwellTime 20.0 .\n"
+             "site:stop-2 a kbp:RouteStop ; kbp:order 2 ; kbp:location site:east-bench ;\n"
+             "    kbp:dwellTime 20.0 .\n")
     return text
 
 
@@ -156,9 +165,10 @@ def _storage_ttl(panels: dict[str, str], walled: bool) -> str:
         cx, cy, w, h = 2.5, -3.0, 4.6, 3.6
         for name, fx, fy, fsx, fsy in (("s", cx, cy - h / 2, w, 0.1), ("n", cx, cy + h / 2, w, 0.1),
                                        ("w", cx - w / 2, cy, 0.1, h), ("e", cx + w / 2, cy, 0.1, h)):
-            text += (f"site:fence-{name} a kbp:SafetyFence ; rdfs:label \"Fence {name}\" ; kbp:obstructs true ;\n"
-                     f"    kbp:sizeX {fsx!r} ; kbp:sizeY {fsy!r} ; kbp:sizeZ 1.8 ;\n"
-                     f"    kbp:installedPose site:fence-{name}-pose .\n" + _pose(f"fence-{name}-pose", fx, fy, 0.0))
+            text += (f"site:fence-{name} a kbp:SafetyFence ; rdfs:label \"Fence {name}\" ;\n"
+                     f"    kbp:obstructs true ; kbp:sizeX {fsx!r} ; kbp:sizeY {fsy!r} ; kbp:sizeZ 1.8 ;\n"
+                     f"    kbp:installedPose site:fence-{name}-pose .\n"
+                     + _pose(f"fence-{name}-pose", fx, fy, 0.0))
     return text
 
 
@@ -194,3 +204,27 @@ def make_sim_project(directory: Path, *, high_panel: bool = True) -> SimProject:
         encoding="utf-8",
     )
     return SimProject(directory, panels)
+
+
+@dataclass
+class SimCase:
+    """A loaded scenario of the test project, ready to simulate: project, world, map and plans."""
+
+    sp: SimProject
+    project: Project
+    world: World
+    grid: OccupancyGrid
+    plan: Plan  # B1-B3
+    refined: Plan  # after B4
+
+
+def load_sim_case(directory: Path, scenario: str = "stored", *, seed: int = 3,
+                  high_panel: bool = True) -> SimCase:
+    """Write the project, load a scenario, build its world and map, plan and refine (B1-B4)."""
+    sp = make_sim_project(directory, high_panel=high_panel)
+    project = Project.load(directory, scenario=scenario)
+    world = build_world(project, parse_date(DATE))
+    grid = storey_map(world).grid
+    plan = plan_task(project, world=world)
+    refined = refine_plan(plan, world, seed=seed, grid=grid)
+    return SimCase(sp, project, world, grid, plan, refined)
