@@ -151,7 +151,7 @@ def test_the_world_stacks_each_units_frames_at_its_storage_and_the_plan_is_feasi
             continue
         assert [e.stack_index for e in stack] == list(range(len(stack)))
         top = max(e.bounds.zmax for e in stack if e.bounds is not None)
-        assert storage.pose is not None and top < storage.pose.z + 1.5  # 14 frames, 89 mm each
+        assert storage.pose is not None and top < storage.pose.z + 0.9  # at most 8 frames of 89 mm
     plan = plan_task(project)
     assert plan.feasible and len(plan.steps) == 4 * n1 and plan.robot_id == "husky-ur16e"
     assert plan.order_rule == RULE_SEQUENCE

@@ -6,12 +6,13 @@ saying what it holds:
 
 - ``model/building.ifc``: a real IFC4 file written with ``ifcopenshell.api`` in metres: site, building,
   storeys ``Level 1`` .. ``Level N`` and ``Roof``; per storey a row of apartments (units) along x, a
-  corridor on their north side and a core at the east end with a stair (``IfcStair``, one step solid
-  per riser) and a lift shaft (four ``Lift shaft wall`` walls and a lift door). Per unit: its facade
-  walls (``Pset_WallCommon.IsExternal`` true), a party wall and a corridor wall (false), two interior
-  partitions (false) that split it into a living room and two bedrooms, a unit door and two room doors
-  (0.9 m, ``IfcDoor`` filling an ``IfcOpeningElement`` that voids its host wall), three spaces and a
-  floor slab; the ground floor has a 1.2 m entrance door in the west facade.
+  corridor on their north side and a core at the east end with a stair (``IfcStair``, one solid: the
+  stepped profile extruded) and a lift shaft (four ``Lift shaft wall`` walls and a lift door). Per
+  unit: its facade walls (``Pset_WallCommon.IsExternal`` true), a party wall and a corridor wall
+  (false), two interior partitions (false) that split it into a living room and two bedrooms, a unit
+  door (1.2 m, like the case study's front door: the robot's way in), two room doors (0.9 m), three
+  spaces and a floor slab; every door is an ``IfcDoor`` filling an ``IfcOpeningElement`` that voids
+  its host wall; the ground floor has a 1.2 m entrance door in the west facade.
 - The robotized framing task: prefabricated stud-frame panels (``IfcMember`` "Stud frame panel ...",
   ObjectType "Interior stud frame panel", 38 x 89 mm SPF studs at <= 600 mm centres, plates and a row
   of noggings as extruded rectangles, 2.4 m high, at most 0.75 m long, about 9-14 kg as in the case
@@ -22,10 +23,10 @@ saying what it holds:
   by exactly one task, through selectors.
 - ``site/``: site layout (extent, robot start at the entrance, office, carpenters' lumber storage and
   entrance area), two workers with routes, jobsite parameters; ``augmentation/work_sequence.ttl``
-  (always loaded); scenario ``storage-in-units``: a frame storage (bearers) with a pickup location in
-  the living room of every unit, ``kbp:storedIn``/``kbp:stackIndex`` for every panel (first installed
-  on top) and ``augmentation/grasp_points.ttl`` (centre of mass, local). The bare model therefore has
-  exactly the case study's two requirements, and the scenario conforms.
+  (always loaded); scenario ``storage-in-units``: two frame storages (bearers, at most 8 frames each)
+  with a pickup location in the living room of every unit, ``kbp:storedIn``/``kbp:stackIndex`` for
+  every panel (first installed on top) and ``augmentation/grasp_points.ttl`` (centre of mass, local).
+  The bare model therefore has exactly the case study's two requirements, and the scenario conforms.
 
 Output is deterministic: the same arguments give byte-identical files (GlobalIds are uuid5 of stable
 names and the seed; no time stamps). The seed moves the partitions and doors of each unit a little.
@@ -91,6 +92,7 @@ PARTY_T = 0.2  # party, corridor and lift shaft walls (centred)
 PARTITION_T = 0.1  # interior partitions (centred)
 DOOR_W = 0.9
 ENTRANCE_W = 1.2
+UNIT_DOOR_W = 1.2
 DOOR_H = 2.1
 
 # Frame panels (as in the case study: data/case_study/tools/build_frames.py).
@@ -105,8 +107,9 @@ MATERIAL = "Wood - SPF"
 # Frame storage in each unit's living room (bearers as in the case study) and the robot's pickup.
 STORAGE_SIZE = (2.6, 0.8, 0.1)
 PICKUP_STANDOFF = 1.0
-STORAGE_FROM_WEST = 0.9  # storage centre, metres east of the unit's west wall axis
-STORAGE_Y = 2.0
+STORAGE_FROM_WEST = 0.9  # storage centres, metres east of the unit's west wall axis
+STORAGE_YS = (2.0, 4.8)  # two stacks per unit, along the living room's west wall
+MAX_STACK = 8  # frames per stack: the top frame stays within the arm's reach (case study: 11 x 89 mm)
 
 START_DATE = date(2024, 3, 4)  # a Monday: week 0 (mobilisation)
 SCENARIO = "storage-in-units"
@@ -230,11 +233,11 @@ def _unit_plans(storeys: int, units: int, seed: int) -> dict[tuple[int, int], _U
     for k in range(storeys):
         for j in range(units):
             if seed == 0:
-                p1, p2, ud, ds, dn = 4.0, 3.5, 1.0, 1.2, 4.6
+                p1, p2, ud, ds, dn = 4.0, 3.5, 2.2, 1.2, 4.6
             else:
                 p1 = 4.0 + rng.choice((-0.2, -0.1, 0.0, 0.1, 0.2))
                 p2 = 3.5 + rng.choice((-0.3, -0.15, 0.0, 0.15, 0.3))
-                ud = 1.0 + rng.choice((0.0, 0.2, 0.4))
+                ud = 2.2 + rng.choice((0.0, 0.2, 0.4))
                 ds = 1.2 + rng.choice((-0.2, 0.0, 0.2))
                 dn = 4.6 + rng.choice((-0.2, 0.0, 0.2))
             out[(k, j)] = _UnitPlan(p1, p2, ud, ds, dn)
@@ -441,8 +444,9 @@ class _Ifc:
         curve = f.createIfcPolyline([f.createIfcCartesianPoint((round(u, 6), round(v, 6))) for u, v in pts])
         profile = f.createIfcArbitraryClosedProfileDef("AREA", None, curve)
         # profile x along the stair's y, profile y up; extruded along the stair's x
-        position = f.createIfcAxis2Placement3D(f.createIfcCartesianPoint((0.0, 0.0, 0.0)), self.x_dir,
-                                               f.createIfcDirection((0.0, 1.0, 0.0)))
+        position = f.createIfcAxis2Placement3D(
+            f.createIfcCartesianPoint((0.0, 0.0, 0.0)), self.x_dir, f.createIfcDirection((0.0, 1.0, 0.0))
+        )
         solid = f.createIfcExtrudedAreaSolid(profile, position, self.z_dir, width)
         return f.createIfcShapeRepresentation(self.body, "Body", "SweptSolid", [solid])
 
@@ -653,8 +657,11 @@ class _Builder:
         stair = ifc.create("IfcStair", f"Stair {lvl}", f"{lvl}/stair", predefined_type="STRAIGHT_RUN_STAIR")
         ifc.contain(stair, st)
         ifc.place(stair, _matrix(mw + 0.4, 0.6, z))
-        ifcopenshell.api.geometry.assign_representation(ifc.f, product=stair, representation=ifc.stair(
-            risers=15, rise=STOREY_HEIGHT / 15, going=0.28, width=1.2))
+        ifcopenshell.api.geometry.assign_representation(
+            ifc.f,
+            product=stair,
+            representation=ifc.stair(risers=15, rise=STOREY_HEIGHT / 15, going=0.28, width=1.2),
+        )
 
     def unit(self, k: int, j: int, st: Any, z: float, lvl: str, sequence: int) -> int:
         ifc = self.ifc
@@ -691,7 +698,7 @@ class _Builder:
             (x0, UNIT_D),
             True,
             plan.unit_door_x,
-            DOOR_W,
+            UNIT_DOOR_W,
             z,
             False,
         )
@@ -1187,59 +1194,73 @@ class _Files:
             out.append(f"{self.element(p.global_id)} kbp:workSequence {p.sequence} .  # {p.panel_id}")
         return "\n".join(out) + "\n"
 
-    def storage_key(self, storey: int, unit: int) -> str:
-        return f"frame-storage-L{storey:02d}-U{unit:02d}"
+    def storage_key(self, storey: int, unit: int, stack: int) -> str:
+        return f"frame-storage-L{storey:02d}-U{unit:02d}-S{stack}"
 
     def storages(self) -> str:
         base = self.base
         out = [
             _PREFIXES,
-            f"# Scenario '{SCENARIO}': a frame storage (bearers {STORAGE_SIZE[0]} x {STORAGE_SIZE[1]} m)",
-            "# in the living room of every unit, its long side north-south, the robot's pickup location",
-            f"# {PICKUP_STANDOFF} m east of the stack's centre line facing west; every panel",
-            "# kbp:storedIn the storage of its unit with kbp:stackIndex (0 = bottom; the first installed",
-            "# lies on top).",
+            f"# Scenario '{SCENARIO}': two frame storages (bearers {STORAGE_SIZE[0]} x {STORAGE_SIZE[1]} m)",
+            "# in the living room of every unit, long sides north-south, each with the robot's pickup",
+            f"# location {PICKUP_STANDOFF} m east of the stack's centre line facing west; the panels of a",
+            f"# unit in install order, at most {MAX_STACK} per stack, kbp:storedIn a storage with",
+            "# kbp:stackIndex (0 = bottom; the first installed lies on top).",
             "",
             f"<{base}scenario/{SCENARIO}> a kbp:Scenario ;",
             f'    kbp:scenarioName "{SCENARIO}" ;',
             '    rdfs:label "Frame storage in every unit" .',
             "",
         ]
-        yaw = -math.pi / 2  # storage local x along -y; local +y (the pickup side) along +x
         by_unit: dict[tuple[int, int], list[Panel]] = {}
         for p in self.b.panels:
             by_unit.setdefault((p.storey, p.unit), []).append(p)
-        for (k, j), panels in sorted(by_unit.items()):
-            key = self.storage_key(k, j)
-            z = (k - 1) * STOREY_HEIGHT
-            sx = (j - 1) * UNIT_W + STORAGE_FROM_WEST
-            iri, pose, pickup = f"{base}site/{key}", f"{base}site/{key}-pose", f"{base}pose/{key}-pickup"
-            out += [
-                f"<{iri}> a kbp:MaterialStorage ;",
-                f'    rdfs:label "Frame storage Level {k} unit {j}" ;',
-                "    kbp:obstructs true ;",
-                f"    kbp:sizeX {_num(STORAGE_SIZE[0])} ; kbp:sizeY {_num(STORAGE_SIZE[1])} ; "
-                f"kbp:sizeZ {_num(STORAGE_SIZE[2])} ;",
-                f"    kbp:installedPose <{pose}> ;",
-                f"    kbp:pickupLocation <{pickup}> .",
-                *_pose_ttl(pose, sx, STORAGE_Y, z, yaw),
-                *_pose_ttl(
-                    pickup,
-                    sx + PICKUP_STANDOFF,
-                    STORAGE_Y,
-                    z,
-                    -math.pi,
-                    f"robot pickup location: {PICKUP_STANDOFF} m from the middle of the stack, facing it",
-                ),
-            ]
-            n = len(panels)
-            for p in sorted(panels, key=lambda p: p.unit_order):
-                out.append(
-                    f"{self.element(p.global_id)} kbp:storedIn <{iri}> ; kbp:stackIndex {n - p.unit_order} ."
-                    f"  # {p.panel_id}"
+        for (k, j), unit_panels in sorted(by_unit.items()):
+            ordered = sorted(unit_panels, key=lambda p: p.unit_order)
+            stacks = [ordered[i : i + MAX_STACK] for i in range(0, len(ordered), MAX_STACK)]
+            if len(stacks) > len(STORAGE_YS):
+                raise GeneratorError(
+                    f"unit {j} of Level {k} has {len(ordered)} frames, more than "
+                    f"{len(STORAGE_YS)} stacks of {MAX_STACK}",
+                    element=f"L{k}-U{j}",
+                    fix="use another seed",
                 )
-            out.append("")
+            for s_no, panels in enumerate(stacks, start=1):
+                out += self._storage(k, j, s_no, panels)
         return "\n".join(out)
+
+    def _storage(self, k: int, j: int, s_no: int, panels: list[Panel]) -> list[str]:
+        base = self.base
+        yaw = -math.pi / 2  # storage local x along -y; local +y (the pickup side) along +x
+        key = self.storage_key(k, j, s_no)
+        z = (k - 1) * STOREY_HEIGHT
+        sx, sy = (j - 1) * UNIT_W + STORAGE_FROM_WEST, STORAGE_YS[s_no - 1]
+        iri, pose, pickup = f"{base}site/{key}", f"{base}site/{key}-pose", f"{base}pose/{key}-pickup"
+        out = [
+            f"<{iri}> a kbp:MaterialStorage ;",
+            f'    rdfs:label "Frame storage {s_no} Level {k} unit {j}" ;',
+            "    kbp:obstructs true ;",
+            f"    kbp:sizeX {_num(STORAGE_SIZE[0])} ; kbp:sizeY {_num(STORAGE_SIZE[1])} ; "
+            f"kbp:sizeZ {_num(STORAGE_SIZE[2])} ;",
+            f"    kbp:installedPose <{pose}> ;",
+            f"    kbp:pickupLocation <{pickup}> .",
+            *_pose_ttl(pose, sx, sy, z, yaw),
+            *_pose_ttl(
+                pickup,
+                sx + PICKUP_STANDOFF,
+                sy,
+                z,
+                -math.pi,
+                f"robot pickup location: {PICKUP_STANDOFF} m from the middle of the stack, facing it",
+            ),
+        ]
+        for i, p in enumerate(panels):
+            out.append(
+                f"{self.element(p.global_id)} kbp:storedIn <{iri}> ; "
+                f"kbp:stackIndex {len(panels) - 1 - i} .  # {p.panel_id}"
+            )
+        out.append("")
+        return out
 
     def grasp_points(self) -> str:
         base = self.base
@@ -1349,8 +1370,9 @@ def generate_building(
         counts=dict(sorted(counts.items())),
         elements=elements,
         frames=len(builder.panels),
-        frames_per_storey=tuple(sum(1 for p in builder.panels if p.storey == k)
-                                for k in range(1, storeys + 1)),
+        frames_per_storey=tuple(
+            sum(1 for p in builder.panels if p.storey == k) for k in range(1, storeys + 1)
+        ),
         frame_mass_kg=(min(masses), max(masses)),
         tasks=tuple(t["task_id"] for t in tasks),
         robotized_tasks=tuple(t["task_id"] for t in tasks if t["robotized"] == "true"),
