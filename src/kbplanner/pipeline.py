@@ -1,10 +1,11 @@
-"""The main job (all steps): one project, every scenario, from IFC to requirements, validation,
-robot selection and the world, into one run directory.
+"""The main job (all steps): one project, every scenario, from IFC to the report, into one run directory.
 
 ``run_pipeline(project_dir, out_dir)`` loads the bare 4D model and derives the additional modeling
 requirements (A1-A3, with a Turtle template of what is missing), then for each scenario validates
-the augmented model (A4-A5), selects robots (B3) and builds the world at the simulation date (A6).
-Every stage is timed; the run directory is assembled in ``OUT.partial`` and renamed when complete.
+the augmented model (A4-A5), selects robots (B3), builds the world at the simulation date (A6) and
+simulates the robotized task (B1-B5) with the project's seed; finally it compares the scenarios,
+writes the simulated durations back to the 4D model and writes the report. Every stage is timed; the
+run directory is assembled in ``OUT.partial`` and renamed when complete.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from kbplanner.comparison import Comparison, ScenarioRun, simulate_scenario, write_outputs
 from kbplanner.outputs import atomic_write_text, input_hashes, run_directory, versions, write_json
 from kbplanner.project import Project, read_manifest
 
@@ -54,6 +56,9 @@ class ScenarioSummary:
     world_static: int
     world_task_elements: int
     map_cells: tuple[int, int]
+    installed: int = 0
+    elements: int = 0
+    simulated: bool = False
 
 
 @dataclass
@@ -67,11 +72,12 @@ class PipelineResult:
     scenarios: list[ScenarioSummary] = field(default_factory=list)
     timings: list[StageTiming] = field(default_factory=list)
     seconds: float = 0.0
+    comparison: Comparison | None = None
 
     @property
     def ok(self) -> bool:
-        """True when every scenario's augmented model conforms."""
-        return all(s.conforms for s in self.scenarios)
+        """True when every scenario conforms and, where simulated, installed every element."""
+        return all(s.conforms and (not s.simulated or s.installed == s.elements) for s in self.scenarios)
 
 
 class _Clock:
@@ -101,7 +107,7 @@ def _project_files(project: Project) -> list[Path]:
 
 
 def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | None = None,
-                 say: Say | None = None) -> PipelineResult:
+                 say: Say | None = None, simulate: bool = True, seed: int | None = None) -> PipelineResult:
     """Run every stage on a project and write the run directory.
 
     Example:
@@ -131,6 +137,8 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
             out_dir=out_dir, project=bare.name, requirements=len(req.requirements),
             requirement_elements=sum(len(r.elements) for r in req.requirements),
         )
+        sims: list[ScenarioRun] = []
+        sel_text = ""
         for name in names:
             sdir = stage / "scenarios" / name
             with clock.stage("load", name):
@@ -147,13 +155,25 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
 
                 world = project.world()
                 exported = export_world(world, sdir / "world")
-            result.scenarios.append(ScenarioSummary(
+            summary = ScenarioSummary(
                 name=name, conforms=val.conforms, violations=len(val.violations),
                 fit_robots=[a.robot.label for a in sel.fit],
                 world_static=len(world.static),
                 world_task_elements=len(world.task_elements),
                 map_cells=exported.map.grid.shape if exported.map is not None else (0, 0),
-            ))
+            )
+            result.scenarios.append(summary)
+            if simulate and val.conforms and sel.fit:
+                with clock.stage("simulation", name):
+                    srun = simulate_scenario(project_dir, name, seed=seed, out_dir=sdir / "simulation",
+                                             progress=say)
+                summary.simulated, summary.installed, summary.elements = True, srun.installed, srun.elements
+                sims.append(srun)
+                sel_text = sel.text()
+        if sims:
+            with clock.stage("comparison and report"):
+                result.comparison = write_outputs(project_dir, sims, stage, requirements=req,
+                                                  selection_text=sel_text)
         result.timings = clock.timings
         result.seconds = round(time.perf_counter() - t_start, 3)
         write_json(stage / "metrics.json", {
@@ -161,17 +181,17 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
             "total_seconds": result.seconds,
             "peak_rss_mb": round(peak_rss_mb(), 1),
         })
-        write_json(stage / "manifest.json", _manifest(bare, names))
+        write_json(stage / "manifest.json", _manifest(bare, names, seed))
     return result
 
 
-def _manifest(project: Project, scenarios: list[str]) -> dict[str, Any]:
+def _manifest(project: Project, scenarios: list[str], seed: int | None) -> dict[str, Any]:
     m = project.manifest
     return {
         "project": project.name,
         "project_dir": str(project.path),
         "scenarios": scenarios,
-        "seed": m.seed,
+        "seed": m.seed if seed is None else seed,
         "inputs": input_hashes(_project_files(project), project.path),
         "versions": versions(),
         "command": "kbplanner run",

@@ -32,6 +32,8 @@ COMMANDS: tuple[str, ...] = (
     "world",
     "plan",
     "simulate",
+    "compare",
+    "report",
     "run",
     "generate_building",
 )

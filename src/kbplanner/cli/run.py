@@ -10,6 +10,7 @@ from rich.console import Console
 from rich.table import Table
 
 from kbplanner.pipeline import PipelineResult, run_pipeline
+from kbplanner.report import COMPARISON_COLUMNS
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -19,6 +20,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--out", required=True, help="run directory to write (replaced when the run completes)")
     p.add_argument("--scenario", action="append", dest="scenarios",
                    help="only this scenario (repeatable; default: all)")
+    p.add_argument("--seed", type=int, help="random seed of the simulations (default: [project] seed)")
+    p.add_argument("--no-simulation", action="store_true",
+                   help="stop after the world (requirements, validation, robots, world only)")
     p.set_defaults(func=run)
 
 
@@ -30,21 +34,31 @@ def summary_table(result: PipelineResult) -> Table:
     t.add_column("fit robots")
     t.add_column("world (static / at storage)")
     t.add_column("map cells")
+    t.add_column("installed")
     for s in result.scenarios:
         t.add_row(s.name, "yes" if s.conforms else f"no ({s.violations})", ", ".join(s.fit_robots) or "none",
-                  f"{s.world_static} / {s.world_task_elements}", f"{s.map_cells[1]} x {s.map_cells[0]}")
+                  f"{s.world_static} / {s.world_task_elements}", f"{s.map_cells[1]} x {s.map_cells[0]}",
+                  f"{s.installed}/{s.elements}" if s.simulated else "not simulated")
     return t
 
 
 def run(args: argparse.Namespace) -> int:
     err = Console(stderr=True)
-    out = Console()
+    out = Console(width=max(Console().width, 150))
     with err.status("starting") as status:
         result = run_pipeline(Path(args.project), Path(args.out), scenarios=args.scenarios,
-                              say=lambda m: status.update(m))
+                              say=lambda m: status.update(m), simulate=not args.no_simulation, seed=args.seed)
     out.print(f"Bare model: {result.requirements} additional modeling requirement(s) "
               f"covering {result.requirement_elements} element(s) (requirements.csv)")
     out.print(summary_table(result))
+    if result.comparison is not None:
+        comp = Table(title="scenarios side by side (same seed)")
+        for c in COMPARISON_COLUMNS:
+            comp.add_column(c)
+        for row in result.comparison.rows():
+            comp.add_row(*("" if v is None else str(v) for v in row))
+        out.print(comp)
+        out.print(f"Report: {result.out_dir / 'report.html'} (and report.md)")
     stages = Table(title="time per stage")
     stages.add_column("stage")
     stages.add_column("scenario")
