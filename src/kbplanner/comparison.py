@@ -53,8 +53,15 @@ class ScenarioRun:
     layout: list[LayoutObject] = field(default_factory=list)
 
 
-def simulate_scenario(project_dir: Path, scenario: str | None, *, seed: int | None, out_dir: Path,
-                      progress: Progress | None = None, keyframes: bool = True) -> ScenarioRun:
+def simulate_scenario(
+    project_dir: Path,
+    scenario: str | None,
+    *,
+    seed: int | None,
+    out_dir: Path,
+    progress: Progress | None = None,
+    keyframes: bool = True,
+) -> ScenarioRun:
     """B1-B5 for one scenario into ``out_dir``; returns the run and its map for the report."""
     from kbplanner.executor import INSTALLED, simulate
     from kbplanner.manipulation import refine_plan
@@ -69,9 +76,12 @@ def simulate_scenario(project_dir: Path, scenario: str | None, *, seed: int | No
     plan = plan_task(project, world=world)
     if not plan.robot_id:
         reasons = sorted({s.reason or "" for s in plan.steps if not s.feasible})
-        raise KbplannerError("no robot of the knowledge base fits the task: " + "; ".join(reasons[:3]),
-                             file=project.manifest.path, element=plan.task_id,
-                             fix="add a robot to the knowledge base or change the jobsite limits")
+        raise KbplannerError(
+            "no robot of the knowledge base fits the task: " + "; ".join(reasons[:3]),
+            file=project.manifest.path,
+            element=plan.task_id,
+            fix="add a robot to the knowledge base or change the jobsite limits",
+        )
     grid = storey_map(world).grid
     say(f"{scenario}: B4 arm and base poses")
     refined = refine_plan(plan, world, seed=seed, grid=grid)
@@ -79,13 +89,28 @@ def simulate_scenario(project_dir: Path, scenario: str | None, *, seed: int | No
     def tell(label: str, done: int, total: int) -> None:
         say(f"{scenario}: B5 simulation {done}/{total} ({label})")
 
-    result = simulate(project, refined, seed=seed, out_dir=out_dir, progress=tell, world=world, grid=grid,
-                      settings=ExecSettings(keyframes=keyframes))
-    layout = [LayoutObject(o.label, o.kind, o.pose.x, o.pose.y, o.size[0], o.size[1], o.pose.yaw)
-              for o in world.site_objects]
-    return ScenarioRun(scenario=scenario or "bare", run_dir=out_dir,
-                       installed=sum(1 for e in result.elements if e.outcome == INSTALLED),
-                       elements=len(result.elements), grid=grid, layout=layout)
+    result = simulate(
+        project,
+        refined,
+        seed=seed,
+        out_dir=out_dir,
+        progress=tell,
+        world=world,
+        grid=grid,
+        settings=ExecSettings(keyframes=keyframes),
+    )
+    layout = [
+        LayoutObject(o.label, o.kind, o.pose.x, o.pose.y, o.size[0], o.size[1], o.pose.yaw)
+        for o in world.site_objects
+    ]
+    return ScenarioRun(
+        scenario=scenario or "bare",
+        run_dir=out_dir,
+        installed=sum(1 for e in result.elements if e.outcome == INSTALLED),
+        elements=len(result.elements),
+        grid=grid,
+        layout=layout,
+    )
 
 
 @dataclass
@@ -118,8 +143,16 @@ def compare_runs(runs: Mapping[str, RunRecord], *, threshold_m: float = 1.0) -> 
 def _space_finder(project: Project) -> Callable[[float, float], str]:
     spaces = []
     for r in run_named(project.graph, "space_bounds").as_dicts():
-        spaces.append((str(r["label"] or r["globalId"]), float(r["minX"]), float(r["minY"]), float(r["maxX"]),
-                       float(r["maxY"]), float(r["elevation"] or 0.0)))
+        spaces.append(
+            (
+                str(r["label"] or r["globalId"]),
+                float(r["minX"]),
+                float(r["minY"]),
+                float(r["maxX"]),
+                float(r["maxY"]),
+                float(r["elevation"] or 0.0),
+            )
+        )
 
     def nearest(x: float, y: float) -> str:
         best, best_d = "", float("inf")
@@ -136,8 +169,15 @@ def _space_finder(project: Project) -> Callable[[float, float], str]:
     return nearest
 
 
-def write_outputs(project_dir: Path, scenario_runs: Sequence[ScenarioRun], out_dir: Path, *,
-                  threshold_m: float = 1.0, requirements: Any = None, selection_text: str = "") -> Comparison:
+def write_outputs(
+    project_dir: Path,
+    scenario_runs: Sequence[ScenarioRun],
+    out_dir: Path,
+    *,
+    threshold_m: float = 1.0,
+    requirements: Any = None,
+    selection_text: str = "",
+) -> Comparison:
     """Comparison table, durations written back to the 4D model, and the report, into ``out_dir``."""
     runs = {s.scenario: RunRecord.load(s.run_dir) for s in scenario_runs}
     comp = compare_runs(runs, threshold_m=threshold_m)
@@ -158,20 +198,74 @@ def write_outputs(project_dir: Path, scenario_runs: Sequence[ScenarioRun], out_d
         g = results_graph(URIRef(row[0]), URIRef(f"{project.base}run/{name}"), fit, scenario=name)
         atomic_write_text(out_dir / "scenarios" / name / "results.ttl", g.serialize(format="turtle"))
         if project.manifest.schedule is not None:
-            atomic_write_text(out_dir / "scenarios" / name / "schedule_with_results.csv",
-                              schedule_csv_with_results(project.manifest.schedule, {task_id: fit}))
+            atomic_write_text(
+                out_dir / "scenarios" / name / "schedule_with_results.csv",
+                schedule_csv_with_results(project.manifest.schedule, {task_id: fit}),
+            )
     req_rows: list[list[Any]] = []
     req_cols: list[str] = []
     if requirements is not None:
         req_cols = ["#", "action", "skill", "input", "elements", "missing"]
-        req_rows = [[r.number, r.action_label, r.skill_id, r.input_name, len(r.elements), r.missing]
-                    for r in requirements.requirements]
+        req_rows = [
+            [r.number, r.action_label, r.skill_id, r.input_name, len(r.elements), r.missing]
+            for r in requirements.requirements
+        ]
     doc = build_report(
-        runs, title=f"kbplanner: {project.name}",
+        runs,
+        title=f"kbplanner: {project.name}",
         grids={s.scenario: s.grid for s in scenario_runs if s.grid is not None},
         layouts={s.scenario: s.layout for s in scenario_runs},
-        requirements=req_rows, requirement_columns=req_cols, selection_text=selection_text,
-        window=window, fits=comp.fits, threshold_m=threshold_m, space_of=_space_finder(project),
+        requirements=req_rows,
+        requirement_columns=req_cols,
+        selection_text=selection_text,
+        window=window,
+        fits=comp.fits,
+        threshold_m=threshold_m,
+        space_of=_space_finder(project),
     )
     doc.write(out_dir)
     return comp
+
+
+def compare(
+    project_dir: str | Path,
+    scenarios: Sequence[str],
+    *,
+    out_dir: str | Path,
+    seed: int | None = None,
+    threshold_m: float = 1.0,
+    progress: Progress | None = None,
+) -> tuple[Comparison, list[ScenarioRun]]:
+    """Simulate each scenario with the same seed into ``out_dir/<scenario>`` and compare them.
+
+    Writes the comparison, the results written back to the 4D model and the report into ``out_dir``
+    (atomically: the directory appears only when everything is written).
+
+    Example:
+        >>> comp, runs = compare("data/case_study", ["storage-outside", "storage-inside"],
+        ...                      out_dir="runs/compare")  # doctest: +SKIP
+        >>> print(comp.text())  # doctest: +SKIP
+    """
+    from kbplanner.outputs import run_directory
+    from kbplanner.project import read_manifest
+
+    project_dir, out_dir = Path(project_dir), Path(out_dir)
+    manifest = read_manifest(project_dir)
+    unknown = [n for n in scenarios if n not in manifest.scenarios]
+    if unknown or not scenarios:
+        raise KbplannerError(
+            f"unknown scenario(s) {unknown}" if unknown else "no scenario given",
+            file=manifest.path,
+            fix="choose from: " + ", ".join(sorted(manifest.scenarios)),
+        )
+    runs: list[ScenarioRun] = []
+    with run_directory(out_dir) as stage:
+        for name in scenarios:
+            runs.append(
+                simulate_scenario(project_dir, name, seed=seed, out_dir=stage / name, progress=progress)
+            )
+        comp = write_outputs(project_dir, runs, stage, threshold_m=threshold_m)
+    for r in runs:
+        r.run_dir = out_dir / r.scenario
+    comp.runs = {r.scenario: RunRecord.load(r.run_dir) for r in runs}
+    return comp, runs

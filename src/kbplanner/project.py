@@ -27,7 +27,9 @@ from kbplanner.named_queries import QueryResult, run_named
 from kbplanner.rdf_io import bind_prefixes, parse_turtle
 
 if TYPE_CHECKING:
+    from kbplanner.executor import SimulationResult
     from kbplanner.ifc_import import ImportResult
+    from kbplanner.plan_model import Plan
     from kbplanner.requirements import RequirementsResult
     from kbplanner.robot_selection import RobotSelection
     from kbplanner.validation import ValidationResult
@@ -386,6 +388,30 @@ class Project:
         if isinstance(when, str):
             when = parse_date(when)
         return build_world(self, when, task_id=task_id)
+
+    def plan(self, task_id: str | None = None, robot_id: str | None = None, *, refine: bool = True,
+             seed: int | None = None) -> Plan:
+        """B1-B4: the action-level plan of a robotized task; with ``refine``, arm and base poses (B4).
+
+        Example:
+            >>> plan = Project.load("data/case_study", "storage-inside").plan()  # doctest: +SKIP
+            >>> len(plan.steps)  # doctest: +SKIP
+            44
+        """
+        from kbplanner.manipulation import refine_plan
+        from kbplanner.planning import plan_task
+
+        world = self.world(task_id=task_id)
+        plan = plan_task(self, task_id, robot_id, world=world)
+        if refine and plan.robot_id:
+            plan = refine_plan(plan, world, seed=self.manifest.seed if seed is None else seed)
+        return plan
+
+    def simulate(self, plan: Plan, *, seed: int | None = None, out_dir: str | Path) -> SimulationResult:
+        """B5: execute a (refined) plan in PyBullet and write the run directory ``out_dir``."""
+        from kbplanner.executor import simulate
+
+        return simulate(self, plan, seed=self.manifest.seed if seed is None else seed, out_dir=Path(out_dir))
 
     def info(self) -> ProjectInfo:
         """Counts per class, storeys, tasks, robotized tasks and date range of the loaded model."""

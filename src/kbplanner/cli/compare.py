@@ -14,8 +14,6 @@ from pathlib import Path
 
 from rich.console import Console
 
-from kbplanner.errors import ProjectError
-
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
@@ -33,36 +31,19 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from kbplanner.comparison import simulate_scenario, write_outputs
-    from kbplanner.outputs import run_directory
-    from kbplanner.project import read_manifest
+    from kbplanner.comparison import compare
 
     names = [s.strip() for s in args.scenarios.split(",") if s.strip()]
-    manifest = read_manifest(Path(args.project))
-    unknown = [n for n in names if n not in manifest.scenarios]
-    if unknown or not names:
-        raise ProjectError(
-            f"unknown scenario(s) {unknown}",
-            file=manifest.path,
-            fix="choose from: " + ", ".join(sorted(manifest.scenarios)),
-        )
     err = Console(stderr=True)
-    runs = []
-    with run_directory(args.out) as stage, err.status("comparing") as status:
-        for name in names:
-            runs.append(
-                simulate_scenario(
-                    Path(args.project),
-                    name,
-                    seed=args.seed,
-                    out_dir=stage / name,
-                    progress=lambda m: status.update(m),
-                )
-            )
-        status.update("report")
-        comp = write_outputs(Path(args.project), runs, stage, threshold_m=args.threshold)
-    for r in runs:
-        r.run_dir = Path(args.out) / r.scenario
+    with err.status("comparing") as status:
+        comp, runs = compare(
+            Path(args.project),
+            names,
+            out_dir=args.out,
+            seed=args.seed,
+            threshold_m=args.threshold,
+            progress=lambda m: status.update(m),
+        )
     sys.stdout.write(comp.text())
     sys.stdout.write(f"report: {Path(args.out) / 'report.html'}\n")
     return 0 if all(r.installed == r.elements for r in runs) else 1
