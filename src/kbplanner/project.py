@@ -390,8 +390,10 @@ class Project:
         return build_world(self, when, task_id=task_id)
 
     def plan(self, task_id: str | None = None, robot_id: str | None = None, *, refine: bool = True,
-             seed: int | None = None) -> Plan:
+             seed: int | None = None, max_elements: int | None = None) -> Plan:
         """B1-B4: the action-level plan of a robotized task; with ``refine``, arm and base poses (B4).
+
+        ``max_elements`` keeps only the first elements of the plan's order (for a quick look).
 
         Example:
             >>> plan = Project.load("data/case_study", "storage-inside").plan()  # doctest: +SKIP
@@ -403,6 +405,10 @@ class Project:
 
         world = self.world(task_id=task_id)
         plan = plan_task(self, task_id, robot_id, world=world)
+        if max_elements is not None:
+            keep = {e.iri for e in plan.elements[:max_elements]}
+            plan.elements = [e for e in plan.elements if e.iri in keep]
+            plan.steps = [s for s in plan.steps if s.element in keep]
         if refine and plan.robot_id:
             plan = refine_plan(plan, world, seed=self.manifest.seed if seed is None else seed)
         return plan
