@@ -176,7 +176,7 @@ def write_outputs(
     *,
     threshold_m: float = 1.0,
     requirements: Any = None,
-    selection_text: str = "",
+    selection: Sequence[Sequence[Any]] = (),
 ) -> Comparison:
     """Comparison table, durations written back to the 4D model, and the report, into ``out_dir``."""
     runs = {s.scenario: RunRecord.load(s.run_dir) for s in scenario_runs}
@@ -217,7 +217,7 @@ def write_outputs(
         layouts={s.scenario: s.layout for s in scenario_runs},
         requirements=req_rows,
         requirement_columns=req_cols,
-        selection_text=selection_text,
+        selection=selection,
         window=window,
         fits=comp.fits,
         threshold_m=threshold_m,

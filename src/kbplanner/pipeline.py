@@ -138,7 +138,7 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
             requirement_elements=sum(len(r.elements) for r in req.requirements),
         )
         sims: list[ScenarioRun] = []
-        sel_text = ""
+        sel_rows: list[list[Any]] = []
         for name in names:
             sdir = stage / "scenarios" / name
             with clock.stage("load", name):
@@ -169,11 +169,11 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
                                              progress=say)
                 summary.simulated, summary.installed, summary.elements = True, srun.installed, srun.elements
                 sims.append(srun)
-                sel_text = sel.text()
+                sel_rows = [list(r) for r in sel.rows()]
         if sims:
             with clock.stage("comparison and report"):
                 result.comparison = write_outputs(project_dir, sims, stage, requirements=req,
-                                                  selection_text=sel_text)
+                                                  selection=sel_rows)
         result.timings = clock.timings
         result.seconds = round(time.perf_counter() - t_start, 3)
         write_json(stage / "metrics.json", {

@@ -105,7 +105,7 @@ def build_report(runs: Mapping[str, RunRecord], *, title: str,
                  grids: Mapping[str, OccupancyGrid] | None = None,
                  layouts: Mapping[str, Sequence[LayoutObject]] | None = None,
                  requirements: Sequence[Sequence[Any]] = (), requirement_columns: Sequence[str] = (),
-                 selection_text: str = "", window: tuple[datetime, datetime] | None = None,
+                 selection: Sequence[Sequence[Any]] = (), window: tuple[datetime, datetime] | None = None,
                  fits: Mapping[str, Any] | None = None, threshold_m: float = 1.0,
                  space_of: Any = None) -> ReportDoc:
     """Assemble the report (see module docstring) from run records and optional context."""
@@ -134,9 +134,11 @@ def build_report(runs: Mapping[str, RunRecord], *, title: str,
         doc.paragraph("Derived by the knowledge base from the task specification's input bindings on the "
                       "bare 4D model; every scenario's augmented model met them (see its validation).")
         doc.table(requirement_columns, requirements)
-    if selection_text:
+    if selection:
         doc.heading("Robot selection (B3)")
-        doc.table(["robot selection"], [[line] for line in selection_text.strip().splitlines()])
+        doc.paragraph(f"Selected: {man.get('robot', '?')}. Every robot of the knowledge base, every check "
+                      "(failed checks first).")
+        doc.table(["robot", "verdict", "check", "result"], selection)
 
     plan_path = first.directory / "plan.json"
     if plan_path.is_file():
@@ -152,7 +154,7 @@ def build_report(runs: Mapping[str, RunRecord], *, title: str,
             rows.append([s["step"], s["action_label"], s["skill_id"], where, "yes" if s["feasible"] else
                          f"no: {s.get('reason')}"])
         doc.table(["step", "action", "skill", "base pose (m)", "feasible"], rows,
-                  caption="The first element's steps (plan.json has them all)")
+                  caption="The first 8 steps (plan.json has them all)")
 
     for name, rec in runs.items():
         p = prox[name]
