@@ -427,7 +427,13 @@ def simulate(
     timing = {"note": "wall-clock figures: they differ from run to run (all other files do not)",
               "wall_time_s": round(wall, 3), "load_s": round(load_s, 3), "sim_time_s": round(sim_time, 3),
               "real_time_factor": round(sim_time / wall, 2) if wall > 0 else None,
-              "planning_time_s": planning, "planning_total_s": round(sum(planning.values()), 4)}
+              "planning_time_s": planning, "planning_total_s": round(sum(planning.values()), 4),
+              "planning_limit_s": settings.nav_time_limit_s}
+    slow = [k for k, v in planning.items() if v > 0.5 * settings.nav_time_limit_s]
+    if slow:
+        timing["warning"] = (f"navigation planning of step(s) {', '.join(slow)} took more than half the OMPL "
+                             "time limit: on a slower or busier machine the run may differ")
+        log.warning(timing["warning"])
     plan_text = plan.to_json()
     manifest = {
         "project": project.name, "project_dir": str(project.path), "scenario": project.scenario,
