@@ -211,3 +211,23 @@ def test_a_worker_standing_in_the_way_stops_the_robot_until_they_leave(runs: Run
             if stop["t_s"] <= float(r[0]) <= resume["t_s"]]
     assert min(near) >= near[0] - 0.06
     assert res.elements[0].outcome == INSTALLED
+
+
+def test_the_environment_falls_back_to_headless_without_a_display_and_closes_twice(
+        runs: Runs, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture) -> None:
+    import pybullet as p
+
+    from kbplanner.manipulation import robot_name
+    from kbplanner.sim_env import SimEnv
+
+    monkeypatch.delenv("DISPLAY", raising=False)
+    env = SimEnv(runs.case.world, robot_name(runs.case.refined), grid=runs.case.grid, gui=True)
+    with caplog.at_level("WARNING", logger="kbplanner.sim_env"):
+        env.reset(seed=SEED)
+    assert "no display" in caplog.text
+    assert p.getConnectionInfo(env.client)["connectionMethod"] == p.DIRECT
+    start = env.base_pose()
+    env.step()
+    assert env.t == pytest.approx(0.1) and env.base_pose() == start
+    env.close()
+    env.close()  # idempotent
