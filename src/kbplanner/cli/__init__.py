@@ -36,6 +36,7 @@ COMMANDS: tuple[str, ...] = (
     "report",
     "run",
     "generate_building",
+    "sweep",
 )
 
 
