@@ -1,0 +1,71 @@
+"""Sweep benchmark: speed-up of ``kbplanner sweep`` with 2 local worker processes over 1 (serial).
+
+Runs the same small sweep on the case study (4 storage candidates x 1 seed, the first 2 frames of
+each) serially and with 2 processes, checks that both give the same table, prints the wall times,
+the speed-up and the table, and writes ``benchmarks/results/sweep.json``.
+
+    .venv/bin/python benchmarks/bench_sweep.py [--workers 2] [--max-elements 2]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from kbplanner.outputs import versions
+from kbplanner.sweep import SweepSpec, parse_vary, run_sweep
+
+REPO = Path(__file__).resolve().parents[1]
+CANDIDATES = "storage-outside;storage-inside;15.0,-16.0;18.5,-13.0"
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0] if __doc__ else None)
+    ap.add_argument("--project", type=Path, default=REPO / "data" / "case_study")
+    ap.add_argument("--scenario", default="storage-outside")
+    ap.add_argument("--storage", default=CANDIDATES)
+    ap.add_argument("--seed", default="7")
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--max-elements", type=int, default=2)
+    ap.add_argument("--out", type=Path, default=REPO / "benchmarks" / "results" / "sweep.json")
+    args = ap.parse_args()
+    spec = SweepSpec(args.project, scenario=args.scenario, max_elements=args.max_elements,
+                     axes=parse_vary([f"storage={args.storage}", f"seed={args.seed}"]))
+    walls: dict[int, float] = {}
+    tables: dict[int, str] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for n in (1, args.workers):
+            t0 = time.perf_counter()
+            res = run_sweep(spec, out_dir=Path(tmp) / f"w{n}", workers=n)
+            walls[n] = time.perf_counter() - t0
+            tables[n] = (Path(tmp) / f"w{n}" / "sweep.csv").read_text()
+            print(f"workers={n}: {walls[n]:.1f} s wall for {len(res.rows)} variants", flush=True)
+    same = tables[1] == tables[args.workers]
+    speedup = walls[1] / walls[args.workers]
+    print(res.table())
+    print(f"speed-up with {args.workers} workers: {speedup:.2f}x (identical tables: {same})")
+    simulated = [r for r in res.rows if r.status == "ok"]
+    out = {
+        "project": str(args.project.relative_to(REPO) if args.project.is_relative_to(REPO) else args.project),
+        "storage_candidates": args.storage, "seeds": args.seed, "max_elements": args.max_elements,
+        "variants": len(res.rows), "simulated": len(simulated), "cpu_count": os.cpu_count(),
+        "wall_s": {str(k): round(v, 2) for k, v in walls.items()},
+        "speedup": round(speedup, 2), "identical_tables": same,
+        "rows": [{"variant": r.variant, "status": r.status, "installed": r.installed,
+                  "total_min": r.total_min, "below_threshold_s": r.below_threshold_s} for r in res.rows],
+        "pareto": [r.variant for r in res.front],
+        "versions": versions(),
+    }
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(out, indent=2) + "\n", encoding="utf-8")
+    print(f"wrote {args.out}")
+    return 0 if same else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
