@@ -7,7 +7,9 @@ so a fresh process per size), and what the stage produced. Stages: generate, imp
 meshes, cache cleared first), load (bare model), requirements (A3), load of the scenario, validation
 (A4), named queries (every ``.rq`` once, unbound, on rdflib), world (A6, the simulation task), occupancy
 map (its storey), plan (B1-B3, the simulation task), plan of every robotized task (one per storey),
-then the same named queries on pyoxigraph and on a SPARQL endpoint (per-query times, rows compared).
+B4 + B5 (refine and simulate the simulation task, when ``kbplanner.executor`` is installed and the
+task has at most ``simulate_max_frames`` frames), then the same named queries on pyoxigraph and on a
+SPARQL endpoint (per-query times, rows compared).
 """
 
 from __future__ import annotations
@@ -104,7 +106,7 @@ def _simulation_stage(rec: Recorder, project: Project, plan: Any, world: Any, gr
 
 
 def measure_size(storeys: int, units: int, workdir: Path, *, endpoint: str | None = None, repeats: int = 2,
-                 simulate: bool = False) -> dict[str, Any]:
+                 simulate_max_frames: int = 0) -> dict[str, Any]:
     """Every stage on a generated ``storeys`` x ``units`` building (see the module docstring)."""
     from kbplanner.planning import plan_task
     from kbplanner.world_exports import storey_map
@@ -127,7 +129,7 @@ def measure_size(storeys: int, units: int, workdir: Path, *, endpoint: str | Non
         plan = rec.run("plan (one storey)", lambda: plan_task(project, world=world))
     tasks = [r[1] for r in project.query("tasks_and_elements").rows if r[5]]
     plans = rec.run("plan (every storey)", lambda: [plan_task(project, t) for t in tasks])
-    if simulate and plan is not None and smap is not None:
+    if plan is not None and smap is not None and 0 < len(plan.elements) <= simulate_max_frames:
         _simulation_stage(rec, project, plan, world, smap.grid, workdir)
     stores: dict[str, Any] = {}
     if mem is not None:

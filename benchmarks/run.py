@@ -3,13 +3,14 @@
 For each size (``SxU`` = S storeys x U units per storey, or ``N`` = N x N) a fresh Python process
 (so that peak memory is per size) generates the building and runs every stage that exists
 (``benchmarks/_stages.py``): import, requirements, validation, named queries, world, occupancy map,
-planning of one storey and of every storey, and the named queries again on pyoxigraph and on a SPARQL
-endpoint (an Oxigraph server this script starts on 127.0.0.1 and stops). It prints a table (seconds and
-peak memory per stage), fits the growth exponent of each stage against the number of building elements
-(least squares on log-log), flags stages that grow faster than linearly, gives the per-query time ratios
-rdflib : pyoxigraph and embedded : endpoint, and writes ``benchmarks/results/bench.json``.
+planning of one storey and of every storey, B4 + B5 on small sizes (the simulated-to-wall time
+ratio), and the named queries again on pyoxigraph and on a SPARQL endpoint (an Oxigraph server this
+script starts on 127.0.0.1 and stops). It prints a table (seconds and peak memory per stage), fits the
+growth exponent of each stage against the number of building elements (least squares on log-log),
+flags stages that grow faster than linearly, gives the per-query time ratios rdflib : pyoxigraph and
+embedded : endpoint, and writes ``benchmarks/results/bench.json``.
 
-    .venv/bin/python benchmarks/run.py                      # default sizes (make bench), ~10 min on 2 cores
+    .venv/bin/python benchmarks/run.py                      # default sizes (make bench), ~12 min on 2 cores
     .venv/bin/python benchmarks/run.py --sizes 1x1 2x2 4x4  # a quick run
 """
 
@@ -208,7 +209,7 @@ def child(args: argparse.Namespace) -> int:
 
     storeys, units = args.child
     result = measure_size(storeys, units, Path(args.workdir), endpoint=args.endpoint, repeats=args.repeats,
-                          simulate=args.simulate)
+                          simulate_max_frames=args.simulate_max_frames)
     Path(args.out).write_text(json.dumps(result, indent=1) + "\n", encoding="utf-8")
     return 0
 
@@ -218,8 +219,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--sizes", nargs="+", type=parse_size, default=[parse_size(s) for s in DEFAULT_SIZES],
                         help=f"building sizes STOREYSxUNITS or N (default: {' '.join(DEFAULT_SIZES)})")
     parser.add_argument("--no-endpoint", action="store_true", help="skip the SPARQL endpoint backend")
-    parser.add_argument("--simulate", action="store_true",
-                        help="also run B4 + B5 (the executor) on the simulation task, when it is installed")
+    parser.add_argument("--simulate-max-frames", type=int, default=20, metavar="N",
+                        help="run B4 + B5 (the executor) on the simulation task of sizes with at most N "
+                             "frames on it (default 20: the 1x1 building; 0: never)")
     parser.add_argument("--repeats", type=int, default=2, help="best of N for the per-query backend times")
     parser.add_argument("--out", type=Path, default=RESULTS, help="JSON results file")
     parser.add_argument("--child", type=parse_size, help=argparse.SUPPRESS)
@@ -247,8 +249,7 @@ def main(argv: list[str] | None = None) -> int:
                        "--workdir", str(work), "--out", str(out), "--repeats", str(args.repeats)]
                 if server is not None:
                     cmd += ["--endpoint", f"sparql+{server.url}"]
-                if args.simulate:
-                    cmd.append("--simulate")
+                cmd += ["--simulate-max-frames", str(args.simulate_max_frames)]
                 env = dict(os.environ, PYTHONHASHSEED="0")
                 proc = subprocess.run(cmd, env=env, timeout=CHILD_TIMEOUT_S, check=False)
                 if proc.returncode != 0 or not out.is_file():
