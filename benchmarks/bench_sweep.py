@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import sys
 import tempfile
 import time
@@ -22,6 +23,12 @@ from kbplanner.sweep import SweepSpec, parse_vary, run_sweep
 
 REPO = Path(__file__).resolve().parents[1]
 CANDIDATES = "storage-outside;storage-inside;15.0,-16.0;18.5,-13.0"
+
+
+def _cpu_s() -> float:
+    """User + system CPU seconds of this process and its finished children (the worker processes)."""
+    me, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
 
 
 def main() -> int:
@@ -36,15 +43,19 @@ def main() -> int:
     args = ap.parse_args()
     spec = SweepSpec(args.project, scenario=args.scenario, max_elements=args.max_elements,
                      axes=parse_vary([f"storage={args.storage}", f"seed={args.seed}"]))
+    load_before = os.getloadavg()[0]
     walls: dict[int, float] = {}
+    cpu: dict[int, float] = {}
     tables: dict[int, str] = {}
     with tempfile.TemporaryDirectory() as tmp:
         for n in (1, args.workers):
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), _cpu_s()
             res = run_sweep(spec, out_dir=Path(tmp) / f"w{n}", workers=n)
             walls[n] = time.perf_counter() - t0
+            cpu[n] = _cpu_s() - c0
             tables[n] = (Path(tmp) / f"w{n}" / "sweep.csv").read_text()
-            print(f"workers={n}: {walls[n]:.1f} s wall for {len(res.rows)} variants", flush=True)
+            print(f"workers={n}: {walls[n]:.1f} s wall, {cpu[n]:.1f} s CPU (this process + workers) "
+                  f"for {len(res.rows)} variants", flush=True)
     same = tables[1] == tables[args.workers]
     speedup = walls[1] / walls[args.workers]
     print(res.table())
@@ -54,7 +65,11 @@ def main() -> int:
         "project": str(args.project.relative_to(REPO) if args.project.is_relative_to(REPO) else args.project),
         "storage_candidates": args.storage, "seeds": args.seed, "max_elements": args.max_elements,
         "variants": len(res.rows), "simulated": len(simulated), "cpu_count": os.cpu_count(),
+        "load_average_1min": {"before": round(load_before, 2), "after": round(os.getloadavg()[0], 2),
+                              "note": "other processes on the machine: above the core count, less speed-up"},
         "wall_s": {str(k): round(v, 2) for k, v in walls.items()},
+        "cpu_s": {str(k): round(v, 2) for k, v in cpu.items()},
+        "cores_busy": {str(k): round(cpu[k] / walls[k], 2) for k in walls},
         "speedup": round(speedup, 2), "identical_tables": same,
         "rows": [{"variant": r.variant, "status": r.status, "installed": r.installed,
                   "total_min": r.total_min, "below_threshold_s": r.below_threshold_s} for r in res.rows],
