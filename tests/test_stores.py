@@ -117,7 +117,9 @@ def _cases(project: Project, name: str) -> list[dict[str, Identifier]]:
 def test_every_named_query_gives_identical_rows_on_memory_oxigraph_and_the_endpoint(
         projects: dict[str, Project], name: str) -> None:
     q = catalogue()[name]
-    for bindings in _cases(projects["memory"], name):
+    cases = _cases(projects["memory"], name)
+    assert {p.name for p in q.params} == {k for c in cases for k in c}  # each parameter bound at least once
+    for bindings in cases:
         rows = {backend: result_json(run_text(p.graph, q.text, bindings)) for backend, p in projects.items()}
         assert rows["oxigraph"] == rows["memory"], (name, bindings)
         assert rows["endpoint"] == rows["memory"], (name, bindings)
