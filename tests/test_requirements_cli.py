@@ -56,7 +56,7 @@ def test_the_template_added_to_a_copy_of_the_project_meets_the_requirements(tmp_
     assert out.returncode == 0, out.stderr
     assert "TODO requirement 2" in template.read_text()
     manifest = proj / "project.toml"
-    text = manifest.read_text().replace("augmentation = []", 'augmentation = ["augmentation/todo.ttl"]')
+    text = manifest.read_text().replace("augmentation = [", 'augmentation = ["augmentation/todo.ttl", ', 1)
     manifest.write_text(text)
     again = run("requirements", str(proj))
     assert again.returncode == 0, again.stderr
