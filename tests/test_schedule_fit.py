@@ -54,3 +54,25 @@ def test_results_go_back_to_the_graph_and_the_csv(tmp_path: Path) -> None:
     assert lines[1] == "T-FRAME,Frame,1.500,2022-05-10T08:30:00"
     assert lines[2] == "T-X,Other,,"
     assert time(7) == CAL.start
+
+
+def test_an_ifc_schedule_gets_the_simulated_figures_in_a_copy(tmp_path: Path) -> None:
+    import ifcopenshell
+    import ifcopenshell.util.element
+
+    from kbplanner.schedule_fit import ifc_with_results
+    from test_schedule_ifc import write_schedule_model
+
+    path, _, _ = write_schedule_model(tmp_path)
+    before = path.read_bytes()
+    # ifcopenshell renumbers child task identifications: T2 is stored as "S.2".
+    fit = fit_schedule("S.2", datetime(2024, 3, 6), datetime(2024, 3, 8, 23, 59), 5400.0, CAL)
+    out = tmp_path / "with_results.ifc"
+    assert ifc_with_results(path, {"S.2": fit}, out, scenario="s") == 1
+    assert path.read_bytes() == before  # the input is untouched
+    f = ifcopenshell.open(str(out))
+    (task,) = [t for t in f.by_type("IfcTask") if t.Identification == "S.2"]
+    assert task.TaskTime.ScheduleDuration == "PT1H30M"
+    assert task.TaskTime.ScheduleFinish.startswith("2024-03-06T08:30")
+    props = ifcopenshell.util.element.get_psets(task)["Pset_KbplannerSimulation"]
+    assert props["FitsWindow"] is True and props["Scenario"] == "s"

@@ -31,6 +31,7 @@ from kbplanner.schedule_fit import (
     ScheduleFit,
     WorkCalendar,
     fit_schedule,
+    ifc_with_results,
     results_graph,
     schedule_csv_with_results,
 )
@@ -197,6 +198,9 @@ def write_outputs(
         comp.fits[name] = fit
         g = results_graph(URIRef(row[0]), URIRef(f"{project.base}run/{name}"), fit, scenario=name)
         atomic_write_text(out_dir / "scenarios" / name / "results.ttl", g.serialize(format="turtle"))
+        if project.manifest.schedule_from_ifc:
+            ifc_with_results(project.manifest.ifc, {task_id: fit},
+                             out_dir / "scenarios" / name / "model_with_results.ifc", scenario=name)
         if project.manifest.schedule is not None:
             atomic_write_text(
                 out_dir / "scenarios" / name / "schedule_with_results.csv",

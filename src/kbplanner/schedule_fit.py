@@ -4,8 +4,9 @@ The robot works only in the project's working hours (``[calendar]`` of project.t
 end, working weekdays). Given a task window (start, finish) and the simulated working time, this gives
 the working time the window offers, the date and time the work would end if started at the window's
 start, and whether it fits. The result is written back to the 4D model as RDF (PROV-O: the simulation
-run is a prov:Activity that generated the figures) and as a copy of the CSV schedule with two extra
-columns, so 4D tools can play the simulated duration.
+run is a prov:Activity that generated the figures), as a copy of the CSV schedule with two extra
+columns, and, for projects whose schedule is the IFC's own, as a copy of the IFC file whose task times
+carry the simulated duration and finish, so 4D tools can play the simulated task.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import io
 from dataclasses import dataclass
 from datetime import datetime, time, timedelta
 from pathlib import Path
+from typing import Any
 
 from rdflib import RDF, XSD, Graph, Literal, Namespace, URIRef
 
@@ -151,3 +153,52 @@ def schedule_csv_with_results(csv_path: Path, fits: dict[str, ScheduleFit]) -> s
         extra = [f"{f.simulated_s / 3600:.3f}", f.simulated_finish.isoformat()] if f else ["", ""]
         w.writerow([*r, *extra])
     return out.getvalue()
+
+
+def _iso_duration(seconds: float) -> str:
+    """ISO 8601 duration of working time, e.g. ``PT1H30M5S``."""
+    s = round(seconds)
+    h, rem = divmod(s, 3600)
+    m, sec = divmod(rem, 60)
+    return "PT" + (f"{h}H" if h else "") + (f"{m}M" if m else "") + (f"{sec}S" if sec or not (h or m) else "")
+
+
+def ifc_with_results(ifc_path: Path, fits: dict[str, ScheduleFit], out_path: Path, *,
+                     scenario: str | None = None) -> int:
+    """A copy of an IFC file whose robotized tasks carry the simulated figures; returns tasks updated.
+
+    For each task (matched by Identification, TaskId or GlobalId, as the schedule reader does), the
+    planned values are kept in a property set ``Pset_KbplannerSimulation`` (PlannedFinish, with
+    SimulatedDuration, SimulatedFinish, FitsWindow and Scenario), and in IFC4 and later the task time's
+    ``ScheduleDuration`` and ``ScheduleFinish`` are set to the simulated ones so that a 4D tool plays
+    the simulated task. The input file is never modified.
+    """
+    import ifcopenshell
+    import ifcopenshell.api.pset
+
+    f = ifcopenshell.open(str(ifc_path))
+    updated = 0
+    task: Any
+    for task in f.by_type("IfcTask"):
+        keys = {getattr(task, "Identification", None), getattr(task, "TaskId", None), task.GlobalId}
+        fit = next((fits[k] for k in keys if k and k in fits), None)
+        if fit is None:
+            continue
+        tt = getattr(task, "TaskTime", None)
+        planned = str(getattr(tt, "ScheduleFinish", "") or "") if tt is not None else ""
+        if tt is not None:
+            tt.ScheduleDuration = _iso_duration(fit.simulated_s)
+            tt.ScheduleFinish = fit.simulated_finish.isoformat()
+        pset = ifcopenshell.api.pset.add_pset(f, product=task, name="Pset_KbplannerSimulation")
+        ifcopenshell.api.pset.edit_pset(f, pset=pset, properties={
+            "SimulatedDuration": _iso_duration(fit.simulated_s),
+            "SimulatedFinish": fit.simulated_finish.isoformat(),
+            "FitsWindow": fit.fits,
+            "PlannedFinish": planned or fit.window_finish.isoformat(),
+            "Scenario": scenario or "",
+        })
+        updated += 1
+    from kbplanner.outputs import atomic_write_text
+
+    atomic_write_text(out_path, f.to_string())
+    return updated
