@@ -84,6 +84,8 @@ def test_query_with_own_sparql_file(project_dir: Path, tmp_path: Path) -> None:
         (("query", "{p}", "storeys", "--bind", "x"), "is not VAR=VALUE"),
         (("query", "{p}", "--sparql", "/nonexistent.rq"), "query file not found"),
         (("info", "{p}", "--scenario", "missing"), "unknown scenario"),
+        (("run", "/nonexistent/project", "--out", "/tmp/kbp-none"), "project directory not found"),
+        (("run", "{p}", "--out", "/tmp/kbp-none", "--scenario", "missing"), "unknown scenario"),
     ],
 )
 def test_bad_input_exits_2_with_one_message_and_no_traceback(project_dir: Path, args: tuple[str, ...],
