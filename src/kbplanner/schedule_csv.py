@@ -170,8 +170,8 @@ def _parse_selector(row: _Row, entry: str) -> Selector:
         key, value = key.strip().lower(), value.strip()
         if not sep or key not in SELECTOR_KEYS:
             what = f"key '{key}'" if sep else f"'{part}' (no '=')"
-            raise row.error("elements", f"selector '{entry}': {what} is not one of the keys "
-                            f"{', '.join(SELECTOR_KEYS)}",
+            known = ", ".join(SELECTOR_KEYS)
+            raise row.error("elements", f"selector '{entry}': {what} is not one of the keys {known}",
                             "write key=value pairs separated by ';', e.g. class=IfcWall;storey=Level 1")
         if not value:
             raise row.error("elements", f"selector '{entry}': key '{key}' has no value",
