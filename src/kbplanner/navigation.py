@@ -72,6 +72,10 @@ class NavSettings:
 
     planner: str = "RRTConnect"
     time_limit_s: float = 10.0
+    # Deterministic work budget: planning stops after this many motion checks, whatever the machine's
+    # speed, so the same seed gives the same answer on a busy or a fast machine. ``time_limit_s`` stays
+    # as a safety cap only (a run that hits it says so in its reason).
+    max_motion_checks: int = 400_000
     n_yaw_bins: int = 72
     seed: int = 1
     simplify: bool = True
@@ -313,7 +317,10 @@ class _OmplMotionValidator(ob.MotionValidator):
         super().__init__(si)
         self.exact = exact
 
+    calls = 0
+
     def checkMotion(self, s1: ob.State, s2: ob.State) -> bool:  # OMPL's method name
+        self.calls += 1
         a = (s1.getX(), s1.getY(), s1.getYaw())
         return self.exact.motion_free(a, (s2.getX(), s2.getY(), s2.getYaw()))
 
@@ -395,11 +402,19 @@ def _solve(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSet
     g.setXY(goal[0], goal[1])
     g.setYaw(_wrap(goal[2]))
     ss.setStartAndGoalStates(s, g)
-    status = ss.solve(settings.time_limit_s)
+    deadline = time.perf_counter() + settings.time_limit_s
+    budget = settings.max_motion_checks
+    ptc = ob.PlannerTerminationCondition(
+        lambda: validator.calls >= budget or time.perf_counter() > deadline)
+    status = ss.solve(ptc)
+    if validator.calls < budget and time.perf_counter() > deadline:
+        log.warning("planning hit the %.0f s safety cap before its work budget: the result may depend on "
+                    "machine speed", settings.time_limit_s)
     exact = ss.haveExactSolutionPath()
     if not exact:
         elapsed = time.perf_counter() - t0
-        reason = f"no path within {settings.time_limit_s:g} s ({status.asString()})"
+        reason = (f"no path within {settings.max_motion_checks} motion checks or {settings.time_limit_s:g} s "
+                  f"({status.asString()})")
         del ss, planner
         return _failed(reason, name, fp, elapsed)
     raw = _states(ss.getSolutionPath())
