@@ -188,7 +188,7 @@ def gantt(bars: Sequence[GanttBar], *, title: str) -> bytes:
     elements = list(dict.fromkeys(b.element for b in bars))
     actions = list(dict.fromkeys(b.action for b in bars))
     colour = {a: _COLOURS[i % len(_COLOURS)] for i, a in enumerate(actions)}
-    fig, ax = plt.subplots(figsize=(9, 0.35 * max(len(elements), 4) + 1.2))
+    fig, ax = plt.subplots(figsize=(11, 0.35 * max(len(elements), 4) + 1.2))
     for b in bars:
         row = elements.index(b.element)
         ax.barh(
@@ -205,7 +205,7 @@ def gantt(bars: Sequence[GanttBar], *, title: str) -> bytes:
     ax.set_xlabel("time (min)")
     ax.set_title(title)
     handles = [plt.Rectangle((0, 0), 1, 1, color=colour[a]) for a in actions]
-    ax.legend(handles, actions, loc="lower right", fontsize=7)
+    ax.legend(handles, actions, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7)
     ax.grid(axis="x", alpha=0.3)
     fig.tight_layout()
     return to_png(fig)
