@@ -64,4 +64,6 @@ def test_the_comparison_reproduces_the_papers_findings(run_dir: Run) -> None:
     assert float(inside["time < 1 m (s)"]) == 0.0
     assert float(inside["min separation (m)"]) > float(outside["min separation (m)"])
     assert float(inside["per frame (min)"]) < float(outside["per frame (min)"])
-    assert "<h2>Scenario storage-outside</h2>" in (out / "report.html").read_text()
+    page = (out / "report.html").read_text()
+    assert "<h2>Scenario storage-outside</h2>" in page
+    assert "frame 1 (min), paper" in page  # the [reference] figures of project.toml, beside ours

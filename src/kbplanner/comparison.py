@@ -226,6 +226,7 @@ def write_outputs(
         fits=comp.fits,
         threshold_m=threshold_m,
         space_of=_space_finder(project),
+        reference=project.manifest.reference,
     )
     doc.write(out_dir)
     return comp

@@ -80,6 +80,7 @@ class Manifest:
     calendar: Calendar
     simulation: dict[str, Any]
     scenarios: dict[str, Scenario]
+    reference: dict[str, Any] = field(default_factory=dict)  # figures to compare with, per scenario
 
     @property
     def directory(self) -> Path:
@@ -186,6 +187,7 @@ def read_manifest(project_dir: Path) -> Manifest:
         calendar=calendar,
         simulation=dict(data.get("simulation", {})),
         scenarios=scenarios,
+        reference=dict(data.get("reference", {})),
     )
 
 

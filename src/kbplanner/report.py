@@ -7,7 +7,8 @@ scenario the site layout with the robot's and every worker's trajectory, distanc
 1 m and ISO/TS 15066 thresholds, the proximity intervals and where they happened, a Gantt chart of the
 robot's actions and rendered key frames, then per-frame durations across scenarios and the fit of the
 simulated work into the task's window. ``write_report(run_dirs, out_dir)`` writes ``report.html``
-(self-contained) and ``report.md``.
+(self-contained) and ``report.md``. Reference figures to compare with (e.g. a paper's) come from the
+project's ``[reference]`` table, never from code.
 """
 
 from __future__ import annotations
@@ -27,14 +28,6 @@ from kbplanner.report_doc import ReportDoc
 from kbplanner.run_record import ProximityResult, RunRecord
 
 log = logging.getLogger(__name__)
-
-# The paper's figures (Oyediran et al., section 5), for the side-by-side table.
-PAPER: dict[str, dict[str, Any]] = {
-    "frame 1 (min)": {"storage-outside": 4.48, "storage-inside": 4.0},
-    "11 frames (min)": {"storage-outside": 60.0},
-    "min separation (m)": {"storage-outside": "< 1", "storage-inside": "about 3"},
-}
-
 
 @dataclass
 class ScenarioFigures:
@@ -107,7 +100,7 @@ def build_report(runs: Mapping[str, RunRecord], *, title: str,
                  requirements: Sequence[Sequence[Any]] = (), requirement_columns: Sequence[str] = (),
                  selection: Sequence[Sequence[Any]] = (), window: tuple[datetime, datetime] | None = None,
                  fits: Mapping[str, Any] | None = None, threshold_m: float = 1.0,
-                 space_of: Any = None) -> ReportDoc:
+                 space_of: Any = None, reference: Mapping[str, Any] | None = None) -> ReportDoc:
     """Assemble the report (see module docstring) from run records and optional context."""
     doc = ReportDoc(title)
     prox = {name: rec.proximity(threshold_m=threshold_m) for name, rec in runs.items()}
@@ -120,14 +113,20 @@ def build_report(runs: Mapping[str, RunRecord], *, title: str,
                   f"{man.get('seed', '?')}, in {len(runs)} scenario(s). Distances are measured from the "
                   "robot's footprint including the element it carries to each worker's body (0.25 m radius).")
     doc.table(COMPARISON_COLUMNS, [f.row() for f in figures], caption="Scenarios side by side")
-    paper_rows = []
-    for f in figures:
-        paper_rows.append([f.scenario, _r(f.first_element_min), PAPER["frame 1 (min)"].get(f.scenario),
-                           _r(f.total_min), PAPER["11 frames (min)"].get(f.scenario),
-                           _r(f.min_separation_m), PAPER["min separation (m)"].get(f.scenario)])
-    doc.table(["scenario", "frame 1 (min), ours", "frame 1 (min), paper", "all frames (min), ours",
-               "11 frames (min), paper", "min separation (m), ours", "min separation (m), paper"],
-              paper_rows, caption="Our figures beside the paper's (Oyediran et al., section 5)")
+    if reference:
+        source = str(reference.get("source", "reference"))
+        ref_rows = []
+        for f in figures:
+            ref = reference.get(f.scenario, {})
+            if not isinstance(ref, Mapping):
+                continue
+            ref_rows.append([f.scenario, _r(f.first_element_min), ref.get("first_frame_min"), _r(f.total_min),
+                             ref.get("total_min"), _r(f.min_separation_m), ref.get("min_separation")])
+        if ref_rows:
+            doc.table(["scenario", "frame 1 (min), ours", f"frame 1 (min), {source}",
+                       "all frames (min), ours", f"all frames (min), {source}",
+                       "min separation (m), ours", f"min separation, {source}"],
+                      ref_rows, caption=f"Our figures beside the reference figures ({source})")
 
     if requirements:
         doc.heading("Additional modeling requirements (A3)")
