@@ -19,6 +19,7 @@ Example:
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 from collections.abc import Sequence
@@ -27,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 import shapely
-from scipy import signal
+from scipy import fft as sp_fft
 
 from kbplanner.errors import KbplannerError
 from kbplanner.occupancy import OccupancyGrid
@@ -103,19 +104,41 @@ class Footprint:
         ``margin_m``, is swept over the yaw interval and Minkowski-summed with a square of half-side
         one cell (half a cell for the robot's position, half a cell for the obstacle cell).
         """
-        grow = resolution + margin_m
-        n_sub = max(2, math.ceil((yaw_hi - yaw_lo) / _SUB_ANGLE_RAD) + 1)
-        square = np.array([[grow, grow], [-grow, grow], [-grow, -grow], [grow, -grow]])
-        hulls = []
-        for yaw in np.linspace(yaw_lo, yaw_hi, n_sub):
-            for r in self.rects:
-                pts = (r.corners(float(yaw))[:, None, :] + square[None, :, :]).reshape(-1, 2)
-                hulls.append(shapely.MultiPoint(pts).convex_hull)
-        shape = shapely.union_all(hulls)
-        h = math.ceil((self.radius_m + grow) / resolution) + 1
-        offs = np.arange(-h, h + 1) * resolution
-        xx, yy = np.meshgrid(offs, offs)
-        return np.asarray(shapely.intersects_xy(shape, xx, yy), dtype=bool)
+        return _kernel(self.rects, float(resolution), float(yaw_lo), float(yaw_hi), float(margin_m)).copy()
+
+
+@functools.lru_cache(maxsize=4096)
+def _kernel(rects: tuple[Rect, ...], resolution: float, yaw_lo: float, yaw_hi: float,
+            margin_m: float) -> BoolArray:
+    """:meth:`Footprint.kernel`, memoised: a navigation rebuilds configuration spaces for the same
+    footprints (robot, robot + load in each carry mode) on many windows of the map, and rasterising the
+    swept footprint is the costly part of a build."""
+    fp = Footprint(rects)
+    grow = resolution + margin_m
+    n_sub = max(2, math.ceil((yaw_hi - yaw_lo) / _SUB_ANGLE_RAD) + 1)
+    h = math.ceil((fp.radius_m + grow) / resolution) + 1
+    offs = np.arange(-h, h + 1) * resolution
+    xx, yy = np.meshgrid(offs, offs)
+    out = np.zeros(xx.shape, dtype=bool)
+    eps = 1e-9
+    # A rectangle grown by an axis-aligned square (Minkowski sum of two centrally symmetric convex
+    # polygons) is exactly the intersection of four slabs: along the rectangle's two axes and along
+    # x and y, each as wide as the two shapes' support functions added.
+    for yaw in np.linspace(yaw_lo, yaw_hi, n_sub):
+        c, s = math.cos(float(yaw)), math.sin(float(yaw))
+        for r in rects:
+            cx, cy = c * r.cx - s * r.cy, s * r.cx + c * r.cy
+            a = float(yaw) + r.yaw
+            ux, uy = math.cos(a), math.sin(a)
+            hl, hw = r.length / 2, r.width / 2
+            dx, dy = xx - cx, yy - cy
+            inside = np.abs(dx * ux + dy * uy) <= hl + grow * (abs(ux) + abs(uy)) + eps
+            inside &= np.abs(-dx * uy + dy * ux) <= hw + grow * (abs(uy) + abs(ux)) + eps
+            inside &= np.abs(dx) <= hl * abs(ux) + hw * abs(uy) + grow + eps
+            inside &= np.abs(dy) <= hl * abs(uy) + hw * abs(ux) + grow + eps
+            out |= inside
+    out.setflags(write=False)
+    return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -155,11 +178,18 @@ class ConfigurationSpace:
         h = max(k.shape[0] for k in kernels) // 2
         padded = np.pad(grid.occupied, h, constant_values=True).astype(np.float32)
         free = np.empty((n_yaw_bins, *grid.shape), dtype=bool)
+        # Correlation by FFT with the grid's transform computed once for all bins (the kernels are
+        # padded to one size); hits < 0.5 means no occupied cell under the swept footprint.
+        size = 2 * h + 1
+        shape = tuple(sp_fft.next_fast_len(n + size - 1, real=True) for n in padded.shape)
+        grid_f = sp_fft.rfft2(padded, shape)
+        ny, nx = grid.shape
         for k, kern in enumerate(kernels):
             hk = kern.shape[0] // 2
-            sub = padded[h - hk : padded.shape[0] - (h - hk), h - hk : padded.shape[1] - (h - hk)]
-            hits = signal.correlate(sub, kern.astype(np.float32), mode="valid", method="fft")
-            free[k] = hits < 0.5
+            full = np.zeros((size, size), dtype=np.float32)
+            full[h - hk : h + hk + 1, h - hk : h + hk + 1] = kern
+            conv = sp_fft.irfft2(grid_f * sp_fft.rfft2(full[::-1, ::-1], shape), shape)
+            free[k] = conv[size - 1 : size - 1 + ny, size - 1 : size - 1 + nx] < 0.5
         log.debug("configuration space %s: %d bins, %.1f %% free at yaw 0", footprint.name, n_yaw_bins,
                   100.0 * free[0].mean())
         return cls(grid=grid, footprint=footprint, free=free, margin_m=margin_m)

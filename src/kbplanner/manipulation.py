@@ -601,7 +601,12 @@ class _Refiner:
                         f"(more than {self.s.max_arm_penetration_m} m)")
         finally:
             probe.close()
-        cache_key = np.round(tie, 4).tobytes() + np.round(np.asarray(we.local_bounds.as_list()), 4).tobytes()
+        # Keyed by the nominal grasp (the candidate's tool pose in the element frame), not by the IK's
+        # tie, which differs within the IK tolerance from one base pose to the next: the carry modes of
+        # one grasp are computed once per element shape.
+        nominal_tie = np.linalg.inv(frame) @ tool
+        cache_key = (np.round(nominal_tie, 3).tobytes()
+                     + np.round(np.asarray(we.local_bounds.as_list()), 4).tobytes())
         geo = self.carry_cache.get(cache_key)
         if geo is None:
             cseeds = [carry_seed] if carry_seed is not None else []

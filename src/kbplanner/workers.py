@@ -10,7 +10,6 @@ an occupancy grid; gives :class:`WorkerMotion` objects with ``position(t)``.
 
 from __future__ import annotations
 
-import heapq
 import logging
 import math
 import zlib
@@ -135,6 +134,9 @@ class _Router:
         if grid is not None:
             self.free = grid.clearance_m() >= clearance_m
         self._memo: dict[tuple[tuple[int, int], tuple[int, int]], np.ndarray] = {}
+        self._csgraph: tuple[Any, np.ndarray] | None = None
+        self._pred: dict[int, np.ndarray] = {}
+        self._nearest: np.ndarray | None = None
 
     def _nearest_free(self, ix: int, iy: int) -> tuple[int, int]:
         assert self.free is not None
@@ -142,12 +144,15 @@ class _Router:
         ix, iy = min(max(ix, 0), nx - 1), min(max(iy, 0), ny - 1)
         if self.free[iy, ix]:
             return ix, iy
-        ys, xs = np.nonzero(self.free)
-        if len(xs) == 0:
-            raise KbplannerError("the ground map has no free cell for workers to walk on",
-                                 element="workers", fix="check the site extent and the obstacles")
-        k = int(np.argmin((xs - ix) ** 2 + (ys - iy) ** 2))
-        return int(xs[k]), int(ys[k])
+        if self._nearest is None:
+            if not self.free.any():
+                raise KbplannerError("the ground map has no free cell for workers to walk on",
+                                     element="workers", fix="check the site extent and the obstacles")
+            from scipy import ndimage
+
+            _, self._nearest = ndimage.distance_transform_edt(~self.free, return_indices=True)
+        assert self._nearest is not None
+        return int(self._nearest[1][iy, ix]), int(self._nearest[0][iy, ix])
 
     def path(self, a: tuple[float, float], b: tuple[float, float]) -> np.ndarray:
         """Polyline (n x 2, metres) from a to b around obstacles; straight when there is no grid."""
@@ -164,52 +169,61 @@ class _Router:
         core = self._memo[key]
         return np.vstack([np.array([a]), core, np.array([b])])
 
+    def _graph(self) -> tuple[Any, np.ndarray]:
+        """The 8-connected walking graph of the free cells (built once) and the cell -> node index map."""
+        if self._csgraph is None:
+            from scipy import sparse
+
+            assert self.free is not None
+            free = self.free
+            ny, nx = free.shape
+            index = np.full(free.shape, -1, dtype=np.int64)
+            index[free] = np.arange(int(free.sum()))
+            rows, cols, weights = [], [], []
+            for dx, dy in ((1, 0), (0, 1), (1, 1), (1, -1)):
+                ys0, ys1 = max(0, -dy), ny - max(0, dy)
+                xs0, xs1 = max(0, -dx), nx - max(0, dx)
+                a = index[ys0:ys1, xs0:xs1]
+                b = index[ys0 + dy:ys1 + dy, xs0 + dx:xs1 + dx]
+                both = (a >= 0) & (b >= 0)
+                rows.append(a[both])
+                cols.append(b[both])
+                weights.append(np.full(int(both.sum()), math.hypot(dx, dy)))
+            n = int(free.sum())
+            graph = sparse.csr_matrix((np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))),
+                                      shape=(n, n))
+            self._csgraph = (graph, index)
+        return self._csgraph
+
     def _dijkstra(self, s: tuple[int, int], t: tuple[int, int]) -> list[tuple[int, int]]:
-        assert self.free is not None
-        free = self.free
-        ny, nx = free.shape
-        dist = {s: 0.0}
-        prev: dict[tuple[int, int], tuple[int, int]] = {}
-        heap = [(0.0, s)]  # A*: priority = cost so far + straight-line distance (admissible)
-        steps = [(1, 0, 1.0), (-1, 0, 1.0), (0, 1, 1.0), (0, -1, 1.0),
-                 (1, 1, math.sqrt(2)), (1, -1, math.sqrt(2)), (-1, 1, math.sqrt(2)), (-1, -1, math.sqrt(2))]
-        tx, ty = t
-        closed: set[tuple[int, int]] = set()
-        while heap:
-            _, c = heapq.heappop(heap)
-            if c == t:
-                break
-            if c in closed:
-                continue
-            closed.add(c)
-            d = dist[c]
-            cx, cy = c
-            for dx, dy, w in steps:
-                nxt = (cx + dx, cy + dy)
-                if not (0 <= nxt[0] < nx and 0 <= nxt[1] < ny) or not free[nxt[1], nxt[0]]:
-                    continue
-                nd = d + w
-                if nd < dist.get(nxt, math.inf):
-                    dist[nxt] = nd
-                    prev[nxt] = c
-                    heapq.heappush(heap, (nd + math.hypot(nxt[0] - tx, nxt[1] - ty), nxt))
-        if t not in dist:
+        """Shortest 8-connected cell path from s to t (scipy's Dijkstra from s, kept for later targets)."""
+        from scipy.sparse import csgraph
+
+        graph, index = self._graph()
+        src, dst = int(index[s[1], s[0]]), int(index[t[1], t[0]])
+        if src not in self._pred:
+            _, pred = csgraph.dijkstra(graph, directed=False, indices=src, return_predecessors=True)
+            self._pred[src] = pred
+        pred = self._pred[src]
+        if src != dst and pred[dst] < 0:
             log.warning("no walking path between cells %s and %s; the worker walks straight", s, t)
             return [s, t]
-        out = [t]
-        while out[-1] != s:
-            out.append(prev[out[-1]])
-        return out[::-1]
+        nx = index.shape[1]
+        nodes = [dst]
+        while nodes[-1] != src:
+            nodes.append(int(pred[nodes[-1]]))
+        flat = np.flatnonzero(index.ravel() >= 0)[nodes[::-1]]
+        return [(int(c % nx), int(c // nx)) for c in flat]
 
 
 def _line_free(p: np.ndarray, q: np.ndarray, free: np.ndarray, g: OccupancyGrid) -> bool:
     n = max(2, int(np.linalg.norm(q - p) / (g.resolution * 0.5)) + 1)
-    for f in np.linspace(0.0, 1.0, n):
-        x, y = p + f * (q - p)
-        ix, iy = g.cell_of(float(x), float(y))
-        if not (0 <= iy < free.shape[0] and 0 <= ix < free.shape[1]) or not free[iy, ix]:
-            return False
-    return True
+    f = np.linspace(0.0, 1.0, n)[:, None]
+    pts = p[None, :] + f * (q - p)[None, :]
+    ix = np.floor((pts[:, 0] - g.origin[0]) / g.resolution).astype(np.int64)
+    iy = np.floor((pts[:, 1] - g.origin[1]) / g.resolution).astype(np.int64)
+    inside = (iy >= 0) & (iy < free.shape[0]) & (ix >= 0) & (ix < free.shape[1])
+    return bool(inside.all() and free[iy, ix].all())
 
 
 def _simplify(pts: np.ndarray, free: np.ndarray, g: OccupancyGrid) -> np.ndarray:
