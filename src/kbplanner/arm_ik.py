@@ -2,12 +2,15 @@
 
 Takes a :class:`~kbplanner.robot_model.RobotModel` (a robot loaded in PyBullet) and a target tool
 pose in the site frame (position, optionally roll/pitch/yaw); returns an :class:`IkResult` with the
-joint angles and whether the pose is *reachable*: PyBullet's damped least squares IK
-(``calculateInverseKinematics`` with joint limits and rest poses, refined from a few seeds), then
-forward kinematics must land within 1 cm and 3 degrees of the target, inside the joint limits and
-without the arm touching the base. :func:`reach_base_poses` samples base poses around a target
-from which the arm reaches it and the base footprint is free on an occupancy grid. Everything is
-deterministic: fixed seeds, the robot's joint state restored afterwards.
+joint angles and whether the pose is *reachable*. For a full pose and an arm whose DH table has the
+UR structure (:func:`kbplanner.arm_analytic_ik.ur_structure`) the solutions come in closed form
+(:mod:`kbplanner.arm_analytic_ik`, up to 8, nearest the seeds first); otherwise PyBullet's damped
+least squares IK (``calculateInverseKinematics`` with joint limits and rest poses, refined from a
+few seeds). Either way PyBullet's forward kinematics must land within 1 cm and 3 degrees of the
+target, inside the joint limits and without the arm touching the base. :func:`reach_base_poses`
+samples base poses around a target from which the arm reaches it and the base footprint is free on
+an occupancy grid. Everything is deterministic: fixed seeds, the robot's joint state restored
+afterwards.
 
 Example:
     >>> from kbplanner.robot_model import RobotModel
@@ -23,11 +26,20 @@ from __future__ import annotations
 
 import logging
 import math
+import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
+from kbplanner.arm_analytic_ik import (
+    DhArm,
+    forward_kinematics,
+    ik_best_effort,
+    ik_solutions,
+    ur_structure,
+)
 from kbplanner.footprint import ConfigurationSpace
 from kbplanner.occupancy import OccupancyGrid
 from kbplanner.robot_model import RobotModel
@@ -62,6 +74,130 @@ class ReachPose:
     clearance_m: float  # distance from the base centre to the nearest occupied cell
 
 
+Matrix = npt.NDArray[np.float64]
+_CALIBRATION_Q = (0.4, -1.1, 0.9, -0.7, 1.2, 0.5)  # a second, generic pose to check the calibration
+_CALIBRATION_TOL = 1e-6
+
+
+@dataclass(frozen=True)
+class AnalyticArm:
+    """The closed-form model of a robot's arm: its DH table and the constant transforms around it.
+
+    ``base_in_arm_base`` is DH frame 0 in PyBullet's ``arm_base_link`` frame, ``tool_in_flange`` the
+    tool link (TCP) in DH frame 6, so that ``tool = arm_base_link @ base_in_arm_base @ FK(q) @
+    tool_in_flange``.
+    """
+
+    arm: DhArm
+    base_in_arm_base: Matrix
+    tool_in_flange: Matrix
+
+
+_ANALYTIC: weakref.WeakKeyDictionary[RobotModel, AnalyticArm | None] = weakref.WeakKeyDictionary()
+
+
+def _matrix(pos: Sequence[float], orn: Sequence[float]) -> Matrix:
+    import pybullet as p
+
+    t = np.eye(4)
+    t[:3, :3] = np.asarray(p.getMatrixFromQuaternion(orn), dtype=float).reshape(3, 3)
+    t[:3, 3] = pos
+    return t
+
+
+def _rigid_inv(t: Matrix) -> Matrix:
+    out = np.eye(4)
+    out[:3, :3] = t[:3, :3].T
+    out[:3, 3] = -t[:3, :3].T @ t[:3, 3]
+    return out
+
+
+def analytic_arm(robot: RobotModel) -> AnalyticArm | None:
+    """The closed-form model of ``robot``'s arm, or ``None`` if its DH table lacks the UR structure.
+
+    DH frame 0 is ``arm_base_link`` (how :mod:`kbplanner.robot_model` builds the URDF); the tool
+    offset is calibrated from PyBullet's forward kinematics at the zero pose and checked at a second
+    pose, so a URDF that does not follow the DH table falls back to the numeric solver (logged).
+    Cached per robot; the arm's joint angles are restored.
+    """
+    if robot in _ANALYTIC:
+        return _ANALYTIC[robot]
+    result: AnalyticArm | None = None
+    spec = robot.spec.arm
+    if spec is not None and robot.tool_link is not None and "arm_base_link" in robot.links:
+        lo, hi = robot.arm_limits()
+        arm = DhArm(tuple(spec.d), tuple(spec.a), tuple(spec.alpha), tuple(lo), tuple(hi))
+        if ur_structure(arm) is not None:
+            saved = robot.arm_positions()
+            try:
+                base_in_arm_base = np.eye(4)
+                tool = []
+                for q in ((0.0,) * 6, _CALIBRATION_Q):
+                    robot.set_arm(q)
+                    ab = _matrix(*robot.link_pose(robot.links["arm_base_link"]))
+                    tool.append(_rigid_inv(ab) @ _matrix(*robot.tool_pose()))
+                tool_in_flange = _rigid_inv(forward_kinematics(arm, (0.0,) * 6)) @ tool[0]
+                check = forward_kinematics(arm, _CALIBRATION_Q) @ tool_in_flange
+                err = float(np.abs(check - tool[1]).max())
+                if err < _CALIBRATION_TOL:
+                    result = AnalyticArm(arm, base_in_arm_base, tool_in_flange)
+                else:
+                    log.warning("arm of %s: the URDF does not follow its DH table (%.2g); numeric IK",
+                                robot.spec.name, err)
+            finally:
+                robot.set_arm(saved)
+    _ANALYTIC[robot] = result
+    return result
+
+
+def _check(robot: RobotModel, q: tuple[float, ...], target_xyz: Vec3, orn: Sequence[float] | None,
+           pos_tol_m: float, rot_tol_rad: float, check_collision: bool) -> IkResult:
+    """Put the arm at ``q`` and judge it by PyBullet's forward kinematics (arm left at ``q``)."""
+    robot.set_arm(q)
+    pos, cur = robot.tool_pose()
+    perr = math.dist(pos, target_xyz)
+    rerr = _quat_angle(cur, orn) if orn is not None else 0.0
+    if perr > pos_tol_m:
+        reason = f"unreachable: best position error {perr:.2f} m > {pos_tol_m} m"
+    elif rerr > rot_tol_rad:
+        reason = (f"unreachable: best orientation error {math.degrees(rerr):.1f} deg > "
+                  f"{math.degrees(rot_tol_rad):.0f} deg")
+    elif check_collision and robot.arm_clearance() < 0.0:
+        reason = "unreachable: the arm would touch the robot's base or sensors"
+    else:
+        reason = "reachable"
+    return IkResult(reason == "reachable", q, perr, rerr, reason)
+
+
+def _solve_analytic(robot: RobotModel, model: AnalyticArm, target_xyz: Vec3, orn: Sequence[float],
+                    seeds: Sequence[Sequence[float]], pos_tol_m: float, rot_tol_rad: float,
+                    check_collision: bool) -> IkResult:
+    """Closed-form solutions, for each seed in turn nearest first, checked until one is reachable."""
+    ab = _matrix(*robot.link_pose(robot.links["arm_base_link"]))
+    target = (_rigid_inv(ab @ model.base_in_arm_base) @ _matrix(target_xyz, orn)
+              @ _rigid_inv(model.tool_in_flange))
+    tried: set[tuple[float, ...]] = set()
+    best: IkResult | None = None
+    for seed in seeds:
+        sols = ik_solutions(model.arm, target, seed)
+        if not sols:  # out of reach (or only beyond the joint limits): the arm stretched towards it
+            sols = ik_best_effort(model.arm, target, seed)[:1]
+        for q in sols:
+            key = tuple(round(v, 9) for v in q)
+            if key in tried:
+                continue
+            tried.add(key)
+            result = _check(robot, q, target_xyz, orn, pos_tol_m, rot_tol_rad, check_collision)
+            if result.reachable:
+                return result
+            if best is None or ((result.position_error_m, result.orientation_error_rad)
+                                < (best.position_error_m, best.orientation_error_rad)):
+                best = result
+    if best is None:  # no seeds
+        return IkResult(False, robot.arm_positions(), math.inf, math.inf, "unreachable: no seed given")
+    return best
+
+
 def _quat_angle(q1: Sequence[float], q2: Sequence[float]) -> float:
     d = abs(float(np.dot(np.asarray(q1), np.asarray(q2))))
     return 2.0 * math.acos(min(1.0, d))
@@ -94,9 +230,11 @@ def solve_ik(
 ) -> IkResult:
     """Solve IK for the tool centre point at ``target_xyz`` (and ``target_rpy`` if given), site frame.
 
-    The robot's base stays where it is. Seeds default to the robot's named poses (sorted by name)
-    and the zero pose; the first reachable solution wins, otherwise the closest one is returned with
-    the reason it is not reachable. The arm's joint angles are restored afterwards.
+    The robot's base stays where it is. Seeds default to three poses with the shoulder turned
+    towards the target, the robot's named poses (sorted by name) and the zero pose; the first
+    reachable solution wins (closed form: each seed's solutions nearest it first), otherwise the
+    closest one is returned with the reason it is not reachable. ``refinements`` applies to the
+    numeric solver only. The arm's joint angles are restored afterwards.
     """
     import pybullet as p
 
@@ -112,6 +250,13 @@ def solve_ik(
         named = [robot.spec.poses[k] for k in sorted(robot.spec.poses)]
         seeds = [*_directed_seeds(robot, target_xyz), *named, (0.0,) * len(robot.arm_joints)]
     saved = robot.arm_positions()
+    model = analytic_arm(robot) if orn is not None else None
+    if model is not None and orn is not None:
+        try:
+            return _solve_analytic(robot, model, target_xyz, orn, seeds, pos_tol_m, rot_tol_rad,
+                                   check_collision)
+        finally:
+            robot.set_arm(saved)
     best: IkResult | None = None
     try:
         for seed in seeds:
@@ -135,22 +280,11 @@ def solve_ik(
                 rerr = _quat_angle(cur, orn) if orn is not None else 0.0
                 if perr < pos_tol_m / 10 and rerr < rot_tol_rad / 10:
                     break
-            pos, cur = robot.tool_pose()
-            perr = math.dist(pos, target_xyz)
-            rerr = _quat_angle(cur, orn) if orn is not None else 0.0
-            if perr > pos_tol_m:
-                reason = f"unreachable: best position error {perr:.2f} m > {pos_tol_m} m"
-            elif rerr > rot_tol_rad:
-                reason = (f"unreachable: best orientation error {math.degrees(rerr):.1f} deg > "
-                          f"{math.degrees(rot_tol_rad):.0f} deg")
-            elif check_collision and robot.arm_clearance() < 0.0:
-                reason = "unreachable: the arm would touch the robot's base or sensors"
-            else:
-                reason = "reachable"
-            result = IkResult(reason == "reachable", q, perr, rerr, reason)
+            result = _check(robot, q, target_xyz, orn, pos_tol_m, rot_tol_rad, check_collision)
             if result.reachable:
                 return result
-            if best is None or (perr, rerr) < (best.position_error_m, best.orientation_error_rad):
+            if best is None or ((result.position_error_m, result.orientation_error_rad)
+                                < (best.position_error_m, best.orientation_error_rad)):
                 best = result
     finally:
         robot.set_arm(saved)
