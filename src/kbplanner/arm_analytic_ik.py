@@ -221,19 +221,71 @@ def _raw_solutions(arm: DhArm, ur: UrStructure, target: Matrix, seed: Sequence[f
     return out
 
 
-def _place(arm: DhArm, raw: Sequence[tuple[float, ...]], seed: Sequence[float]) -> list[tuple[float, ...]]:
-    """Each candidate moved by whole turns into the limits nearest the seed; duplicates dropped."""
+def _place(arm: DhArm, raw: Sequence[tuple[float, ...]], seed: Sequence[float],
+           clip: bool = False) -> list[tuple[float, ...]]:
+    """Each candidate moved by whole turns into the limits nearest the seed (as :func:`wrap_to_limits`).
+
+    A candidate with a joint that fits no whole-turn shift is dropped (``clip``: clipped into the
+    limits instead); duplicates are dropped.
+    """
+    if not raw:
+        return []
+    q = np.asarray(raw, dtype=float)
+    lo, hi = np.asarray(arm.lower, dtype=float), np.asarray(arm.upper, dtype=float)
+    k_lo = np.ceil((lo - 1e-9 - q) / TWO_PI)
+    k_hi = np.floor((hi + 1e-9 - q) / TWO_PI)
+    k = np.minimum(np.maximum(np.round((np.asarray(seed, dtype=float) - q) / TWO_PI), k_lo), k_hi)
+    placed = np.minimum(np.maximum(q + k * TWO_PI, lo), hi)
+    fits = (k_hi >= k_lo).all(axis=1)
+    if clip:
+        placed = np.where(k_hi >= k_lo, placed, np.minimum(np.maximum(q, lo), hi))
+        fits[:] = True
     out: list[tuple[float, ...]] = []
     seen: set[tuple[float, ...]] = set()
-    for q in raw:
-        placed = [wrap_to_limits(q[i], arm.lower[i], arm.upper[i], float(seed[i])) for i in range(6)]
-        if any(v is None for v in placed):
+    for row, ok in zip(placed.tolist(), fits.tolist(), strict=True):
+        if not ok:
             continue
-        sol = tuple(float(v) for v in placed if v is not None)
+        sol = tuple(float(v) for v in row)
         key = tuple(round(v, 9) for v in sol)
         if key not in seen:
             seen.add(key)
             out.append(sol)
+    return out
+
+
+def closed_form(arm: DhArm, target: Matrix, seed: Sequence[float] | None = None) -> list[tuple[float, ...]]:
+    """The distinct closed-form solutions for ``target`` (4x4, DH frame 6 in DH frame 0), angles in (-pi, pi].
+
+    Each is checked by forward kinematics; joint limits are not applied (see :func:`place_nearest`).
+    ``seed`` only sets the joints that are free at a singularity (default: zeros). Empty when the
+    pose is out of reach or ``arm`` does not have the UR structure (see :func:`ur_structure`).
+    """
+    ur = ur_structure(arm)
+    if ur is None:
+        return []
+    s = tuple(seed) if seed is not None else (0.0,) * 6
+    target = np.asarray(target, dtype=float)
+    good: list[tuple[float, ...]] = []
+    seen: set[tuple[float, ...]] = set()
+    for q in _raw_solutions(arm, ur, target, s, clamp=False):
+        key = tuple(round(v, 9) for v in q)
+        if key in seen:
+            continue
+        seen.add(key)
+        pe, re = pose_error(forward_kinematics(arm, q), target)
+        if pe < _FK_TOL_M and re < _FK_TOL_M:
+            good.append(q)
+    return good
+
+
+def place_nearest(arm: DhArm, solutions: Sequence[tuple[float, ...]],
+                  seed: Sequence[float]) -> list[tuple[float, ...]]:
+    """Solutions moved by whole turns into the joint limits nearest ``seed``, nearest first.
+
+    A solution none of whose whole-turn equivalents fits the limits is dropped.
+    """
+    out = _place(arm, solutions, seed)
+    out.sort(key=lambda q: (joint_distance(q, seed), q))
     return out
 
 
@@ -244,19 +296,8 @@ def ik_solutions(arm: DhArm, target: Matrix, seed: Sequence[float] | None = None
     (default: zeros); solutions are sorted by their distance to the seed. Empty when the pose is out
     of reach or ``arm`` does not have the UR structure (see :func:`ur_structure`).
     """
-    ur = ur_structure(arm)
-    if ur is None:
-        return []
     s = tuple(seed) if seed is not None else (0.0,) * 6
-    target = np.asarray(target, dtype=float)
-    good = []
-    for q in _raw_solutions(arm, ur, target, s, clamp=False):
-        pe, re = pose_error(forward_kinematics(arm, q), target)
-        if pe < _FK_TOL_M and re < _FK_TOL_M:
-            good.append(q)
-    sols = _place(arm, good, s)
-    sols.sort(key=lambda q: (joint_distance(q, s), q))
-    return sols
+    return place_nearest(arm, closed_form(arm, target, s), s)
 
 
 def ik_best_effort(arm: DhArm, target: Matrix,
@@ -269,14 +310,7 @@ def ik_best_effort(arm: DhArm, target: Matrix,
     if ur is None:
         return []
     s = tuple(seed) if seed is not None else (0.0,) * 6
-    raw = _raw_solutions(arm, ur, np.asarray(target, dtype=float), s, clamp=True)
-    out: list[tuple[float, ...]] = []
-    for q in raw:
-        placed = []
-        for i in range(6):
-            w = wrap_to_limits(q[i], arm.lower[i], arm.upper[i], float(s[i]))
-            placed.append(w if w is not None else min(max(q[i], arm.lower[i]), arm.upper[i]))
-        out.append(tuple(placed))
+    out = _place(arm, _raw_solutions(arm, ur, np.asarray(target, dtype=float), s, clamp=True), s, clip=True)
     out.sort(key=lambda q: (joint_distance(q, s), q))
     return out
 

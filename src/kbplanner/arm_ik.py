@@ -35,9 +35,10 @@ import numpy.typing as npt
 
 from kbplanner.arm_analytic_ik import (
     DhArm,
+    closed_form,
     forward_kinematics,
     ik_best_effort,
-    ik_solutions,
+    place_nearest,
     ur_structure,
 )
 from kbplanner.footprint import ConfigurationSpace
@@ -176,14 +177,19 @@ def _solve_analytic(robot: RobotModel, model: AnalyticArm, target_xyz: Vec3, orn
     ab = _matrix(*robot.link_pose(robot.links["arm_base_link"]))
     target = (_rigid_inv(ab @ model.base_in_arm_base) @ _matrix(target_xyz, orn)
               @ _rigid_inv(model.tool_in_flange))
+    exact = closed_form(model.arm, target, seeds[0]) if seeds else []
+    # Solutions a whole turn apart put the arm in the same place: each is checked once.
     tried: set[tuple[float, ...]] = set()
     best: IkResult | None = None
+    stretched: list[tuple[float, ...]] | None = None
     for seed in seeds:
-        sols = ik_solutions(model.arm, target, seed)
+        sols = place_nearest(model.arm, exact, seed)
         if not sols:  # out of reach (or only beyond the joint limits): the arm stretched towards it
-            sols = ik_best_effort(model.arm, target, seed)[:1]
+            if stretched is None:
+                stretched = ik_best_effort(model.arm, target, seeds[0])
+            sols = stretched
         for q in sols:
-            key = tuple(round(v, 9) for v in q)
+            key = tuple(round((v + math.pi) % (2 * math.pi) - math.pi, 6) for v in q)
             if key in tried:
                 continue
             tried.add(key)
