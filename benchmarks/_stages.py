@@ -15,14 +15,14 @@ SPARQL endpoint (per-query times, rows compared).
 from __future__ import annotations
 
 import logging
-import resource
 import shutil
 import sys
-import time
 import traceback
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
+
+from _common import Timer, peak_rss_mb
 
 from kbplanner.building_generator import SCENARIO, generate_building
 from kbplanner.named_queries import catalogue, run_text
@@ -30,12 +30,6 @@ from kbplanner.project import Project, import_cached, read_manifest
 from kbplanner.stores import result_json
 
 log = logging.getLogger(__name__)
-
-
-def peak_rss_mb() -> float:
-    """Peak resident memory of this process so far (MiB)."""
-    kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    return kb / 1024.0 if sys.platform != "darwin" else kb / (1024.0 * 1024.0)
 
 
 class Recorder:
@@ -46,7 +40,7 @@ class Recorder:
 
     def run(self, name: str, fn: Callable[[], Any], **info: Any) -> Any:
         before = peak_rss_mb()
-        t0 = time.perf_counter()
+        timer = Timer()
         record: dict[str, Any] = {"stage": name}
         try:
             value = fn()
@@ -56,7 +50,7 @@ class Recorder:
             record["ok"] = False
             record["error"] = f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
             record["where"] = traceback.format_exc(limit=-3).strip().splitlines()[-3:]
-        record["seconds"] = round(time.perf_counter() - t0, 4)
+        record["seconds"] = round(timer.elapsed(), 4)
         after = peak_rss_mb()
         record["peak_rss_mb"] = round(after, 1)
         record["peak_rss_raise_mb"] = round(after - before, 1)
@@ -75,9 +69,9 @@ def _query_times(project: Project, repeats: int) -> dict[str, dict[str, Any]]:
         best = float("inf")
         rows = ""
         for _ in range(repeats):
-            t0 = time.perf_counter()
-            rows = result_json(run_text(project.graph, q.text, {}))
-            best = min(best, time.perf_counter() - t0)
+            with Timer() as timer:
+                rows = result_json(run_text(project.graph, q.text, {}))
+            best = min(best, timer.seconds)
         out[name] = {"seconds": round(best, 5), "rows": rows}
     return out
 

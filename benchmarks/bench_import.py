@@ -10,17 +10,13 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import platform
-import resource
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[1]
-RESULTS = REPO / "benchmarks" / "results" / "import.json"
+from _common import REPO, RESULTS_DIR, Timer, machine_info, peak_rss_mb, run_child_json, write_json
+
+RESULTS = RESULTS_DIR / "import.json"
 DUPLEX = Path("/work/shared/data/ifc/Duplex_A_20110907.ifc")
 CASE_STUDY_DUPLEX = REPO / "data" / "case_study" / "model" / "Duplex_A_20110907.ifc"
 
@@ -37,9 +33,9 @@ def run_case(ifc: Path, processes: int) -> dict[str, object]:
     from kbplanner.iris import base_iri
 
     with tempfile.TemporaryDirectory() as out:
-        started = time.perf_counter()
-        result = import_ifc(ifc, Path(out), base=base_iri("bench"), processes=processes)
-        seconds = time.perf_counter() - started
+        with Timer() as timer:
+            result = import_ifc(ifc, Path(out), base=base_iri("bench"), processes=processes)
+        seconds = timer.seconds
         ttl_bytes = (Path(out) / "model.ttl").stat().st_size
         mesh_bytes = sum(p.stat().st_size for p in (Path(out) / "meshes").iterdir())
     elements = sum(n for k, n in result.counts.items() if k.startswith("kbp:"))
@@ -49,7 +45,7 @@ def run_case(ifc: Path, processes: int) -> dict[str, object]:
         "schema": result.schema,
         "processes": processes,
         "seconds": round(seconds, 2),
-        "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
+        "peak_rss_mb": round(peak_rss_mb(), 1),
         "elements": elements,
         "meshes": len(result.meshes),
         "triples": len(result.graph),
@@ -60,12 +56,7 @@ def run_case(ifc: Path, processes: int) -> dict[str, object]:
 
 
 def in_subprocess(ifc: Path, processes: int) -> dict[str, object]:
-    done = subprocess.run(
-        [sys.executable, __file__, "--one", str(ifc), "--processes", str(processes)],
-        check=True, capture_output=True, text=True,
-    )
-    figures: dict[str, object] = json.loads(done.stdout.strip().splitlines()[-1])
-    return figures
+    return run_child_json([sys.executable, __file__, "--one", str(ifc), "--processes", str(processes)])
 
 
 def main() -> int:
@@ -89,11 +80,11 @@ def main() -> int:
     for name, kwargs in GENERATED.items():
         if args.quick and name != "generated-10-storeys":
             continue
-        started = time.perf_counter()
+        timer = Timer()
         path = work / f"{name}.ifc"
         write_test_building(path, schema="IFC4", unit_mm=True, **kwargs)  # type: ignore[arg-type]
         print(f"wrote {path.name} ({path.stat().st_size / 1e6:.1f} MB) in "
-              f"{time.perf_counter() - started:.1f} s", file=sys.stderr)
+              f"{timer.elapsed():.1f} s", file=sys.stderr)
         cases.append((name, path))
 
     rows = []
@@ -105,10 +96,7 @@ def main() -> int:
                   f"{figures['seconds']:>6} s  peak {figures['peak_rss_mb']:>7} MB  "
                   f"{figures['elements']} elements, {figures['meshes']} meshes, "
                   f"{figures['triples']} triples")
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    report = {"machine": {"python": platform.python_version(), "platform": platform.platform(),
-                          "cpus": os.cpu_count()}, "cases": rows}
-    RESULTS.write_text(json.dumps(report, indent=2) + "\n")
+    write_json(RESULTS, {"machine": machine_info(), "cases": rows})
     print(f"wrote {RESULTS.relative_to(REPO)}")
     return 0
 

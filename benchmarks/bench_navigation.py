@@ -14,24 +14,20 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import platform
 import statistics
 import sys
-import time
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 import trimesh
+from _common import REPO, RESULTS_DIR, Timer, machine_info, write_json
 
 from kbplanner.footprint import ConfigurationSpace, Footprint, Rect
 from kbplanner.navigation import NavSettings, grid_shortest_path_length, plan_path, plan_with_carry_modes
 from kbplanner.occupancy import Box, OccupancyGrid, occupancy_from_meshes
 
-ROOT = Path(__file__).resolve().parents[1]
-RESULTS = ROOT / "benchmarks" / "results"
-DUPLEX = ROOT / "data" / "case_study" / "model" / "Duplex_A_20110907.ifc"
+RESULTS = RESULTS_DIR
+DUPLEX = REPO / "data" / "case_study" / "model" / "Duplex_A_20110907.ifc"
 
 BASE = Footprint((Rect(0.0, 0.0, 0.99, 0.67),), name="husky")
 NARROW = BASE.with_rect(Rect(0.0, 0.0, 1.2, 0.1), name="panel on its side")
@@ -123,9 +119,9 @@ def run_case(
     footprint: Footprint,
     planners: list[tuple[str, float, list[int]]],
 ) -> list[dict[str, Any]]:
-    t0 = time.perf_counter()
-    cs = ConfigurationSpace.build(grid, footprint)
-    build_s = time.perf_counter() - t0
+    with Timer() as timer:
+        cs = ConfigurationSpace.build(grid, footprint)
+    build_s = timer.seconds
     shortest = grid_shortest_path_length(cs, start, goal)
     rows = []
     for planner, budget, seeds in planners:
@@ -184,14 +180,14 @@ def main(argv: list[str] | None = None) -> int:
     rows += run_case("flat, 0.9 m doors", flat(), (2.0, 1.5, 0.0), (12.0, 7.0, 1.57), BASE, planners)
     carry = []
     for seed in seeds:
-        t0 = time.perf_counter()
+        timer = Timer()
         plan = plan_with_carry_modes(two_rooms(0.9), start, goal, WIDE, NARROW, NavSettings(seed=seed))
         carry.append(
             {
                 "seed": seed,
                 "ok": plan.ok,
                 "mode": plan.mode,
-                "wall_s": round(time.perf_counter() - t0, 3),
+                "wall_s": round(timer.elapsed(), 3),
                 "narrow_length_m": round(plan.extra.get("narrow_length_m", 0.0), 3),
                 "path_length_m": round(plan.path.length_m, 3),
             }
@@ -210,19 +206,13 @@ def main(argv: list[str] | None = None) -> int:
         }
         rows += run_case("Duplex Level 1", grid, s, g, BASE, planners)
     out = {
-        "machine": {
-            "python": platform.python_version(),
-            "platform": platform.platform(),
-            "cpus": os.cpu_count(),
-        },
+        "machine": machine_info(),
         "quick": args.quick,
         "rows": rows,
         "carry_modes": carry,
         "duplex": duplex,
     }
-    (RESULTS / "navigation.json").write_text(
-        json.dumps(out, indent=2, sort_keys=True) + "\n", encoding="utf-8"
-    )
+    write_json(RESULTS / "navigation.json", out, sort_keys=True)
     print(f"wrote {RESULTS / 'navigation.json'}")
     return 0 if all(r["solved"] == r["runs"] for r in rows if r["planner"] == "RRTConnect") else 1
 

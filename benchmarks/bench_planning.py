@@ -14,16 +14,16 @@ SPARQL (B2, every binding of every element). Prints a table and writes
 from __future__ import annotations
 
 import argparse
-import json
-import platform
 import sys
 import tempfile
-import time
 from datetime import datetime
 from pathlib import Path
 
 import trimesh
-from rdflib import RDF, RDFS, XSD, Graph, Literal, URIRef
+from _common import REPO, RESULTS_DIR, Timer, machine_info, timed, write_json
+from _common import rdf_box as _box
+from _common import rdf_pose as _pose
+from rdflib import RDF, RDFS, XSD, Graph, Literal
 
 from kbplanner.element_order import element_order
 from kbplanner.iris import element_iri, mint, task_iri
@@ -37,24 +37,9 @@ from kbplanner.task_specs import task_specification
 from kbplanner.vocab import BOT, KBP
 from kbplanner.world import build_world
 
-REPO = Path(__file__).resolve().parents[1]
-RESULTS = REPO / "benchmarks" / "results" / "planning.json"
+RESULTS = RESULTS_DIR / "planning.json"
 BASE = "https://w3id.org/kbplanner/data/bench-plan/"
 DATE = datetime(2022, 5, 10, 7)
-
-
-def _pose(g: Graph, node: URIRef, x: float, y: float, z: float = 0.0) -> URIRef:
-    g.add((node, RDF.type, KBP.Pose))
-    for p, v in ((KBP.x, x), (KBP.y, y), (KBP.z, z), (KBP.roll, 0.0), (KBP.pitch, 0.0), (KBP.yaw, 0.0)):
-        g.add((node, p, Literal(float(v))))
-    return node
-
-
-def _box(g: Graph, node: URIRef, lo: tuple[float, ...], hi: tuple[float, ...]) -> URIRef:
-    g.add((node, RDF.type, KBP.Box))
-    for p, v in zip((KBP.minX, KBP.minY, KBP.minZ, KBP.maxX, KBP.maxY, KBP.maxZ), (*lo, *hi), strict=True):
-        g.add((node, p, Literal(float(v))))
-    return node
 
 
 def synthetic_project(n: int, directory: Path) -> Project:
@@ -116,28 +101,23 @@ def synthetic_project(n: int, directory: Path) -> Project:
 
 def measure(case: str, project: Project) -> dict[str, object]:
     """Time the whole plan, then its parts on the same project."""
-    t0 = time.perf_counter()
-    plan = plan_task(project)
-    total = time.perf_counter() - t0
+    plan, total = timed(lambda: plan_task(project))
     task = resolve_task(project)
     spec = task_specification(project.kb, task.spec_id or "")
-    t = time.perf_counter()
+    timer = Timer()
     select_robots(project.model, project.kb, task.task_id, scenario=project.scenario)
-    selection_s = time.perf_counter() - t
-    t = time.perf_counter()
+    selection_s = timer.lap()
     world = build_world(project, DATE if project.manifest.simulation.get("date") is None
                         else datetime.fromisoformat(str(project.manifest.simulation["date"])), task.task_id)
-    world_s = time.perf_counter() - t
-    t = time.perf_counter()
+    world_s = timer.lap()
     start = world.robot_start
     element_order(project.model, task.iri, (start.x, start.y) if start else None)
-    order_s = time.perf_counter() - t
-    t = time.perf_counter()
+    order_s = timer.lap()
     n_inputs = 0
     for el in task.elements:
         for a in spec.actions:
             n_inputs += len(resolve_inputs(project.model, a.bindings, element=el.iri, task=task.iri))
-    inputs_s = time.perf_counter() - t
+    inputs_s = timer.lap()
     return {
         "case": case,
         "elements": len(plan.elements),
@@ -181,13 +161,11 @@ def main(argv: list[str] | None = None) -> int:
         with tempfile.TemporaryDirectory() as tmp:
             rows.append(measure("synthetic", synthetic_project(n, Path(tmp))))
         show(rows[-1])
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(json.dumps({
+    write_json(RESULTS, {
         "benchmark": "planning",
-        "python": platform.python_version(),
-        "machine": platform.machine(),
+        **machine_info(("python", "machine")),
         "cases": rows,
-    }, indent=2) + "\n", encoding="utf-8")
+    })
     sys.stdout.write(f"wrote {RESULTS.relative_to(REPO)}\n")
     return 0
 

@@ -14,14 +14,13 @@ Prints a table and writes ``benchmarks/results/requirements.json``.
 from __future__ import annotations
 
 import argparse
-import json
-import platform
 import sys
-import time
 from datetime import datetime
-from pathlib import Path
 
-from rdflib import RDF, RDFS, XSD, Graph, Literal, URIRef
+from _common import REPO, RESULTS_DIR, Timer, machine_info, write_json
+from _common import rdf_box as _box
+from _common import rdf_pose as _pose
+from rdflib import RDF, RDFS, XSD, Graph, Literal
 
 from kbplanner.iris import element_iri, mint, task_iri
 from kbplanner.knowledge_base import load_kb
@@ -30,23 +29,8 @@ from kbplanner.requirements import derive_requirements
 from kbplanner.validation import validate_model
 from kbplanner.vocab import KBP
 
-REPO = Path(__file__).resolve().parents[1]
-RESULTS = REPO / "benchmarks" / "results" / "requirements.json"
+RESULTS = RESULTS_DIR / "requirements.json"
 BASE = "https://w3id.org/kbplanner/data/bench/"
-
-
-def _pose(g: Graph, node: URIRef, x: float, y: float, z: float = 0.0) -> URIRef:
-    g.add((node, RDF.type, KBP.Pose))
-    for p, v in ((KBP.x, x), (KBP.y, y), (KBP.z, z), (KBP.roll, 0.0), (KBP.pitch, 0.0), (KBP.yaw, 0.0)):
-        g.add((node, p, Literal(float(v))))
-    return node
-
-
-def _box(g: Graph, node: URIRef, lo: tuple[float, ...], hi: tuple[float, ...]) -> URIRef:
-    g.add((node, RDF.type, KBP.Box))
-    for p, v in zip((KBP.minX, KBP.minY, KBP.minZ, KBP.maxX, KBP.maxY, KBP.maxZ), (*lo, *hi), strict=True):
-        g.add((node, p, Literal(float(v))))
-    return node
 
 
 def synthetic_model(n: int, *, augmented: bool) -> Graph:
@@ -96,20 +80,20 @@ def synthetic_model(n: int, *, augmented: bool) -> Graph:
 def measure(n: int, augmented: bool, kb: Graph) -> dict[str, object]:
     """Time derivation and validation on one synthetic model."""
     model = synthetic_model(n, augmented=augmented)
-    t0 = time.perf_counter()
+    timer = Timer()
     req = derive_requirements(model, kb)
-    t1 = time.perf_counter()
+    derive_s = timer.lap()
     val = validate_model(model, kb)
-    t2 = time.perf_counter()
+    validate_s = timer.lap()
     return {
         "elements": n,
         "variant": "augmented" if augmented else "bare",
         "triples": len(model),
         "requirements": len(req.requirements),
         "unmet_elements": sum(len(r.elements) for r in req.requirements),
-        "derive_s": round(t1 - t0, 3),
-        "validate_s": round(t2 - t1, 3),
-        "total_s": round(t2 - t0, 3),
+        "derive_s": round(derive_s, 3),
+        "validate_s": round(validate_s, 3),
+        "total_s": round(derive_s + validate_s, 3),
         "conforms": val.conforms,
         "violations": len(val.violations),
     }
@@ -134,13 +118,11 @@ def main(argv: list[str] | None = None) -> int:
                              f"{r['unmet_elements']:>6} {r['derive_s']:>9} {r['validate_s']:>10} "
                              f"{r['total_s']:>8} {r['conforms']!s:>8}\n")
             sys.stdout.flush()
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(json.dumps({
+    write_json(RESULTS, {
         "benchmark": "requirements",
-        "python": platform.python_version(),
-        "machine": platform.machine(),
+        **machine_info(("python", "machine")),
         "cases": rows,
-    }, indent=2) + "\n", encoding="utf-8")
+    })
     sys.stdout.write(f"wrote {RESULTS.relative_to(REPO)}\n")
     return 0
 

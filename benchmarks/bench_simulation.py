@@ -17,15 +17,14 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import platform
-import resource
 import statistics
 import sys
 import tempfile
 import time
 from pathlib import Path
 from typing import Any
+
+from _common import REPO, RESULTS_DIR, machine_info, peak_rss_mb, write_json
 
 from kbplanner.carry import transform
 from kbplanner.executor import simulate
@@ -41,9 +40,8 @@ from kbplanner.workers import plan_workers
 from kbplanner.world import World, build_world, parse_date
 from kbplanner.world_exports import storey_map
 
-ROOT = Path(__file__).resolve().parents[1]
-RESULTS = ROOT / "benchmarks" / "results"
-CASE_STUDY = ROOT / "data" / "case_study"
+RESULTS = RESULTS_DIR
+CASE_STUDY = REPO / "data" / "case_study"
 
 
 def _rect(d: dict[str, float]) -> Rect:
@@ -141,12 +139,10 @@ def main(argv: list[str] | None = None) -> int:
     scenarios = args.scenario or ["storage-outside", "storage-inside"]
     with tempfile.TemporaryDirectory() as tmp:
         rows = [bench(s, args.seed, Path(tmp)) for s in scenarios]
-    peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-    machine = {"python": platform.python_version(), "cpus": os.cpu_count(), "platform": platform.platform()}
-    out = {"machine": machine,
+    peak_mb = peak_rss_mb()
+    out = {"machine": machine_info(("python", "cpus", "platform")),
            "seed": args.seed, "peak_memory_mb": round(peak_mb, 1), "scenarios": rows}
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "simulation.json").write_text(json.dumps(out, indent=2) + "\n", encoding="utf-8")
+    write_json(RESULTS / "simulation.json", out)
     w = sys.stdout.write
     w(f"{'scenario':18} {'installed':10} {'sim s':>7} {'B5 wall s':>9} {'x real':>7} {'OMPL s':>7} "
       f"{'B4 s':>6} {'path/grid':>9} {'stops':>5}\n")

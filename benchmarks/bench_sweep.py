@@ -10,25 +10,17 @@ the speed-up and the table, and writes ``benchmarks/results/sweep.json``.
 from __future__ import annotations
 
 import argparse
-import json
 import os
-import resource
 import sys
 import tempfile
-import time
 from pathlib import Path
+
+from _common import REPO, RESULTS_DIR, Timer, cpu_seconds, write_json
 
 from kbplanner.outputs import versions
 from kbplanner.sweep import SweepSpec, parse_vary, run_sweep
 
-REPO = Path(__file__).resolve().parents[1]
 CANDIDATES = "storage-outside;storage-inside;15.0,-16.0;18.5,-13.0"
-
-
-def _cpu_s() -> float:
-    """User + system CPU seconds of this process and its finished children (the worker processes)."""
-    me, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
-    return me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
 
 
 def main() -> int:
@@ -39,7 +31,7 @@ def main() -> int:
     ap.add_argument("--seed", default="7")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--max-elements", type=int, default=2)
-    ap.add_argument("--out", type=Path, default=REPO / "benchmarks" / "results" / "sweep.json")
+    ap.add_argument("--out", type=Path, default=RESULTS_DIR / "sweep.json")
     args = ap.parse_args()
     spec = SweepSpec(args.project, scenario=args.scenario, max_elements=args.max_elements,
                      axes=parse_vary([f"storage={args.storage}", f"seed={args.seed}"]))
@@ -49,10 +41,11 @@ def main() -> int:
     tables: dict[int, str] = {}
     with tempfile.TemporaryDirectory() as tmp:
         for n in (1, args.workers):
-            t0, c0 = time.perf_counter(), _cpu_s()
-            res = run_sweep(spec, out_dir=Path(tmp) / f"w{n}", workers=n)
-            walls[n] = time.perf_counter() - t0
-            cpu[n] = _cpu_s() - c0
+            c0 = cpu_seconds()
+            with Timer() as timer:
+                res = run_sweep(spec, out_dir=Path(tmp) / f"w{n}", workers=n)
+            walls[n] = timer.seconds
+            cpu[n] = cpu_seconds() - c0
             tables[n] = (Path(tmp) / f"w{n}" / "sweep.csv").read_text()
             print(f"workers={n}: {walls[n]:.1f} s wall, {cpu[n]:.1f} s CPU (this process + workers) "
                   f"for {len(res.rows)} variants", flush=True)
@@ -76,8 +69,7 @@ def main() -> int:
         "pareto": [r.variant for r in res.front],
         "versions": versions(),
     }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(out, indent=2) + "\n", encoding="utf-8")
+    write_json(args.out, out)
     print(f"wrote {args.out}")
     return 0 if same else 1
 

@@ -11,17 +11,14 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import platform
-import resource
-import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[1]
-RESULTS = REPO / "benchmarks" / "results" / "world.json"
+from _common import REPO, RESULTS_DIR, machine_info, peak_rss_mb, run_child_json, write_json
+
+RESULTS = RESULTS_DIR / "world.json"
 CASE_STUDY = REPO / "data" / "case_study"
 GENERATED = {"generated-2x2": (2, 2), "generated-6x8": (6, 8), "generated-12x16": (12, 16)}
 
@@ -62,7 +59,7 @@ def run_case(project_dir: Path, scenario: str | None, date: str | None) -> dict[
         "exports_s": round(t4 - t3, 3),
         "pybullet_load_s": round(sim.load_seconds, 3),
         "pybullet_load_with_visuals_s": round(visual.load_seconds, 3),
-        "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
+        "peak_rss_mb": round(peak_rss_mb(), 1),
         "static_elements": len(world.static),
         "static_groups": len(world.static_groups()),
         "task_elements": len(world.task_elements),
@@ -82,9 +79,7 @@ def in_subprocess(project_dir: Path, scenario: str | None, date: str | None) -> 
         cmd += ["--scenario", scenario]
     if date:
         cmd += ["--date", date]
-    done = subprocess.run(cmd, check=True, capture_output=True, text=True)
-    figures: dict[str, object] = json.loads(done.stdout.strip().splitlines()[-1])
-    return figures
+    return run_child_json(cmd)
 
 
 def main() -> int:
@@ -121,10 +116,7 @@ def main() -> int:
               f"exports {figures['exports_s']:>6} s  pybullet {figures['pybullet_load_s']:>6} s  "
               f"peak {figures['peak_rss_mb']:>7} MB  {figures['static_elements']} static in "
               f"{figures['bodies']} bodies, {figures['triangles']} triangles")
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    report = {"machine": {"python": platform.python_version(), "platform": platform.platform(),
-                          "cpus": os.cpu_count()}, "cases": rows}
-    RESULTS.write_text(json.dumps(report, indent=2) + "\n")
+    write_json(RESULTS, {"machine": machine_info(), "cases": rows})
     print(f"wrote {RESULTS.relative_to(REPO)}")
     return 0
 

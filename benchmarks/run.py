@@ -20,7 +20,6 @@ import argparse
 import json
 import math
 import os
-import platform
 import shutil
 import socket
 import subprocess
@@ -31,8 +30,9 @@ import urllib.request
 from pathlib import Path
 from typing import Any
 
-REPO = Path(__file__).resolve().parents[1]
-RESULTS = REPO / "benchmarks" / "results" / "bench.json"
+from _common import RESULTS_DIR, Timer, machine_info, write_json
+
+RESULTS = RESULTS_DIR / "bench.json"
 DEFAULT_SIZES = ("1x1", "2x2", "4x4", "7x7", "10x10")
 SUPERLINEAR = 1.15          # exponents above this are flagged
 CHILD_TIMEOUT_S = 3600.0
@@ -210,7 +210,7 @@ def child(args: argparse.Namespace) -> int:
     storeys, units = args.child
     result = measure_size(storeys, units, Path(args.workdir), endpoint=args.endpoint, repeats=args.repeats,
                           simulate_max_frames=args.simulate_max_frames)
-    Path(args.out).write_text(json.dumps(result, indent=1) + "\n", encoding="utf-8")
+    write_json(Path(args.out), result, indent=1)
     return 0
 
 
@@ -230,7 +230,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.child:
         return child(args)
-    started = time.perf_counter()
+    timer = Timer()
     sizes: list[dict[str, Any]] = []
     with tempfile.TemporaryDirectory(prefix="kbplanner-bench-") as tmp:
         work = Path(tmp)
@@ -265,17 +265,14 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     analysis = analyse(sizes)
     print_report(sizes, analysis)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps({
+    write_json(args.out, {
         "benchmark": "scale",
-        "python": platform.python_version(),
-        "machine": platform.machine(),
-        "cpus": os.cpu_count(),
-        "seconds": round(time.perf_counter() - started, 1),
+        **machine_info(("python", "machine", "cpus")),
+        "seconds": round(timer.elapsed(), 1),
         "sizes": sizes,
         "analysis": analysis,
-    }, indent=1) + "\n", encoding="utf-8")
-    sys.stdout.write(f"\nwrote {args.out} ({time.perf_counter() - started:.0f} s)\n")
+    }, indent=1)
+    sys.stdout.write(f"\nwrote {args.out} ({timer.elapsed():.0f} s)\n")
     return 0
 
 

@@ -1,0 +1,144 @@
+"""Helpers shared by the benchmark scripts (``benchmarks/bench_*.py``, ``_stages.py``, ``run.py``).
+
+Not a pipeline step: measurement plumbing only. Wall time (:class:`Timer`, :func:`timed`), peak
+resident memory of this process (:func:`peak_rss_mb`, ``ru_maxrss``: run a case in a fresh process,
+:func:`run_child_json`, for a per-case figure), CPU seconds of this process and its children
+(:func:`cpu_seconds`), the machine description recorded with every result (:func:`machine_info`),
+the JSON results file (:func:`write_json`), and the RDF pose/box nodes of the synthetic models
+(imported lazily, so that a script's measured memory does not include rdflib unless it uses it).
+The scripts import it as ``from _common import ...`` (their own folder is first on ``sys.path``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import resource
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from types import TracebackType
+from typing import TYPE_CHECKING, Any, TypeVar
+
+if TYPE_CHECKING:
+    from rdflib import Graph, URIRef
+
+REPO = Path(__file__).resolve().parents[1]
+RESULTS_DIR = REPO / "benchmarks" / "results"
+
+T = TypeVar("T")
+
+
+# ---- time ----------------------------------------------------------------------------------------
+
+
+class Timer:
+    """Wall time of a ``with`` block (``time.perf_counter``): ``with Timer() as t: ...`` then ``t.seconds``.
+
+    Inside the block :meth:`elapsed` gives the time so far.
+    """
+
+    def __init__(self) -> None:
+        self.started = time.perf_counter()
+        self.seconds = 0.0
+
+    def __enter__(self) -> Timer:
+        self.started = time.perf_counter()
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.seconds = time.perf_counter() - self.started
+
+    def elapsed(self) -> float:
+        """Seconds since the block (or the object) started."""
+        return time.perf_counter() - self.started
+
+    def lap(self) -> float:
+        """Seconds since the start or the previous lap (consecutive parts of one measurement)."""
+        now = time.perf_counter()
+        seconds, self.started = now - self.started, now
+        return seconds
+
+
+def timed(fn: Callable[[], T]) -> tuple[T, float]:
+    """``fn()`` and the wall seconds it took."""
+    t0 = time.perf_counter()
+    value = fn()
+    return value, time.perf_counter() - t0
+
+
+def cpu_seconds() -> float:
+    """User + system CPU seconds of this process and its finished children (e.g. worker processes)."""
+    me, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
+
+
+# ---- memory --------------------------------------------------------------------------------------
+
+
+def peak_rss_mb() -> float:
+    """Peak resident memory of this process so far (MiB; ``ru_maxrss`` is KiB on Linux, bytes on macOS)."""
+    kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return kb / 1024.0 if sys.platform != "darwin" else kb / (1024.0 * 1024.0)
+
+
+def run_child_json(cmd: Sequence[str]) -> dict[str, Any]:
+    """Run ``cmd`` (a benchmark script in its one-case mode, so its peak memory is its own) and return
+    the JSON object on the last line of its standard output; a failing child raises
+    ``subprocess.CalledProcessError``."""
+    done = subprocess.run(list(cmd), check=True, capture_output=True, text=True)
+    figures: dict[str, Any] = json.loads(done.stdout.strip().splitlines()[-1])
+    return figures
+
+
+# ---- results -------------------------------------------------------------------------------------
+
+_MACHINE: dict[str, Callable[[], Any]] = {
+    "python": platform.python_version,
+    "platform": platform.platform,
+    "machine": platform.machine,
+    "cpus": os.cpu_count,
+}
+
+
+def machine_info(keys: Sequence[str] = ("python", "platform", "cpus")) -> dict[str, Any]:
+    """The machine a result was measured on, with the fields ``keys`` in that order
+    (any of python, platform, machine, cpus)."""
+    return {k: _MACHINE[k]() for k in keys}
+
+
+def write_json(path: Path, data: Any, *, indent: int = 2, sort_keys: bool = False) -> None:
+    """Write ``data`` as JSON (with a final newline) to ``path``, creating its folder."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(data, indent=indent, sort_keys=sort_keys) + "\n", encoding="utf-8")
+
+
+# ---- synthetic models ----------------------------------------------------------------------------
+
+
+def rdf_pose(g: Graph, node: URIRef, x: float, y: float, z: float = 0.0) -> URIRef:
+    """Add a ``kbp:Pose`` at (x, y, z), no rotation, as ``node`` to graph ``g``; returns ``node``."""
+    from rdflib import RDF, Literal
+
+    from kbplanner.vocab import KBP
+
+    g.add((node, RDF.type, KBP.Pose))
+    for p, v in ((KBP.x, x), (KBP.y, y), (KBP.z, z), (KBP.roll, 0.0), (KBP.pitch, 0.0), (KBP.yaw, 0.0)):
+        g.add((node, p, Literal(float(v))))
+    return node
+
+
+def rdf_box(g: Graph, node: URIRef, lo: tuple[float, ...], hi: tuple[float, ...]) -> URIRef:
+    """Add a ``kbp:Box`` from ``lo`` to ``hi`` as ``node`` to graph ``g``; returns ``node``."""
+    from rdflib import RDF, Literal
+
+    from kbplanner.vocab import KBP
+
+    g.add((node, RDF.type, KBP.Box))
+    for p, v in zip((KBP.minX, KBP.minY, KBP.minZ, KBP.maxX, KBP.maxY, KBP.maxZ), (*lo, *hi), strict=True):
+        g.add((node, p, Literal(float(v))))
+    return node
