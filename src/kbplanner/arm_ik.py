@@ -29,6 +29,7 @@ import math
 import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -233,6 +234,7 @@ def solve_ik(
     seeds: Sequence[Sequence[float]] | None = None,
     check_collision: bool = True,
     refinements: int = 8,
+    method: Literal["auto", "numeric"] = "auto",
 ) -> IkResult:
     """Solve IK for the tool centre point at ``target_xyz`` (and ``target_rpy`` if given), site frame.
 
@@ -240,7 +242,8 @@ def solve_ik(
     towards the target, the robot's named poses (sorted by name) and the zero pose; the first
     reachable solution wins (closed form: each seed's solutions nearest it first), otherwise the
     closest one is returned with the reason it is not reachable. ``refinements`` applies to the
-    numeric solver only. The arm's joint angles are restored afterwards.
+    numeric solver only; ``method="numeric"`` forces it (for comparisons). The arm's joint angles
+    are restored afterwards.
     """
     import pybullet as p
 
@@ -256,7 +259,7 @@ def solve_ik(
         named = [robot.spec.poses[k] for k in sorted(robot.spec.poses)]
         seeds = [*_directed_seeds(robot, target_xyz), *named, (0.0,) * len(robot.arm_joints)]
     saved = robot.arm_positions()
-    model = analytic_arm(robot) if orn is not None else None
+    model = analytic_arm(robot) if orn is not None and method == "auto" else None
     if model is not None and orn is not None:
         try:
             return _solve_analytic(robot, model, target_xyz, orn, seeds, pos_tol_m, rot_tol_rad,
