@@ -110,9 +110,9 @@ def quat_of(m: Matrix) -> tuple[float, float, float, float]:
     return (x, y, z, w)
 
 
-def base_transform(x: float, y: float, yaw: float) -> Matrix:
-    """The robot base frame on the floor."""
-    return transform(x, y, 0.0, 0.0, 0.0, yaw)
+def base_transform(x: float, y: float, yaw: float, z: float = 0.0) -> Matrix:
+    """The robot base frame on the floor (at elevation ``z``)."""
+    return transform(x, y, z, 0.0, 0.0, yaw)
 
 
 def rotation_error_rad(a: Matrix, b: Matrix) -> float:
@@ -291,7 +291,7 @@ def element_in_base(robot: RobotModel, joints: Sequence[float], tool_in_element:
     finally:
         robot.set_arm(saved)
     tool_w = from_pos_quat(pos, orn)
-    base_w = base_transform(bx, by, byaw)
+    base_w = base_transform(bx, by, byaw, robot.floor_z)
     return np.asarray(np.linalg.inv(base_w) @ tool_w @ np.linalg.inv(tool_in_element), dtype=np.float64)
 
 
@@ -343,7 +343,7 @@ def _mode_targets(robot: RobotModel, name: str, bounds: Bounds) -> list[tuple[Ma
     ex, ey, ez = np.eye(3)
     # named carry pose: where the robot table holds a load
     carry_q = robot.spec.poses.get("carry")
-    anchor = np.array([robot.spec.arm_mount_xyz[0], 0.0, 1.25])
+    anchor = np.array([robot.spec.arm_mount_xyz[0], 0.0, robot.floor_z + 1.25])
     if carry_q is not None:
         saved = robot.arm_positions()
         bx, by, byaw = robot.base_pose()

@@ -14,6 +14,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
+from datetime import datetime
 from pathlib import Path
 from typing import Any
 
@@ -62,8 +63,15 @@ def simulate_scenario(
     out_dir: Path,
     progress: Progress | None = None,
     keyframes: bool = True,
+    task_id: str | None = None,
+    at: datetime | None = None,
+    project: Project | None = None,
 ) -> ScenarioRun:
-    """B1-B5 for one scenario into ``out_dir``; returns the run and its map for the report."""
+    """B1-B5 for one scenario into ``out_dir``; returns the run and its map for the report.
+
+    ``task_id`` (default ``[simulation] task``) and ``at`` (the world's date, default ``[simulation]
+    date``) choose another robotized task; ``project`` is the loaded scenario, to save loading it again.
+    """
     from kbplanner.executor import INSTALLED, simulate
     from kbplanner.manipulation import refine_plan
     from kbplanner.planning import plan_task
@@ -71,10 +79,11 @@ def simulate_scenario(
     from kbplanner.world_exports import storey_map
 
     say = progress or (lambda _m: None)
-    project = Project.load(project_dir, scenario=scenario)
+    if project is None:
+        project = Project.load(project_dir, scenario=scenario)
     seed = project.manifest.seed if seed is None else seed
-    world = project.world()
-    plan = plan_task(project, world=world)
+    world = project.world(at=at, task_id=task_id)
+    plan = plan_task(project, task_id, world=world)
     if not plan.robot_id:
         reasons = sorted({s.reason or "" for s in plan.steps if not s.feasible})
         raise KbplannerError(

@@ -418,6 +418,7 @@ def simulate(
         elements = run.run()
         sim_time = env.t
         robot_fp = env.robot.spec.footprint()
+        floor_z, ground_z = env.robot_floor_z, float(env.world.ground_z)
     finally:
         env.close()
     wall = time.perf_counter() - started
@@ -438,6 +439,7 @@ def simulate(
     manifest = {
         "project": project.name, "project_dir": str(project.path), "scenario": project.scenario,
         "task": plan.task_id, "robot": plan.robot_id, "seed": seed,
+        "robot_floor_z": round(floor_z, 4), "ground_z": round(ground_z, 4),
         "inputs": input_hashes(_project_files(project), project.path),
         "versions": versions(),
         "plan_sha256": hashlib.sha256(plan_text.encode("utf-8")).hexdigest(),

@@ -448,13 +448,13 @@ class _Refiner:
         return solve_ik(self.robot, xyz, rpy_of(frame), pos_tol_m=pos_tol, rot_tol_rad=rot_tol, refinements=n)
 
     def horizontal_reach(self, z: float) -> float:
-        shoulder = self.robot.spec.arm_mount_xyz[2] + self.arm.d[0]
+        shoulder = self.robot.floor_z + self.robot.spec.arm_mount_xyz[2] + self.arm.d[0]
         reach = self.arm.reach_m + self.robot.spec.tcp_m
         return math.sqrt(max(0.0, reach * reach - (z - shoulder) ** 2))
 
     def beyond_reach(self, target: npt.NDArray[np.float64]) -> str:
         """The reason for a target the arm cannot reach from any base pose (too high or too low)."""
-        shoulder = self.robot.spec.arm_mount_xyz[2] + self.arm.d[0]
+        shoulder = self.robot.floor_z + self.robot.spec.arm_mount_xyz[2] + self.arm.d[0]
         reach = self.arm.reach_m + self.robot.spec.tcp_m
         return (f"out of reach from any base pose: the tool would have to be at {float(target[2]):.2f} m, "
                 f"the arm of {self.robot.spec.name} reaches {shoulder - reach:.2f}..{shoulder + reach:.2f} m "
@@ -939,6 +939,7 @@ def refine_plan(
 
         grid = storey_map(world).grid
     robot = RobotModel.load(robot_name(out))
+    robot.floor_z = float(out.storey_elevation_m)  # the robot works on the task's storey
     try:
         if robot.spec.arm is None:
             for s in out.steps:

@@ -610,6 +610,7 @@ class RobotModel:
         self.spec = spec
         self.client = client
         self.body = body
+        self.floor_z = 0.0  # elevation of the floor the base stands on (B4/B5: the task storey's)
         self._owns_client = owns_client
         self.joints: dict[str, int] = {}
         self.links: dict[str, int] = {BASE_LINK: -1}
@@ -692,9 +693,15 @@ class RobotModel:
 
     # --- base -------------------------------------------------------------------------------
 
-    def set_base_pose(self, x: float, y: float, yaw: float, z: float = 0.0) -> None:
-        """Place the base frame (on the ground below the chassis centre) at (x, y, z) facing ``yaw``."""
+    def set_base_pose(self, x: float, y: float, yaw: float, z: float | None = None) -> None:
+        """Place the base frame (on the ground below the chassis centre) at (x, y, z) facing ``yaw``.
+
+        ``z`` defaults to :attr:`floor_z`, the floor the robot works on (a storey's elevation).
+        """
         import pybullet as p
+
+        if z is None:
+            z = self.floor_z
 
         pos, orn = p.multiplyTransforms((x, y, z), p.getQuaternionFromEuler((0.0, 0.0, yaw)),
                                         self._com_pos, self._com_orn)

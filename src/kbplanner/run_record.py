@@ -290,8 +290,11 @@ class RunRecord:
         res = ProximityResult(
             threshold_m=threshold_m, worker_radius_m=worker_radius_m, ssm=ssm, t=tr.t, separation_m=sep
         )
+        # Workers walk on the site's ground; the robot works on its task's storey: the storeys apart
+        # add to the distance (0 on the ground floor).
+        dz = abs(float(self.manifest.get("robot_floor_z", 0.0)) - float(self.manifest.get("ground_z", 0.0)))
         for name, (wx, wy) in sorted(tr.workers.items()):
-            d = np.maximum(self.robot_distance(wx, wy) - worker_radius_m, 0.0)
+            d = np.maximum(np.hypot(self.robot_distance(wx, wy), dz) - worker_radius_m, 0.0)
             k = int(np.argmin(d)) if len(d) else 0
             res.workers.append(
                 WorkerProximity(

@@ -127,9 +127,10 @@ class SimEnv:
             p.configureDebugVisualizer(p.COV_ENABLE_GUI, 0, physicsClientId=self.client)
         self.sim = load_world(self.world, self.client, visuals=self.visuals or mode == p.GUI)
         self._robot = RobotModel.load(self.robot_name, client=self.client)
+        self._robot.floor_z = self.robot_floor_z
         start = self.world.robot_start
         self._robot.set_base_pose(start.x if start else 0.0, start.y if start else 0.0,
-                                  start.yaw if start else 0.0, z=self.world.ground_z)
+                                  start.yaw if start else 0.0)
         self.workers = self._make_workers()
         self.tick = 0
         self.held = None
@@ -184,9 +185,15 @@ class SimEnv:
         """(x, y, yaw) of the robot base."""
         return self.robot.base_pose()
 
+    @property
+    def robot_floor_z(self) -> float:
+        """Elevation of the floor the robot works on: the task storey's, else the site's ground."""
+        storey = self.world.storey(self.world.task_storey)
+        return float(storey.elevation_m) if storey is not None else float(self.world.ground_z)
+
     def set_base_pose(self, x: float, y: float, yaw: float) -> None:
-        """Place the robot base (kinematically)."""
-        self.robot.set_base_pose(x, y, yaw, z=self.world.ground_z)
+        """Place the robot base (kinematically) on its floor."""
+        self.robot.set_base_pose(x, y, yaw)
 
     def set_arm(self, q: Sequence[float]) -> None:
         """Set the arm joints (kinematically)."""
