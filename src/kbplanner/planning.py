@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import copy
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
 
@@ -54,7 +54,7 @@ from kbplanner.robot_selection import RobotAssessment, RobotSelection, select_ro
 from kbplanner.skill_inputs import resolve_inputs
 from kbplanner.task_specs import Action, RobotizedTask, TaskSpecification, robotized_tasks, task_specification
 from kbplanner.vocab import KBP
-from kbplanner.world import World, build_world, load_mesh, parse_date, pose_matrix
+from kbplanner.world import World, WorldTables, build_world, load_mesh, parse_date, pose_matrix, world_tables
 
 log = logging.getLogger(__name__)
 
@@ -389,13 +389,16 @@ def _step(model: Graph, n: int, el: URIRef, name: str, task: RobotizedTask, task
 
 
 def plan_task(project: Project, task_id: str | None = None, robot_id: str | None = None, *,
-              at: datetime | None = None, world: World | None = None) -> Plan:
+              at: datetime | None = None, world: World | None = None,
+              tables: WorldTables | None = None) -> Plan:
     """B1-B3: the action-level plan of a robotized task for one robot (see the module docstring).
 
     ``task_id`` defaults to ``[simulation] task`` of project.toml (or the only robotized task);
     ``robot_id`` (a robot's id, IRI or label) overrides the ranking; ``at`` is the date of the world
     that places the elements at their storage (default ``[simulation] date``, else the task's start);
-    a ``world`` already built for the task may be passed to save building it again.
+    a ``world`` already built for the task may be passed to save building it again, or the
+    project's :func:`~kbplanner.world.world_tables` to build it without reading the whole building
+    again (:func:`plan_tasks` does that for several tasks).
 
     Raises:
         PlanningError: unknown task or robot; a world built for another task.
@@ -419,7 +422,7 @@ def plan_task(project: Project, task_id: str | None = None, robot_id: str | None
     notes: list[str] = []
     if world is None:
         when, why = _world_date(project, task, at)
-        world = build_world(project, when, task.task_id)
+        world = build_world(project, when, task.task_id, tables=tables)
         notes.append(f"storage poses from the world at {when.isoformat()} ({why})")
     elif world.task_id != task.task_id:
         raise PlanningError(f"the world given was built for task {world.task_id!r}, not {task.task_id!r}",
@@ -447,6 +450,33 @@ def plan_task(project: Project, task_id: str | None = None, robot_id: str | None
     log.info("plan of %s (%s): %d steps, %d infeasible, robot %s", task.task_id, spec.spec_id, len(steps),
              bad, plan.robot_id or "none")
     return plan
+
+
+def plan_tasks(project: Project, task_ids: Sequence[str] | None = None, robot_id: str | None = None, *,
+               at: datetime | None = None) -> list[Plan]:
+    """B1-B3 for several robotized tasks (default: every one, in schedule order): one plan per task.
+
+    The plans are those of :func:`plan_task` for each task, but the building is read once
+    (:func:`~kbplanner.world.world_tables`) and each task's world is built from those tables, so
+    planning every storey of a building grows linearly with its size instead of with storeys x
+    elements. ``robot_id`` and ``at`` apply to every task, as in :func:`plan_task`.
+
+    Raises:
+        PlanningError: an unknown task or robot (before any plan is made).
+        KnowledgeBaseError: a task's specification id is missing or unknown, a malformed arm pose.
+
+    Example:
+        >>> p = Project.load("runs/b10x10", scenario="storage-in-units")  # doctest: +SKIP
+        >>> [plan.task_id for plan in plan_tasks(p)][:2]  # doctest: +SKIP
+        ['T-FRAME-L01', 'T-FRAME-L02']
+    """
+    known = [t.task_id for t in robotized_tasks(project.model)]
+    ids = list(task_ids) if task_ids is not None else known
+    for task_id in ids:
+        if task_id not in known:
+            resolve_task(project, task_id)  # raises PlanningError naming the robotized tasks
+    tables = world_tables(project)
+    return [plan_task(project, task_id, robot_id, at=at, tables=tables) for task_id in ids]
 
 
 def robot_id_of(a: RobotAssessment | None) -> str:

@@ -518,8 +518,10 @@ class _TaskInfo:
     elements: dict[str, tuple[str | None, int | None]]  # element IRI -> (storage, stack index)
 
 
-def _resolve_task(project: Project, task_id: str | None) -> _TaskInfo | None:
-    tasks = run_named(project.model, "world_tasks").rows
+def _resolve_task(project: Project, task_id: str | None,
+                  tasks: Sequence[tuple[Any, ...]] | None = None) -> _TaskInfo | None:
+    if tasks is None:
+        tasks = run_named(project.model, "world_tasks").rows
     known = sorted({str(r[1]) for r in tasks})
     if task_id is None:
         task_id = project.manifest.simulation.get("task")
@@ -608,7 +610,7 @@ def _workers(project: Project) -> tuple[Worker, ...]:
     return tuple(out)
 
 
-def _layout(project: Project) -> tuple[Bounds | None, Pose | None]:
+def _layout_rows(project: Project) -> tuple[int, Bounds | None, Pose | None]:
     rows = run_named(project.model, "world_layout").rows
     extent: Bounds | None = None
     start: Pose | None = None
@@ -617,9 +619,7 @@ def _layout(project: Project) -> tuple[Bounds | None, Pose | None]:
             extent = Bounds(float(x0), float(y0), float(z0), float(x1), float(y1), float(z1))
         if start is None and sx is not None:
             start = Pose(float(sx), float(sy), float(sz), 0.0, 0.0, float(syaw or 0.0))
-    if len(rows) > 1:
-        log.warning("%d site layouts in the model: using the first extent and robot start", len(rows))
-    return extent, start
+    return len(rows), extent, start
 
 
 def _align_to_storage(local: Bounds) -> Matrix:
@@ -656,43 +656,70 @@ def _stack(
     return placed
 
 
-def build_world(
-    project: Project,
-    at: datetime,
-    task_id: str | None = None,
-) -> World:
-    """Build the world of ``project`` (its scenario) at ``at`` for the robotized task ``task_id``.
+@dataclass(frozen=True)
+class _ElementRecord:
+    """One building element as read from ``world_elements``: everything that does not depend on the date."""
 
-    ``task_id`` defaults to the manifest's ``[simulation] task`` (or the only robotized task).
+    iri: str
+    global_id: str
+    name: str
+    ifc_class: str
+    kind: str
+    storey: str | None
+    mesh_file: str | None
+    mesh_path: Path | None
+    installed: Pose | None
+    bounds: Bounds | None
+    mass_kg: float | None
+    mass_text: str | None
+    is_door: bool
+    static: WorldElement | None  # the static body (state built) when it has geometry
 
-    Raises:
-        WorldError: an unknown task id, or several robotized tasks and none chosen.
-        InputFileError: a mesh file of a task element is missing.
-        QueryError: ``at`` has a time zone (schedule times are local site time).
+
+@dataclass(frozen=True)
+class WorldTables:
+    """The date-independent part of a project's worlds (A6), read from the model once.
+
+    :func:`build_world` reads these tables from the graph every time it is called without them;
+    building many worlds of one project (e.g. planning every robotized task,
+    :func:`kbplanner.planning.plan_tasks`) with one ``WorldTables`` reads the whole building once
+    instead of once per world, and gives the same worlds. Made by :func:`world_tables`; valid while
+    the project's model is not changed (build them again after editing the graph).
     """
-    from kbplanner.schedule import element_states
 
-    states = {str(k): _STATE_NAMES.get(str(v), str(v)) for k, v in element_states(project.model, at).items()}
-    task = _resolve_task(project, task_id)
+    model_id: int  # id() of the project's model graph the tables were read from
+    tasks: tuple[tuple[Any, ...], ...]  # rows of world_tasks
+    storeys: tuple[StoreyInfo, ...]
+    storey_of: dict[str, str]
+    site_objects: tuple[SiteObject, ...]
+    elements: tuple[_ElementRecord, ...]  # sorted by IRI
+    workers: tuple[Worker, ...]
+    layout_rows: int
+    extent: Bounds | None
+    robot_start: Pose | None
+    schedule: dict[str, tuple[datetime, datetime]] | None  # element -> (finish, start); None: SPARQL per date
+
+
+def world_tables(project: Project) -> WorldTables:
+    """Read the date-independent tables of ``project``'s worlds (storeys, elements, site, workers, schedule).
+
+    Example:
+        >>> from kbplanner.project import Project
+        >>> p = Project.load("data/case_study", scenario="storage-outside")  # doctest: +SKIP
+        >>> tables = world_tables(p)  # doctest: +SKIP
+        >>> build_world(p, datetime(2022, 5, 10, 7), tables=tables).task_id  # doctest: +SKIP
+        'T-FRAME'
+    """
     storeys, storey_of = _storeys(project)
     kinds: dict[str, list[str]] = {}
     for el, cls in run_named(project.model, "world_element_kinds").rows:
         kinds.setdefault(str(el), []).append(_local(str(cls)))
-    site_objects = _site_objects(project)
-    storage_by_iri = {o.iri: o for o in site_objects}
     storey_label = {s.iri: s.label for s in storeys}
-
-    static: list[WorldElement] = []
-    doors: list[OpenDoor] = []
-    omitted: list[Omitted] = []
-    task_members: dict[str, list[tuple[WorldElement, Bounds]]] = {}
-    task_elements = task.elements if task else {}
-
+    records: list[_ElementRecord] = []
     for iri, row in sorted(_first_rows(run_named(project.model, "world_elements").rows).items()):
         (_el, gid, label, ifc_class, mesh_file, x, y, z, roll, pitch, yaw,
          x0, y0, z0, x1, y1, z1, mass, mass_text, is_door) = row
         kind = sorted(kinds.get(iri) or ["Element"])[0]
-        state = states.get(iri, BUILT)
         installed = (Pose(float(x), float(y), float(z), float(roll), float(pitch), float(yaw))
                      if x is not None else None)
         bounds = (Bounds(float(x0), float(y0), float(z0), float(x1), float(y1), float(z1))
@@ -700,6 +727,97 @@ def build_world(
         storey = storey_of.get(iri)
         mesh_path = project.mesh_path(str(mesh_file)) if mesh_file else None
         name = str(label or gid)
+        static: WorldElement | None = None
+        if mesh_path is not None:
+            group = f"{slug(storey_label.get(storey or '', NO_STOREY))}_{kind.lower()}"
+            local_bounds = None
+            if bounds is not None and installed is not None:
+                local_bounds = Bounds.of_points(
+                    (np.c_[bounds.corners(), np.ones(8)] @ np.linalg.inv(pose_matrix(installed)).T)[:, :3])
+            static = WorldElement(
+                iri=iri, global_id=str(gid), label=name, ifc_class=str(ifc_class or ""), kind=kind,
+                storey=storey, state=BUILT, mesh_file=str(mesh_file), mesh_path=mesh_path,
+                installed_pose=installed, pose=installed, bounds=bounds, local_bounds=local_bounds,
+                mass_kg=_opt_float(mass), mass_assumption=str(mass_text) if mass_text else None, group=group,
+            )
+        records.append(_ElementRecord(
+            iri=iri, global_id=str(gid), name=name, ifc_class=str(ifc_class or ""), kind=kind, storey=storey,
+            mesh_file=str(mesh_file) if mesh_file else None, mesh_path=mesh_path, installed=installed,
+            bounds=bounds, mass_kg=_opt_float(mass), mass_text=str(mass_text) if mass_text else None,
+            is_door=bool(is_door), static=static))
+    layout_rows, extent, start = _layout_rows(project)
+    return WorldTables(
+        model_id=id(project.model), tasks=tuple(run_named(project.model, "world_tasks").rows),
+        storeys=storeys, storey_of=storey_of, site_objects=_site_objects(project), elements=tuple(records),
+        workers=_workers(project), layout_rows=layout_rows, extent=extent, robot_start=start,
+        schedule=_schedule_table(project))
+
+
+def _schedule_table(project: Project) -> dict[str, tuple[datetime, datetime]] | None:
+    """Finish and start that decide each scheduled element's state (``world_element_schedule``).
+
+    None when a finish or start is not a local date-time (e.g. one with a time zone): the states are
+    then computed by ``element_state_at`` for each date, as SPARQL compares such values.
+    """
+    table: dict[str, tuple[datetime, datetime]] = {}
+    for el, finish, start in run_named(project.model, "world_element_schedule").rows:
+        if not (isinstance(finish, datetime) and isinstance(start, datetime)
+                and finish.tzinfo is None and start.tzinfo is None):
+            return None
+        table.setdefault(str(el), (finish, start))
+    return table
+
+
+def _states_at(project: Project, tables: WorldTables, at: datetime) -> dict[str, str]:
+    """Every scheduled element's state at ``at`` (the rule of ``element_state_at``); others are built."""
+    if at.tzinfo is not None or tables.schedule is None:
+        from kbplanner.schedule import element_states  # raises QueryError for a date with a time zone
+
+        rows = element_states(project.model, at)
+        return {str(k): _STATE_NAMES.get(str(v), str(v)) for k, v in rows.items()}
+    return {el: BUILT if finish < at else NOT_STARTED if start > at else IN_PROGRESS
+            for el, (finish, start) in tables.schedule.items()}
+
+
+def build_world(
+    project: Project,
+    at: datetime,
+    task_id: str | None = None,
+    *,
+    tables: WorldTables | None = None,
+) -> World:
+    """Build the world of ``project`` (its scenario) at ``at`` for the robotized task ``task_id``.
+
+    ``task_id`` defaults to the manifest's ``[simulation] task`` (or the only robotized task).
+    ``tables`` (:func:`world_tables` of the same project) saves reading the building again when
+    several worlds are built; without them they are read here.
+
+    Raises:
+        WorldError: an unknown task id, or several robotized tasks and none chosen; tables read from
+            another model.
+        InputFileError: a mesh file of a task element is missing.
+        QueryError: ``at`` has a time zone (schedule times are local site time).
+    """
+    if tables is None:
+        tables = world_tables(project)
+    elif tables.model_id != id(project.model):
+        raise WorldError("the world tables given were read from another model", element=project.name,
+                         fix="make them with world_tables(project) of this project")
+    states = _states_at(project, tables, at)
+    task = _resolve_task(project, task_id, tables.tasks)
+    storeys, storey_of = tables.storeys, tables.storey_of
+    site_objects = tables.site_objects
+    storage_by_iri = {o.iri: o for o in site_objects}
+
+    static: list[WorldElement] = []
+    doors: list[OpenDoor] = []
+    omitted: list[Omitted] = []
+    task_members: dict[str, list[tuple[WorldElement, Bounds]]] = {}
+    task_elements = task.elements if task else {}
+
+    for rec in tables.elements:
+        iri, kind, storey, mesh_path, name = rec.iri, rec.kind, rec.storey, rec.mesh_path, rec.name
+        state = states.get(iri, BUILT)
         if iri in task_elements:
             storage_iri, index = task_elements[iri]
             storage = storage_by_iri.get(storage_iri) if storage_iri else None
@@ -713,14 +831,14 @@ def build_world(
             elif mesh_path is None:
                 reason = "task element without geometry (kbp:meshFile): it cannot be a body"
             if reason:
-                omitted.append(Omitted(iri, str(gid), name, kind, state, reason))
+                omitted.append(Omitted(iri, rec.global_id, name, kind, state, reason))
                 continue
-            local_mesh_bounds = _local_bounds(mesh_path, installed)  # type: ignore[arg-type]
+            local_mesh_bounds = _local_bounds(mesh_path, rec.installed)  # type: ignore[arg-type]
             element = WorldElement(
-                iri=iri, global_id=str(gid), label=name, ifc_class=str(ifc_class or ""), kind=kind,
-                storey=storey, state=state, mesh_file=str(mesh_file), mesh_path=mesh_path,
-                installed_pose=installed, pose=None, bounds=None, local_bounds=local_mesh_bounds,
-                mass_kg=_opt_float(mass), mass_assumption=str(mass_text) if mass_text else None,
+                iri=iri, global_id=rec.global_id, label=name, ifc_class=rec.ifc_class, kind=kind,
+                storey=storey, state=state, mesh_file=rec.mesh_file, mesh_path=mesh_path,
+                installed_pose=rec.installed, pose=None, bounds=None, local_bounds=local_mesh_bounds,
+                mass_kg=rec.mass_kg, mass_assumption=rec.mass_text,
                 storage=storage_iri, stack_index=index,
             )
             if element.mass_kg is None:
@@ -730,27 +848,17 @@ def build_world(
             task_members.setdefault(str(storage_iri), []).append((element, local_mesh_bounds))
             continue
         if state == NOT_STARTED:
-            omitted.append(Omitted(iri, str(gid), name, kind, state,
+            omitted.append(Omitted(iri, rec.global_id, name, kind, state,
                                    "not started at the date: built by a later task"))
             continue
-        if bool(is_door):
-            doors.append(OpenDoor(iri, str(gid), name, storey, bounds))
+        if rec.is_door:
+            doors.append(OpenDoor(iri, rec.global_id, name, storey, rec.bounds))
             continue
-        if mesh_path is None:
-            omitted.append(Omitted(iri, str(gid), name, kind, state,
+        if rec.static is None:
+            omitted.append(Omitted(iri, rec.global_id, name, kind, state,
                                    "no geometry of its own (e.g. an aggregate whose parts are elements)"))
             continue
-        group = f"{slug(storey_label.get(storey or '', NO_STOREY))}_{kind.lower()}"
-        local_bounds = None
-        if bounds is not None and installed is not None:
-            local_bounds = Bounds.of_points(
-                (np.c_[bounds.corners(), np.ones(8)] @ np.linalg.inv(pose_matrix(installed)).T)[:, :3])
-        static.append(WorldElement(
-            iri=iri, global_id=str(gid), label=name, ifc_class=str(ifc_class or ""), kind=kind,
-            storey=storey, state=state, mesh_file=str(mesh_file), mesh_path=mesh_path,
-            installed_pose=installed, pose=installed, bounds=bounds, local_bounds=local_bounds,
-            mass_kg=_opt_float(mass), mass_assumption=str(mass_text) if mass_text else None, group=group,
-        ))
+        static.append(rec.static if state == BUILT else _with(rec.static, state=state))
 
     placed: list[WorldElement] = []
     for storage_iri in sorted(task_members):
@@ -760,7 +868,10 @@ def build_world(
             placed.append(_with(element, pose=pose, bounds=bounds))
     placed.sort(key=lambda e: (e.storage or "", e.stack_index is None, e.stack_index or 0, e.iri))
 
-    extent, start = _layout(project)
+    extent, start = tables.extent, tables.robot_start
+    if tables.layout_rows > 1:
+        log.warning("%d site layouts in the model: using the first extent and robot start",
+                    tables.layout_rows)
     ground_z = start.z if start is not None else 0.0
     task_storey = _task_storey(task, storey_of, storeys, ground_z)
     unplaced = [o for o in omitted if o.iri in task_elements]
@@ -780,7 +891,7 @@ def build_world(
         open_doors=tuple(doors),
         omitted=tuple(sorted(omitted, key=lambda o: o.iri)),
         site_objects=site_objects,
-        workers=_workers(project),
+        workers=tables.workers,
         site_extent=extent,
         robot_start=start,
         task_storey=task_storey,
