@@ -74,3 +74,19 @@ def test_a_worker_waits_at_each_stop_for_about_its_dwell_time() -> None:
     for dur, x in waits:
         nominal = 10.0 if x == 1.0 else 20.0
         assert 0.8 * nominal - 1e-9 <= dur <= 1.2 * nominal + 1e-9
+
+
+def test_a_big_site_is_routed_on_a_coarser_grid_and_still_goes_around_walls() -> None:
+    occ = np.zeros((1000, 1000), dtype=bool)  # 50 x 50 m at 0.05 m: 1,000,000 cells
+    occ[0:800, 490:510] = True  # a wall at x = 25 m from y = 0 to 40 m
+    grid = OccupancyGrid(occupied=occ, origin=(0.0, 0.0), resolution=0.05)
+    g = _site()
+    for pose, x in ((URIRef("urn:t:pose1"), 10.0), (URIRef("urn:t:pose2"), 40.0)):
+        g.set((pose, KBP.x, Literal(x)))
+        g.set((pose, KBP.y, Literal(20.0)))
+    (motion,) = plan_workers(g, grid, seed=3, horizon_s=200.0)
+    walk = next(pts for _t0, _t1, pts, _cum in motion.segments if len(pts) > 2)
+    assert walk[:, 1].max() > 40.0  # around the north end of the wall
+    xs = np.linspace(walk[:-1], walk[1:], 50).reshape(-1, 2)  # every leg, densely
+    inside_wall = (xs[:, 0] > 24.5) & (xs[:, 0] < 25.5) & (xs[:, 1] < 40.0)
+    assert not inside_wall.any()

@@ -66,11 +66,13 @@ def simulate_scenario(
     task_id: str | None = None,
     at: datetime | None = None,
     project: Project | None = None,
+    max_elements: int | None = None,
 ) -> ScenarioRun:
     """B1-B5 for one scenario into ``out_dir``; returns the run and its map for the report.
 
     ``task_id`` (default ``[simulation] task``) and ``at`` (the world's date, default ``[simulation]
-    date``) choose another robotized task; ``project`` is the loaded scenario, to save loading it again.
+    date``) choose another robotized task; ``project`` is the loaded scenario, to save loading it again;
+    ``max_elements`` keeps the first elements of the plan's order only (a quick look, tests).
     """
     from kbplanner.executor import INSTALLED, simulate
     from kbplanner.manipulation import refine_plan
@@ -84,6 +86,10 @@ def simulate_scenario(
     seed = project.manifest.seed if seed is None else seed
     world = project.world(at=at, task_id=task_id)
     plan = plan_task(project, task_id, world=world)
+    if max_elements is not None:
+        keep = {e.iri for e in plan.elements[:max_elements]}
+        plan.elements = [e for e in plan.elements if e.iri in keep]
+        plan.steps = [s for s in plan.steps if s.element in keep]
     if not plan.robot_id:
         reasons = sorted({s.reason or "" for s in plan.steps if not s.feasible})
         raise KbplannerError(

@@ -561,6 +561,16 @@ class _Refiner:
         g = self.ik(tool, seeds, fallback=False)
         if not g.reachable:
             return f"grasp {g.reason}"
+        # The carry footprints depend on the grasp only (cached): check them first, it is cheap and it
+        # rejects most base poses next to a stack.
+        tie0 = np.linalg.inv(frame) @ tool_frame(self.robot, g.joints)
+        geo = self._carry_geometry(frame, tool, tie0, we, carry_seed)
+        problem = carry_problem(geo)
+        if problem:
+            return problem
+        modes = self.carry_free(self.checker, geo, base)
+        if not modes:
+            return "neither carry footprint is free at the pick base pose"
         z_tool = tool[:3, 2]
         poses: dict[str, list[float]] = {"initial": _joints(nav_q)}
         found: dict[str, IkResult] = {}
@@ -601,24 +611,6 @@ class _Refiner:
                         f"(more than {self.s.max_arm_penetration_m} m)")
         finally:
             probe.close()
-        # Keyed by the nominal grasp (the candidate's tool pose in the element frame), not by the IK's
-        # tie, which differs within the IK tolerance from one base pose to the next: the carry modes of
-        # one grasp are computed once per element shape.
-        nominal_tie = np.linalg.inv(frame) @ tool
-        cache_key = (np.round(nominal_tie, 3).tobytes()
-                     + np.round(np.asarray(we.local_bounds.as_list()), 4).tobytes())
-        geo = self.carry_cache.get(cache_key)
-        if geo is None:
-            cseeds = [carry_seed] if carry_seed is not None else []
-            geo = carry_modes(self.robot, we.local_bounds, tie, seeds=cseeds,
-                              refinements=self.s.ik_refinements)
-            self.carry_cache[cache_key] = geo
-        problem = carry_problem(geo)
-        if problem:
-            return problem
-        modes = self.carry_free(self.checker, geo, base)
-        if not modes:
-            return "neither carry footprint is free at the pick base pose"
         poses.update({"approach": _joints(found["approach"].joints),
                       "pre_grasp": _joints(found["pre_grasp"].joints),
                       "grasp": _joints(g.joints), "lift": _joints(lift[0].joints)})
@@ -629,6 +621,25 @@ class _Refiner:
                 f"{geo.normal.rect.length:.2f} x {geo.normal.rect.width:.2f} m, narrow "
                 f"{geo.narrow.rect.length:.2f} x {geo.narrow.rect.width:.2f} m")
         return _Pick(base, grasp, np.asarray(tie, dtype=np.float64), poses, geo, note, clearance)
+
+    def _carry_geometry(self, frame: Matrix, tool: Matrix, tie: Matrix, we: WorldElement,
+                        carry_seed: tuple[float, ...] | None) -> CarryGeometry:
+        """Both carry modes of the element held with ``tie``, computed once per grasp and element shape.
+
+        Keyed by the nominal grasp (the candidate's tool pose in the element frame), not by the IK's
+        ``tie``, which differs within the IK tolerance from one base pose to the next.
+        """
+        assert we.local_bounds is not None
+        nominal_tie = np.linalg.inv(frame) @ tool
+        cache_key = (np.round(nominal_tie, 3).tobytes()
+                     + np.round(np.asarray(we.local_bounds.as_list()), 4).tobytes())
+        geo = self.carry_cache.get(cache_key)
+        if geo is None:
+            cseeds = [carry_seed] if carry_seed is not None else []
+            geo = carry_modes(self.robot, we.local_bounds, tie, seeds=cseeds,
+                              refinements=self.s.ik_refinements)
+            self.carry_cache[cache_key] = geo
+        return geo
 
     # ---- install (MM-R-1) --------------------------------------------------------------------
     def install(self, step: SkillCall, we: WorldElement, pick: _Pick, nav_q: tuple[float, ...],

@@ -59,6 +59,8 @@ class ScenarioSummary:
     installed: int = 0
     elements: int = 0
     simulated: bool = False
+    tasks: int = 1
+    sim_time_s: float | None = None
 
 
 @dataclass
@@ -107,8 +109,13 @@ def _project_files(project: Project) -> list[Path]:
 
 
 def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | None = None,
-                 say: Say | None = None, simulate: bool = True, seed: int | None = None) -> PipelineResult:
+                 say: Say | None = None, simulate: bool = True, seed: int | None = None,
+                 tasks: str = "main", workers: int = 1) -> PipelineResult:
     """Run every stage on a project and write the run directory.
+
+    ``tasks="all"`` simulates every robotized task of each scenario (a whole building: the
+    ``[simulation] task`` into ``simulation/`` as usual, the others into ``tasks/<id>/``, with
+    ``tasks.csv``), on ``workers`` local processes (:mod:`kbplanner.task_runs`).
 
     Example:
         >>> r = run_pipeline(Path("data/case_study"), Path("runs/case_study"))  # doctest: +SKIP
@@ -163,7 +170,20 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
                 map_cells=exported.map.grid.shape if exported.map is not None else (0, 0),
             )
             result.scenarios.append(summary)
-            if simulate and val.conforms and sel.fit:
+            if simulate and val.conforms and sel.fit and tasks == "all":
+                from kbplanner.task_runs import simulate_tasks
+
+                with clock.stage("simulation (every task)", name):
+                    truns = simulate_tasks(project_dir, name, out_dir=sdir / "tasks",
+                                           main_dir=sdir / "simulation", keyframes=True, workers=workers,
+                                           seed=seed, progress=say, project=project)
+                summary.simulated, summary.installed, summary.elements = True, truns.installed, truns.elements
+                summary.tasks = len(truns.tasks)
+                summary.sim_time_s = truns.sim_time_s
+                if truns.main is not None:
+                    sims.append(truns.main)
+                sel_rows = [list(r) for r in sel.rows()]
+            elif simulate and val.conforms and sel.fit:
                 with clock.stage("simulation", name):
                     srun = simulate_scenario(project_dir, name, seed=seed, out_dir=sdir / "simulation",
                                              progress=say)

@@ -135,6 +135,7 @@ class _Job:
     rel_dir: str
     keyframes: bool
     main: bool
+    max_elements: int | None
 
 
 _LOADED: dict[tuple[str, str | None], Project] = {}
@@ -153,7 +154,8 @@ def _run(job: _Job) -> tuple[TaskFigures, ScenarioRun | None, float]:
     t0 = time.perf_counter()
     project = _project(job.project_dir, job.scenario)
     run = simulate_scenario(job.project_dir, job.scenario, seed=job.seed, out_dir=job.out_dir,
-                            keyframes=job.keyframes, task_id=job.task_id, at=job.at, project=project)
+                            keyframes=job.keyframes, task_id=job.task_id, at=job.at, project=project,
+                            max_elements=job.max_elements)
     rec = RunRecord.load(job.out_dir)
     fig = scenario_figures(rec, rec.proximity(threshold_m=1.0))
     when = job.at or project.manifest.simulation.get("date")
@@ -191,12 +193,14 @@ def simulate_tasks(
     keyframes: bool = False,
     progress: Say | None = None,
     project: Project | None = None,
+    max_elements: int | None = None,
 ) -> TaskRunsResult:
     """Simulate every robotized task (or ``tasks``) of a scenario; see the module docstring.
 
     Each task's run directory is ``out_dir/<task id>``; the ``[simulation] task`` goes to ``main_dir``
     instead when given (the pipeline's ``simulation`` directory, with key frames when ``keyframes``).
-    Writes ``tasks.csv``, ``tasks.json`` and ``tasks_timings.json`` into ``out_dir``.
+    Writes ``tasks.csv``, ``tasks.json`` and ``tasks_timings.json`` into ``out_dir``. ``max_elements``
+    simulates the first elements of each task only.
 
     Raises:
         KbplannerError: an unknown task id, fewer than one worker.
@@ -225,7 +229,7 @@ def simulate_tasks(
         where = main_dir if (is_main and main_dir is not None) else out_dir / task_id
         rel = str(where.relative_to(out_dir.parent)) if where.is_relative_to(out_dir.parent) else str(where)
         jobs.append(_Job(project_dir, scenario, task_id, label, None if is_main else start, seed, where, rel,
-                         keyframes and is_main, is_main))
+                         keyframes and is_main, is_main, max_elements))
     _LOADED[(str(project_dir.resolve()), scenario)] = project
     result = TaskRunsResult(scenario=scenario, out_dir=out_dir, workers=workers)
     out_dir.mkdir(parents=True, exist_ok=True)

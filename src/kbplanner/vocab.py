@@ -185,6 +185,7 @@ class KBP(DefinedNamespace):
     reach: URIRef
     requirementText: URIRef
     requiresCapability: URIRef
+    robotArrival: URIRef
     robotStart: URIRef
     robotized: URIRef
     role: URIRef

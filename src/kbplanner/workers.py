@@ -125,6 +125,9 @@ class WorkerMotion:
         return 0.0
 
 
+MAX_ROUTING_CELLS = 400_000  # worker routes on a coarser grid beyond this (a whole building's site)
+
+
 class _Router:
     """Shortest walking paths on a grid, with a clearance for a person; memoised per (start, goal) cell."""
 
@@ -132,7 +135,13 @@ class _Router:
         self.grid = grid
         self.free: np.ndarray | None = None
         if grid is not None:
-            self.free = grid.clearance_m() >= clearance_m
+            free = grid.clearance_m() >= clearance_m
+            k = max(1, math.ceil(math.sqrt(free.size / MAX_ROUTING_CELLS)))
+            if k > 1:  # a big site: route on cells k times coarser, free where all their fine cells are
+                ny, nx = free.shape[0] // k * k, free.shape[1] // k * k
+                free = free[:ny, :nx].reshape(ny // k, k, nx // k, k).all(axis=(1, 3))
+                self.grid = OccupancyGrid(~free, origin=grid.origin, resolution=grid.resolution * k)
+            self.free = free
         self._memo: dict[tuple[tuple[int, int], tuple[int, int]], np.ndarray] = {}
         self._csgraph: tuple[Any, np.ndarray] | None = None
         self._pred: dict[int, np.ndarray] = {}

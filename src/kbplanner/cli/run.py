@@ -23,6 +23,11 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--seed", type=int, help="random seed of the simulations (default: [project] seed)")
     p.add_argument("--no-simulation", action="store_true",
                    help="stop after the world (requirements, validation, robots, world only)")
+    p.add_argument("--tasks", choices=("main", "all"), default="main",
+                   help="simulate the [simulation] task only (main, default) or every robotized task of the "
+                        "schedule, each in the world at its start (all: a whole building)")
+    p.add_argument("--workers", type=int, default=1,
+                   help="local processes for --tasks all (default 1; the number of cores is a good choice)")
     p.set_defaults(func=run)
 
 
@@ -38,7 +43,8 @@ def summary_table(result: PipelineResult) -> Table:
     for s in result.scenarios:
         t.add_row(s.name, "yes" if s.conforms else f"no ({s.violations})", ", ".join(s.fit_robots) or "none",
                   f"{s.world_static} / {s.world_task_elements}", f"{s.map_cells[1]} x {s.map_cells[0]}",
-                  f"{s.installed}/{s.elements}" if s.simulated else "not simulated")
+                  (f"{s.installed}/{s.elements}" + (f" ({s.tasks} tasks)" if s.tasks > 1 else ""))
+                  if s.simulated else "not simulated")
     return t
 
 
@@ -47,7 +53,8 @@ def run(args: argparse.Namespace) -> int:
     out = Console(width=max(Console().width, 150))
     with err.status("starting") as status:
         result = run_pipeline(Path(args.project), Path(args.out), scenarios=args.scenarios,
-                              say=lambda m: status.update(m), simulate=not args.no_simulation, seed=args.seed)
+                              say=lambda m: status.update(m), simulate=not args.no_simulation, seed=args.seed,
+                              tasks=args.tasks, workers=args.workers)
     out.print(f"Bare model: {result.requirements} additional modeling requirement(s) "
               f"covering {result.requirement_elements} element(s) (requirements.csv)")
     out.print(summary_table(result))
