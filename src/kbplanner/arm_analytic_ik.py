@@ -315,6 +315,31 @@ def ik_best_effort(arm: DhArm, target: Matrix,
     return out
 
 
+def wrist_centre(arm: DhArm, target: Matrix) -> npt.NDArray[np.float64]:
+    """Origin of DH frame 5 (where joints 5 and 6 meet the tool axis) for a flange pose ``target``."""
+    t06 = np.asarray(target, dtype=float) @ _inv(dh_matrix(0.0, 0.0, arm.a[5], arm.alpha[5]))
+    return np.asarray(t06[:3, 3] - arm.d[5] * t06[:3, 2], dtype=float)
+
+
+def beyond_reach_m(arm: DhArm, target: Matrix) -> float:
+    """A lower bound on how far the wrist centre of ``target`` lies outside what the arm can reach.
+
+    Positive: no joint angles put DH frame 6 at ``target``, nor closer to it than that; zero or
+    negative: maybe reachable. The wrist centre keeps ``d2 + d3 + d4`` from the base axis along
+    joint 2's (horizontal) axis, and in the plane across it lies at most ``|a2| + |a3| + |a4| + |d5|``
+    from joint 2's axis (``|a1|`` from the base axis). ``-inf`` for arms without the UR structure.
+    """
+    ur = ur_structure(arm)
+    if ur is None:
+        return -math.inf
+    p5 = wrist_centre(arm, target)
+    planar = abs(arm.a[1]) + abs(arm.a[2]) + abs(arm.a[3]) + abs(arm.d[4])
+    far = math.hypot(planar, ur.shoulder_m) + abs(arm.a[0])
+    out = float(np.linalg.norm(p5 - np.array([0.0, 0.0, arm.d[0]]))) - far
+    inside = abs(ur.shoulder_m) - math.hypot(float(p5[0]), float(p5[1]))
+    return max(out, inside)
+
+
 def joint_distance(q: Sequence[float], seed: Sequence[float]) -> float:
     """Euclidean distance between two joint vectors (rad)."""
     return math.sqrt(sum((float(x) - float(y)) ** 2 for x, y in zip(q, seed, strict=True)))

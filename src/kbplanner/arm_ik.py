@@ -36,11 +36,13 @@ import numpy.typing as npt
 
 from kbplanner.arm_analytic_ik import (
     DhArm,
+    beyond_reach_m,
     closed_form,
     forward_kinematics,
     ik_best_effort,
     place_nearest,
     ur_structure,
+    wrist_centre,
 )
 from kbplanner.footprint import ConfigurationSpace
 from kbplanner.occupancy import OccupancyGrid
@@ -79,6 +81,10 @@ class ReachPose:
 Matrix = npt.NDArray[np.float64]
 _CALIBRATION_Q = (0.4, -1.1, 0.9, -0.7, 1.2, 0.5)  # a second, generic pose to check the calibration
 _CALIBRATION_TOL = 1e-6
+# A closed-form solution counts as "near" a seed (first pass) when its shoulder and elbow joints are
+# within a quarter turn of the seed's: about where PyBullet's numeric IK, started at the seed, still
+# converges to that solution (compared on the B4 queries of the case study and a generated building).
+LOCAL_RAD = math.pi / 2
 
 
 @dataclass(frozen=True)
@@ -171,38 +177,71 @@ def _check(robot: RobotModel, q: tuple[float, ...], target_xyz: Vec3, orn: Seque
     return IkResult(reason == "reachable", q, perr, rerr, reason)
 
 
-def _solve_analytic(robot: RobotModel, model: AnalyticArm, target_xyz: Vec3, orn: Sequence[float],
-                    seeds: Sequence[Sequence[float]], pos_tol_m: float, rot_tol_rad: float,
-                    check_collision: bool) -> IkResult:
-    """Closed-form solutions, for each seed in turn nearest first, checked until one is reachable."""
-    ab = _matrix(*robot.link_pose(robot.links["arm_base_link"]))
-    target = (_rigid_inv(ab @ model.base_in_arm_base) @ _matrix(target_xyz, orn)
-              @ _rigid_inv(model.tool_in_flange))
-    exact = closed_form(model.arm, target, seeds[0]) if seeds else []
-    # Solutions a whole turn apart put the arm in the same place: each is checked once.
-    tried: set[tuple[float, ...]] = set()
-    best: IkResult | None = None
-    stretched: list[tuple[float, ...]] | None = None
-    for seed in seeds:
-        sols = place_nearest(model.arm, exact, seed)
-        if not sols:  # out of reach (or only beyond the joint limits): the arm stretched towards it
-            if stretched is None:
-                stretched = ik_best_effort(model.arm, target, seeds[0])
-            sols = stretched
-        for q in sols:
-            key = tuple(round((v + math.pi) % (2 * math.pi) - math.pi, 6) for v in q)
-            if key in tried:
-                continue
-            tried.add(key)
-            result = _check(robot, q, target_xyz, orn, pos_tol_m, rot_tol_rad, check_collision)
-            if result.reachable:
-                return result
-            if best is None or ((result.position_error_m, result.orientation_error_rad)
-                                < (best.position_error_m, best.orientation_error_rad)):
-                best = result
-    if best is None:  # no seeds
-        return IkResult(False, robot.arm_positions(), math.inf, math.inf, "unreachable: no seed given")
-    return best
+def _near_seed(q: Sequence[float], seed: Sequence[float]) -> bool:
+    """The first three joints (which place the wrist) each within ``LOCAL_RAD`` of the seed's.
+
+    Whole turns aside; the wrist joints may differ more (a numeric solver turns them freely).
+    """
+    return all(abs((float(a) - float(b) + math.pi) % (2 * math.pi) - math.pi) <= LOCAL_RAD
+               for a, b in zip(list(q)[:3], list(seed)[:3], strict=True))
+
+
+def _better(a: IkResult | None, b: IkResult | None) -> IkResult | None:
+    """The reachable one of two results, else the one closer to the target."""
+    if a is None or b is None:
+        return a if b is None else b
+    if a.reachable != b.reachable:
+        return a if a.reachable else b
+    closer = (a.position_error_m, a.orientation_error_rad) <= (b.position_error_m, b.orientation_error_rad)
+    return a if closer else b
+
+
+@dataclass
+class _Analytic:
+    """One closed-form query: the solutions (or the stretched poses when out of reach), checked once each."""
+
+    model: AnalyticArm
+    exact: list[tuple[float, ...]]
+    stretched: list[tuple[float, ...]]
+    tried: set[tuple[float, ...]]
+    beyond_reach_m: float  # lower bound on how far the wrist centre is out of reach
+    tool_reach_m: float  # distance from the wrist centre to the tool point
+
+    @classmethod
+    def start(cls, robot: RobotModel, model: AnalyticArm, target_xyz: Vec3, orn: Sequence[float],
+              seeds: Sequence[Sequence[float]]) -> _Analytic:
+        ab = _matrix(*robot.link_pose(robot.links["arm_base_link"]))
+        target = (_rigid_inv(ab @ model.base_in_arm_base) @ _matrix(target_xyz, orn)
+                  @ _rigid_inv(model.tool_in_flange))
+        exact = closed_form(model.arm, target, seeds[0]) if seeds else []
+        stretched = ik_best_effort(model.arm, target, seeds[0]) if seeds and not exact else []
+        tool = (target @ model.tool_in_flange)[:3, 3]
+        tool_reach = float(np.linalg.norm(tool - wrist_centre(model.arm, target)))
+        return cls(model, exact, stretched, set(), beyond_reach_m(model.arm, target), tool_reach)
+
+    def solve(self, robot: RobotModel, target_xyz: Vec3, orn: Sequence[float],
+              seeds: Sequence[Sequence[float]], pos_tol_m: float, rot_tol_rad: float,
+              check_collision: bool, *, local: bool) -> IkResult | None:
+        """Check the solutions for each seed in turn, nearest first (``local``: only those near it).
+
+        Returns the first reachable one, else the closest checked one (``None``: none checked).
+        Solutions a whole turn apart put the arm in the same place: each is checked once per query.
+        """
+        best: IkResult | None = None
+        for seed in seeds:
+            sols = place_nearest(self.model.arm, self.exact, seed) if self.exact else self.stretched
+            for q in sols:
+                if local and not _near_seed(q, seed):
+                    continue
+                key = tuple(round((v + math.pi) % (2 * math.pi) - math.pi, 6) for v in q)
+                if key in self.tried:
+                    continue
+                self.tried.add(key)
+                result = _check(robot, q, target_xyz, orn, pos_tol_m, rot_tol_rad, check_collision)
+                if result.reachable:
+                    return result
+                best = _better(best, result)
+        return best
 
 
 def _quat_angle(q1: Sequence[float], q2: Sequence[float]) -> float:
@@ -234,7 +273,7 @@ def solve_ik(
     seeds: Sequence[Sequence[float]] | None = None,
     check_collision: bool = True,
     refinements: int = 8,
-    method: Literal["auto", "numeric"] = "auto",
+    method: Literal["auto", "closed_form", "numeric"] = "auto",
 ) -> IkResult:
     """Solve IK for the tool centre point at ``target_xyz`` (and ``target_rpy`` if given), site frame.
 
@@ -250,54 +289,77 @@ def solve_ik(
     robot._need_arm()
     assert robot.tool_link is not None
     orn = p.getQuaternionFromEuler(target_rpy) if target_rpy is not None else None
+    if seeds is None:
+        named = [robot.spec.poses[k] for k in sorted(robot.spec.poses)]
+        seeds = [*_directed_seeds(robot, target_xyz), *named, (0.0,) * len(robot.arm_joints)]
+    saved = robot.arm_positions()
+    try:
+        model = analytic_arm(robot) if orn is not None and method != "numeric" else None
+        if model is None or orn is None:
+            return _solve_numeric(robot, target_xyz, orn, seeds, pos_tol_m, rot_tol_rad, check_collision,
+                                  refinements)
+        query = _Analytic.start(robot, model, target_xyz, orn, seeds)
+        if method == "auto":
+            # closed form only where it cannot change the outcome: the pose is out of reach by more
+            # than the tolerances allow (the numeric solver would try every seed in vain)
+            if not query.exact and query.beyond_reach_m > pos_tol_m + rot_tol_rad * query.tool_reach_m:
+                best = query.solve(robot, target_xyz, orn, seeds, pos_tol_m, rot_tol_rad, check_collision,
+                                   local=False)
+                if best is not None:
+                    return best
+            return _solve_numeric(robot, target_xyz, orn, seeds, pos_tol_m, rot_tol_rad, check_collision,
+                                  refinements)
+        # closed form: first the solutions near a seed, then any (nearest the seeds in their order)
+        best = query.solve(robot, target_xyz, orn, seeds, pos_tol_m, rot_tol_rad, check_collision, local=True)
+        if best is None or not best.reachable:
+            best = _better(best, query.solve(robot, target_xyz, orn, seeds, pos_tol_m, rot_tol_rad,
+                                             check_collision, local=False))
+        if best is None:
+            return IkResult(False, tuple(saved), math.inf, math.inf, "unreachable: no seed given")
+        return best
+    finally:
+        robot.set_arm(saved)
+
+
+def _solve_numeric(robot: RobotModel, target_xyz: Vec3, orn: Sequence[float] | None,
+                   seeds: Sequence[Sequence[float]], pos_tol_m: float, rot_tol_rad: float,
+                   check_collision: bool, refinements: int) -> IkResult:
+    """PyBullet's damped least squares IK from each seed in turn (the arm is left moved)."""
+    import pybullet as p
+
     lower_all = [robot.lower[j] for j in robot.movable]
     upper_all = [robot.upper[j] for j in robot.movable]
     ranges_all = [hi - lo for lo, hi in zip(lower_all, upper_all, strict=True)]
     arm_idx = [robot.movable.index(j) for j in robot.arm_joints]
     lo_arm, hi_arm = robot.arm_limits()
-    if seeds is None:
-        named = [robot.spec.poses[k] for k in sorted(robot.spec.poses)]
-        seeds = [*_directed_seeds(robot, target_xyz), *named, (0.0,) * len(robot.arm_joints)]
-    saved = robot.arm_positions()
-    model = analytic_arm(robot) if orn is not None and method == "auto" else None
-    if model is not None and orn is not None:
-        try:
-            return _solve_analytic(robot, model, target_xyz, orn, seeds, pos_tol_m, rot_tol_rad,
-                                   check_collision)
-        finally:
-            robot.set_arm(saved)
     best: IkResult | None = None
-    try:
-        for seed in seeds:
-            robot.set_arm(seed)
-            rest_all = [0.0] * len(robot.movable)
-            for k, i in enumerate(arm_idx):
-                rest_all[i] = float(seed[k])
-            q: tuple[float, ...] = tuple(seed)
-            for _ in range(refinements):
-                kwargs = dict(lowerLimits=lower_all, upperLimits=upper_all, jointRanges=ranges_all,
-                              restPoses=rest_all, maxNumIterations=200, residualThreshold=1e-6,
-                              physicsClientId=robot.client)
-                if orn is not None:
-                    sol = p.calculateInverseKinematics(robot.body, robot.tool_link, target_xyz, orn, **kwargs)
-                else:
-                    sol = p.calculateInverseKinematics(robot.body, robot.tool_link, target_xyz, **kwargs)
-                q = tuple(float(np.clip(sol[i], lo_arm[k], hi_arm[k])) for k, i in enumerate(arm_idx))
-                robot.set_arm(q)
-                pos, cur = robot.tool_pose()
-                perr = math.dist(pos, target_xyz)
-                rerr = _quat_angle(cur, orn) if orn is not None else 0.0
-                if perr < pos_tol_m / 10 and rerr < rot_tol_rad / 10:
-                    break
-            result = _check(robot, q, target_xyz, orn, pos_tol_m, rot_tol_rad, check_collision)
-            if result.reachable:
-                return result
-            if best is None or ((result.position_error_m, result.orientation_error_rad)
-                                < (best.position_error_m, best.orientation_error_rad)):
-                best = result
-    finally:
-        robot.set_arm(saved)
-    assert best is not None
+    for seed in seeds:
+        robot.set_arm(seed)
+        rest_all = [0.0] * len(robot.movable)
+        for k, i in enumerate(arm_idx):
+            rest_all[i] = float(seed[k])
+        q: tuple[float, ...] = tuple(seed)
+        for _ in range(refinements):
+            kwargs = dict(lowerLimits=lower_all, upperLimits=upper_all, jointRanges=ranges_all,
+                          restPoses=rest_all, maxNumIterations=200, residualThreshold=1e-6,
+                          physicsClientId=robot.client)
+            if orn is not None:
+                sol = p.calculateInverseKinematics(robot.body, robot.tool_link, target_xyz, orn, **kwargs)
+            else:
+                sol = p.calculateInverseKinematics(robot.body, robot.tool_link, target_xyz, **kwargs)
+            q = tuple(float(np.clip(sol[i], lo_arm[k], hi_arm[k])) for k, i in enumerate(arm_idx))
+            robot.set_arm(q)
+            pos, cur = robot.tool_pose()
+            perr = math.dist(pos, target_xyz)
+            rerr = _quat_angle(cur, orn) if orn is not None else 0.0
+            if perr < pos_tol_m / 10 and rerr < rot_tol_rad / 10:
+                break
+        result = _check(robot, q, target_xyz, orn, pos_tol_m, rot_tol_rad, check_collision)
+        if result.reachable:
+            return result
+        best = _better(best, result)
+    if best is None:
+        return IkResult(False, robot.arm_positions(), math.inf, math.inf, "unreachable: no seed given")
     return best
 
 
