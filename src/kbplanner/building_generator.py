@@ -42,7 +42,6 @@ from __future__ import annotations
 
 import csv
 import io
-import itertools
 import logging
 import math
 import random
@@ -72,6 +71,7 @@ import numpy as np
 
 from kbplanner.errors import KbplannerError
 from kbplanner.outputs import run_directory
+from kbplanner.stud_frames import DENSITY, MATERIAL, PANEL_HEIGHT, STUD_DEPTH, stud_frame
 
 log = logging.getLogger(__name__)
 
@@ -95,14 +95,8 @@ ENTRANCE_W = 1.2
 UNIT_DOOR_W = 1.2
 DOOR_H = 2.1
 
-# Frame panels (as in the case study: data/case_study/tools/build_frames.py).
-PANEL_HEIGHT = 2.4
+# Frame panels: kbplanner.stud_frames, as in the case study (data/case_study/tools/build_frames.py).
 MAX_PANEL_LENGTH = 0.75  # keeps every panel between about 9 and 14 kg
-STUD_WIDTH = 0.038
-STUD_DEPTH = 0.089
-MAX_STUD_SPACING = 0.600
-DENSITY = 450.0  # kg/m3, spruce-pine-fir
-MATERIAL = "Wood - SPF"
 
 # Frame storage in each unit's living room (bearers as in the case study) and the robot's pickup.
 STORAGE_SIZE = (2.6, 0.8, 0.1)
@@ -165,36 +159,6 @@ class GeneratedBuilding:
     scenario: str
     files: tuple[str, ...]
     seconds: float = field(compare=False)
-
-
-@dataclass(frozen=True)
-class _Piece:
-    kind: str
-    x_min: float
-    x_max: float
-    z_min: float
-    z_max: float
-
-    @property
-    def volume(self) -> float:
-        return (self.x_max - self.x_min) * STUD_DEPTH * (self.z_max - self.z_min)
-
-
-def panel_pieces(length: float) -> list[_Piece]:
-    """Studs, plates and noggings of a panel ``length`` long, symmetric about x = 0 (panel frame)."""
-    half = length / 2.0
-    gaps = max(1, math.ceil((length - STUD_WIDTH) / MAX_STUD_SPACING - 1e-9))
-    spacing = (length - STUD_WIDTH) / gaps
-    centres = [-half + STUD_WIDTH / 2.0 + i * spacing for i in range(gaps + 1)]
-    z0, z1 = STUD_WIDTH, PANEL_HEIGHT - STUD_WIDTH
-    pieces = [
-        _Piece("bottom plate", -half, half, 0.0, STUD_WIDTH),
-        _Piece("top plate", -half, half, z1, PANEL_HEIGHT),
-    ]
-    pieces += [_Piece("stud", c - STUD_WIDTH / 2, c + STUD_WIDTH / 2, z0, z1) for c in centres]
-    zm, h = PANEL_HEIGHT / 2.0, STUD_WIDTH / 2
-    pieces += [_Piece("nogging", a + h, b - h, zm - h, zm + h) for a, b in itertools.pairwise(centres)]
-    return pieces
 
 
 def _matrix(x: float, y: float, z: float, yaw: float = 0.0) -> np.ndarray:
@@ -793,12 +757,10 @@ class _Builder:
     ) -> None:
         ifc, f = self.ifc, self.ifc.f
         pid = f"L{k + 1:02d}-U{j + 1:02d}-F{order:02d}"
-        pieces = panel_pieces(length)
-        vol = sum(p.volume for p in pieces)
-        com_x = sum(p.volume * (p.x_min + p.x_max) / 2 for p in pieces) / vol
-        com_z = sum(p.volume * (p.z_min + p.z_max) / 2 for p in pieces) / vol
-        studs = sum(1 for p in pieces if p.kind == "stud")
-        mass = round(vol * DENSITY, 2)
+        panel = stud_frame(length, PANEL_HEIGHT)
+        pieces, vol, studs = panel.pieces, panel.volume_m3, panel.studs
+        com_x, _, com_z = panel.centre_of_mass_local
+        mass = round(panel.mass_kg(DENSITY), 2)
         m = ifc.create("IfcMember", f"Stud frame panel {pid}", f"frame/{pid}", predefined_type="STUD")
         m.ObjectType = "Interior stud frame panel"
         m.Tag = pid

@@ -5,7 +5,8 @@ Takes ``model/Duplex_A_20110907.ifc`` (buildingSMART Duplex, IFC2X3, metres) and
 - ``model/Duplex_A_frames.ifc``: the Duplex plus 11 ``IfcMember`` panels "Stud frame panel F01".."F11"
   (ObjectType "Interior stud frame panel", material "Wood - SPF", contained in Level 1), each with
   real geometry: 38 x 89 mm studs at <= 600 mm centres, bottom and top plates and one row of
-  mid-height noggings, all as extruded rectangles;
+  mid-height noggings, all as extruded rectangles (``kbplanner.stud_frames``, the same panels as the
+  building generator's);
 - ``augmentation/grasp_points.ttl``: a local grasp point for every panel (its centre of mass);
 - ``model/frames.json``: the panel table (id, GlobalId, host wall, pose, size, studs, volume, mass).
 
@@ -22,7 +23,6 @@ the header time stamp is fixed) and checked in::
 
 from __future__ import annotations
 
-import itertools
 import json
 import math
 import uuid
@@ -42,6 +42,17 @@ import ifcopenshell.util.element
 import ifcopenshell.util.placement
 import numpy as np
 
+from kbplanner.stud_frames import (
+    DENSITY,
+    MATERIAL,
+    MAX_STUD_SPACING,
+    PANEL_HEIGHT,
+    STUD_DEPTH,
+    STUD_WIDTH,
+    Piece,
+    stud_frame,
+)
+
 HERE = Path(__file__).resolve().parent
 PROJECT = HERE.parent
 SOURCE_IFC = PROJECT / "model" / "Duplex_A_20110907.ifc"
@@ -51,32 +62,12 @@ OUT_GRASP = Path("augmentation") / "grasp_points.ttl"
 BASE_IRI = "https://w3id.org/kbplanner/data/duplex/"
 
 N_PANELS = 11
-PANEL_HEIGHT = 2.4          # m, bottom of the bottom plate to top of the top plate
-STUD_WIDTH = 0.038          # m, along the wall (38 mm face)
-STUD_DEPTH = 0.089          # m, across the wall (89 mm, the 92 mm stud partition)
-MAX_STUD_SPACING = 0.600    # m, centre to centre
-DENSITY = 450.0             # kg/m3, spruce-pine-fir (SPF) lumber, dry
-MATERIAL = "Wood - SPF"
+# Panel height, stud section and spacing, density, material: kbplanner.stud_frames
 UNIT_SPACE_PREFIX = "A1"    # Level-1 spaces of unit A
 WALL_NAME = "Interior - Partition (92mm Stud)"
 STOREY = "Level 1"
 TIME_STAMP = "2022-05-01T00:00:00"
 GUID_NAMESPACE = uuid.UUID("6f6c2a52-4a35-5b0e-9d3c-6b62706c616e")  # fixed namespace of this tool
-
-
-@dataclass(frozen=True)
-class Piece:
-    """One rectangular timber piece in panel coordinates (x along the wall, z up), metres."""
-
-    kind: str
-    x_min: float
-    x_max: float
-    z_min: float
-    z_max: float
-
-    @property
-    def volume(self) -> float:
-        return (self.x_max - self.x_min) * STUD_DEPTH * (self.z_max - self.z_min)
 
 
 @dataclass
@@ -109,22 +100,6 @@ def deterministic_guid(name: str) -> str:
         if "$" not in gid:
             return gid
         salt += 1
-
-
-def panel_pieces(length: float) -> list[Piece]:
-    """Studs, plates and noggings of a panel ``length`` long, symmetric about x = 0."""
-    half = length / 2.0
-    gaps = max(1, math.ceil((length - STUD_WIDTH) / MAX_STUD_SPACING - 1e-9))
-    spacing = (length - STUD_WIDTH) / gaps
-    centres = [-half + STUD_WIDTH / 2.0 + i * spacing for i in range(gaps + 1)]
-    z0, z1 = STUD_WIDTH, PANEL_HEIGHT - STUD_WIDTH  # studs stand between the plates (38 mm thick)
-    pieces = [Piece("bottom plate", -half, half, 0.0, STUD_WIDTH),
-              Piece("top plate", -half, half, z1, PANEL_HEIGHT)]
-    pieces += [Piece("stud", c - STUD_WIDTH / 2, c + STUD_WIDTH / 2, z0, z1) for c in centres]
-    zm = PANEL_HEIGHT / 2.0
-    h = STUD_WIDTH / 2
-    pieces += [Piece("nogging", a + h, b - h, zm - h, zm + h) for a, b in itertools.pairwise(centres)]
-    return pieces
 
 
 def world_shape_vertices(settings: Any, product: Any) -> np.ndarray:
@@ -222,11 +197,9 @@ def build_panels(walls: list[dict[str, Any]]) -> list[tuple[Panel, list[Piece]]]
             pid = f"F{number:02d}"
             centre_s = seg["start"] + (k + 0.5) * length
             c = w["origin"] + w["direction"] * centre_s
-            pieces = panel_pieces(length)
-            vol = sum(p.volume for p in pieces)
-            com_x = sum(p.volume * (p.x_min + p.x_max) / 2 for p in pieces) / vol
-            com_z = sum(p.volume * (p.z_min + p.z_max) / 2 for p in pieces) / vol
-            studs = sum(1 for p in pieces if p.kind == "stud")
+            frame = stud_frame(length, PANEL_HEIGHT)
+            vol, studs = frame.volume_m3, frame.studs
+            com_x, _, com_z = frame.centre_of_mass_local
             panel = Panel(
                 panel_id=pid,
                 global_id=deterministic_guid(f"{BASE_IRI}frame/{pid}"),
@@ -240,12 +213,12 @@ def build_panels(walls: list[dict[str, Any]]) -> list[tuple[Panel, list[Piece]]]
                 height=PANEL_HEIGHT,
                 thickness=STUD_DEPTH,
                 studs=studs,
-                stud_spacing=round((length - STUD_WIDTH) / (studs - 1), 4),
+                stud_spacing=round(frame.stud_spacing, 4),
                 volume_m3=round(vol, 6),
                 mass_kg=round(vol * DENSITY, 2),
                 centre_of_mass_local=(round(com_x, 6) + 0.0, 0.0, round(com_z, 6)),
             )
-            out.append((panel, pieces))
+            out.append((panel, list(frame.pieces)))
     return out
 
 
