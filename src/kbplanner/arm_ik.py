@@ -2,12 +2,15 @@
 
 Takes a :class:`~kbplanner.robot_model.RobotModel` (a robot loaded in PyBullet) and a target tool
 pose in the site frame (position, optionally roll/pitch/yaw); returns an :class:`IkResult` with the
-joint angles and whether the pose is *reachable*. For a full pose and an arm whose DH table has the
-UR structure (:func:`kbplanner.arm_analytic_ik.ur_structure`) the solutions come in closed form
-(:mod:`kbplanner.arm_analytic_ik`, up to 8, nearest the seeds first); otherwise PyBullet's damped
-least squares IK (``calculateInverseKinematics`` with joint limits and rest poses, refined from a
-few seeds). Either way PyBullet's forward kinematics must land within 1 cm and 3 degrees of the
-target, inside the joint limits and without the arm touching the base. :func:`reach_base_poses`
+joint angles and whether the pose is *reachable*: PyBullet's forward kinematics must land within
+1 cm and 3 degrees of the target, inside the joint limits and without the arm touching the base.
+Solvers (``method``): ``numeric`` is PyBullet's damped least squares IK
+(``calculateInverseKinematics`` with joint limits and rest poses, refined from a few seeds);
+``closed_form``, for a full pose and an arm whose DH table has the UR structure
+(:func:`kbplanner.arm_analytic_ik.ur_structure`), checks the up to 8 exact solutions of
+:mod:`kbplanner.arm_analytic_ik`, those near a seed first; ``auto`` (the default) lets the closed
+form settle poses that are out of reach by more than the tolerances and the numeric solver the
+rest, so that its outcomes are the numeric solver's, faster. :func:`reach_base_poses`
 samples base poses around a target from which the arm reaches it and the base footprint is free on
 an occupancy grid. Everything is deterministic: fixed seeds, the robot's joint state restored
 afterwards.
