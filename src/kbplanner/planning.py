@@ -25,6 +25,9 @@ from the graphs; nothing about the case study is written here.
   where :func:`kbplanner.world.build_world` places the element at its storage (``None`` when it cannot
   be placed, e.g. no ``kbp:storedIn``); robot start and the task storey's elevation from the world.
 
+Several tasks: :func:`plan_tasks` (default every robotized task) reads the building once
+(:func:`kbplanner.world.world_tables`) and gives the plans :func:`plan_task` gives for each task.
+
 B4 (base poses, IK arm poses) is not done here: ``base_pose`` and ``arm_poses`` stay empty and
 :func:`assign_poses` lets the B4 code fill them in a copy of the plan.
 """

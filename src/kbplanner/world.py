@@ -24,6 +24,12 @@ robotized task to simulate; returns a :class:`World`: what stands on site at tha
   boxes; areas (``kbp:obstructs false``: workspaces, no-go zones) stay areas, not bodies.
 - **Workers**: positions only (the first stop of their route, and the route), their motion is B5's.
 - **Storeys** with elevations; the storey of the task (where most task elements are installed).
+- **Read once**: what does not depend on the date or the task (elements, storeys, site objects,
+  workers, each scheduled element's deciding finish and start) is read by :func:`world_tables`;
+  :func:`build_world` takes those tables to build many worlds of one project (every robotized task,
+  several dates) without reading the whole building again, and gives the same worlds. The states
+  follow the rule of the named query ``element_state_at``, judged in Python from the table (by the
+  query itself when a schedule time has a time zone).
 
 Example:
     >>> from datetime import datetime
