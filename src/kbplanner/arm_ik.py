@@ -88,6 +88,9 @@ _CALIBRATION_TOL = 1e-6
 # within a quarter turn of the seed's: about where PyBullet's numeric IK, started at the seed, still
 # converges to that solution (compared on the B4 queries of the case study and a generated building).
 LOCAL_RAD = math.pi / 2
+# closed_form: a pose out of reach whose stretched arm lands within this many position tolerances is
+# polished by the numeric solver (the stretched pose over-estimates the distance to the target)
+POLISH_RANGE = 5.0
 
 
 @dataclass(frozen=True)
@@ -317,6 +320,12 @@ def solve_ik(
         if best is None or not best.reachable:
             best = _better(best, query.solve(robot, target_xyz, orn, seeds, pos_tol_m, rot_tol_rad,
                                              check_collision, local=False))
+        if best is not None and not best.reachable and not query.exact \
+                and best.position_error_m < POLISH_RANGE * pos_tol_m:
+            # just out of reach: a stretched pose is not the closest one; the numeric solver, started
+            # at each, finds a pose within the tolerances if there is one nearby
+            best = _better(best, _solve_numeric(robot, target_xyz, orn, query.stretched, pos_tol_m,
+                                                rot_tol_rad, check_collision, 2))
         if best is None:
             return IkResult(False, tuple(saved), math.inf, math.inf, "unreachable: no seed given")
         return best
