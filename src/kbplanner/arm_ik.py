@@ -90,7 +90,7 @@ _CALIBRATION_TOL = 1e-6
 LOCAL_RAD = math.pi / 2
 # closed_form: a pose out of reach whose stretched arm lands within this many position tolerances is
 # polished by the numeric solver (the stretched pose over-estimates the distance to the target)
-POLISH_RANGE = 5.0
+POLISH_RANGE = 3.0
 
 
 @dataclass(frozen=True)
