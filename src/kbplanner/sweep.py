@@ -67,6 +67,8 @@ PICKUP_CLEARANCE_M = 0.4  # the robot's half width, about: free space needed aro
 SAMPLE_STEP_M = 0.05  # spacing of the points checked inside the storage footprint
 OK, REJECTED, FAILED = "ok", "rejected", "failed"
 SAFETY_KEYS = {"threshold": "below_threshold_s", "iso": "below_separation_s"}
+CONNECT_TIMEOUT_S = 30  # Dask: seconds to reach the scheduler (Ray Client waits about as long)
+RAY_CONNECT_ATTEMPTS = 4  # Ray Client sessions that failed to start (see _ray_connect)
 
 Progress = Callable[[int, int, str], None]  # (done, total, variant id)
 
@@ -546,6 +548,35 @@ def _missing_extra(module: str, extra: str) -> SweepError:
                       fix=f"pip install 'kbplanner[{extra}]' (or run with --workers N on this machine)")
 
 
+def _unreachable(address: str, what: str, err: Exception) -> SweepError:
+    return SweepError(f"cannot reach the cluster at {address} ({type(err).__name__}: {err})", element=address,
+                      fix=f"start {what} there, or run with --workers N on this machine")
+
+
+def _ray_connect(ray: Any, address: str) -> Any:
+    """A Ray Client connection of its own to ``address`` (``allow_multiple``: not the process's global
+    one, so a later sweep to another address never reuses this cluster); the caller disconnects it
+    (leaving its ``with`` block alone does not disconnect such a connection).
+
+    The Ray Client server sometimes accepts a connection and then fails to start the session's server
+    process (``ConnectionAbortedError`` "Initialization failure from server": a fork race in Ray's
+    client proxy, ray-project/ray issue 63202, within a second); that is tried again, up to
+    ``RAY_CONNECT_ATTEMPTS`` times. No answer at all (``ConnectionError`` after about 30 s) is final.
+    """
+    what = "the Ray Client server of a Ray head (ray start --head --ray-client-server-port PORT)"
+    for attempt in range(1, RAY_CONNECT_ATTEMPTS + 1):
+        try:
+            return ray.init(address=address, logging_level=logging.WARNING, allow_multiple=True)
+        except ConnectionAbortedError as err:
+            if attempt == RAY_CONNECT_ATTEMPTS:
+                raise _unreachable(address, what, err) from None
+            log.warning("Ray Client at %s: session start failed (attempt %d of %d), trying again",
+                        address, attempt, RAY_CONNECT_ATTEMPTS)
+        except ConnectionError as err:
+            raise _unreachable(address, what, err) from None
+    raise AssertionError("unreachable")  # pragma: no cover
+
+
 def execute(tasks: Sequence[VariantTask], *, workers: int = 1, cluster: str | None = None,
             progress: Progress | None = None) -> list[VariantResult]:
     """Run the tasks serially, in ``workers`` local processes or on a cluster; results in task order."""
@@ -584,7 +615,11 @@ def _execute_cluster(tasks: Sequence[VariantTask], address: str, say: Progress) 
             from dask.distributed import as_completed as dask_completed
         except ImportError:
             raise _missing_extra("dask.distributed", "cluster") from None
-        with Client(f"tcp://{rest}", timeout=30) as client:
+        try:
+            client = Client(f"tcp://{rest}", timeout=CONNECT_TIMEOUT_S)
+        except OSError as err:  # dask's connection time-out is an OSError too
+            raise _unreachable(address, "a Dask scheduler (dask scheduler --port PORT)", err) from None
+        with client:
             futures = client.map(run_variant, list(tasks), pure=False)
             ids = {f.key: t.variant.id for f, t in zip(futures, tasks, strict=True)}
             for n, fut in enumerate(dask_completed(futures), start=1):
@@ -595,17 +630,21 @@ def _execute_cluster(tasks: Sequence[VariantTask], address: str, say: Progress) 
         import ray  # type: ignore[import-not-found,unused-ignore]
     except ImportError:
         raise _missing_extra("ray", "ray") from None
-    ray.init(address=address, ignore_reinit_error=True, logging_level=logging.WARNING)
-    remote = ray.remote(run_variant)
-    refs = {remote.remote(t): t.variant.id for t in tasks}
-    pending = list(refs)
-    n = 0
-    while pending:
-        done, pending = ray.wait(pending, num_returns=1)
-        for ref in done:
-            n += 1
-            results[refs[ref]] = ray.get(ref)
-            say(n, total, refs[ref])
+    context = _ray_connect(ray, address)
+    try:
+        with context:
+            remote = ray.remote(run_variant)
+            refs = {remote.remote(t): t.variant.id for t in tasks}
+            pending = list(refs)
+            n = 0
+            while pending:
+                done, pending = ray.wait(pending, num_returns=1)
+                for ref in done:
+                    n += 1
+                    results[refs[ref]] = ray.get(ref)
+                    say(n, total, refs[ref])
+    finally:
+        context.disconnect()
     return [results[t.variant.id] for t in tasks]
 
 
