@@ -413,7 +413,11 @@ def plan_task(project: Project, task_id: str | None = None, robot_id: str | None
         >>> len(plan.steps), plan.robot_id, plan.feasible  # doctest: +SKIP
         (44, 'husky-ur16e', True)
     """
-    task = resolve_task(project, task_id)
+    return _plan(project, resolve_task(project, task_id), robot_id, at=at, world=world, tables=tables)
+
+
+def _plan(project: Project, task: RobotizedTask, robot_id: str | None, *, at: datetime | None,
+          world: World | None, tables: WorldTables | None) -> Plan:
     if task.spec_id is None:
         raise KnowledgeBaseError(f"robotized task {task.task_id} has no task specification id",
                                  file=project.manifest.path, element=task.task_id,
@@ -473,13 +477,13 @@ def plan_tasks(project: Project, task_ids: Sequence[str] | None = None, robot_id
         >>> [plan.task_id for plan in plan_tasks(p)][:2]  # doctest: +SKIP
         ['T-FRAME-L01', 'T-FRAME-L02']
     """
-    known = [t.task_id for t in robotized_tasks(project.model)]
-    ids = list(task_ids) if task_ids is not None else known
+    known = {t.task_id: t for t in robotized_tasks(project.model)}
+    ids = list(task_ids) if task_ids is not None else list(known)
     for task_id in ids:
         if task_id not in known:
             resolve_task(project, task_id)  # raises PlanningError naming the robotized tasks
     tables = world_tables(project)
-    return [plan_task(project, task_id, robot_id, at=at, tables=tables) for task_id in ids]
+    return [_plan(project, known[task_id], robot_id, at=at, world=None, tables=tables) for task_id in ids]
 
 
 def robot_id_of(a: RobotAssessment | None) -> str:
