@@ -269,6 +269,9 @@ def _directed_seeds(robot: RobotModel, target_xyz: Vec3) -> list[tuple[float, ..
             (pan, -0.6, 1.2, -2.2, 1.5708, 0.0)]
 
 
+IkMethod = Literal["auto", "closed_form", "numeric"]
+
+
 def solve_ik(
     robot: RobotModel,
     target_xyz: Vec3,
@@ -279,7 +282,7 @@ def solve_ik(
     seeds: Sequence[Sequence[float]] | None = None,
     check_collision: bool = True,
     refinements: int = 8,
-    method: Literal["auto", "closed_form", "numeric"] = "auto",
+    method: IkMethod = "auto",
 ) -> IkResult:
     """Solve IK for the tool centre point at ``target_xyz`` (and ``target_rpy`` if given), site frame.
 

@@ -100,7 +100,7 @@ MAX_PANEL_LENGTH = 0.75  # keeps every panel between about 9 and 14 kg
 
 # Frame storage in each unit's living room (bearers as in the case study) and the robot's pickup.
 STORAGE_SIZE = (2.6, 0.8, 0.1)
-PICKUP_STANDOFF = 1.0
+PICKUP_STANDOFF = 1.15  # the Husky's half length + a cell of margin clear of the bearers
 STORAGE_FROM_WEST = 0.9  # storage centres, metres east of the unit's west wall axis
 STORAGE_YS = (2.0, 4.8)  # two stacks per unit, along the living room's west wall
 MAX_STACK = 8  # frames per stack: the top frame stays within the arm's reach (case study: 11 x 89 mm)
@@ -1044,6 +1044,7 @@ class _Files:
             f"<{base}site/layout> a kbp:SiteLayout ;",
             '    rdfs:label "Generated site layout" ;',
             f"    kbp:siteExtent <{base}site/layout-extent> ;",
+            *(f"    kbp:robotArrival <{base}pose/robot-arrival-L{k + 1:02d}> ;" for k in range(1, self.n)),
             f"    kbp:robotStart <{base}pose/robot-start> .",
             f"<{base}site/layout-extent> a kbp:Box ;",
             '    rdfs:label "site boundary (building + 15 m)" ;',
@@ -1058,8 +1059,13 @@ class _Files:
                 0.0,
                 "robot start: 5 m west of the entrance, facing it",
             ),
-            "",
         ]
+        # Upper floors: the robot comes up in the lift and is set down in the lobby in front of the lift
+        # door, facing west along the corridor.
+        for k in range(1, self.n):
+            out += _pose_ttl(f"{base}pose/robot-arrival-L{k + 1:02d}", L - 2.0, 4.5, k * STOREY_HEIGHT,
+                             math.pi, f"robot arrival on Level {k + 1}: the lift lobby, facing the corridor")
+        out.append("")
         out += _site_object(
             base, "office", "SiteOffice", "Site office", True, (6.0, 2.5, 2.7), -9.0, Dc + 9.0
         )

@@ -52,7 +52,7 @@ import numpy.typing as npt
 import shapely
 from scipy.spatial.transform import Rotation
 
-from kbplanner.arm_ik import solve_ik
+from kbplanner.arm_ik import IkMethod, solve_ik
 from kbplanner.footprint import Footprint, Rect
 from kbplanner.robot_model import RobotModel
 from kbplanner.world import Bounds
@@ -385,6 +385,7 @@ def carry_modes(
     *,
     seeds: Sequence[Sequence[float]] = (),
     refinements: int = 8,
+    method: IkMethod = "auto",
 ) -> CarryGeometry:
     """Both carry modes of an element held with ``tool_in_element`` (see module docstring).
 
@@ -413,7 +414,8 @@ def carry_modes(
                 tool[:3, :3] = tool_rot
                 tool[:3, 3] = tool_pos
                 elem = tool @ np.linalg.inv(tool_in_element)
-                ik = solve_ik(robot, tool_pos, rpy_of(tool), seeds=[*seeds, *named], refinements=refinements)
+                ik = solve_ik(robot, tool_pos, rpy_of(tool), seeds=[*seeds, *named], refinements=refinements,
+                              method=method)
                 if not ik.reachable:
                     continue
                 robot.set_arm(ik.joints)

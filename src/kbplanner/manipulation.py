@@ -67,7 +67,7 @@ import numpy.typing as npt
 import shapely
 from scipy.spatial.transform import Rotation
 
-from kbplanner.arm_ik import IkResult, solve_ik
+from kbplanner.arm_ik import IkMethod, IkResult, solve_ik
 from kbplanner.carry import (
     CarryGeometry,
     ElementProbe,
@@ -99,6 +99,11 @@ NAVIGATION_KINDS = (KIND_NAVIGATION, KIND_NAVIGATION_WITH_OBJECT)
 N_YAW_BINS = 72
 
 
+# Reasons of B4 failures that do not depend on the IK (no retry with the fallback IK).
+_NOT_IK_FAILURES = ("no free base pose", "the element lies under", "the element is not at a storage",
+                    "out of reach from any base pose", "skipped", "the element weighs")
+
+
 @dataclass(frozen=True)
 class RefineSettings:
     """Offsets (m), sample counts and tolerances of B4."""
@@ -119,6 +124,10 @@ class RefineSettings:
     grasp_tilts_deg: tuple[float, ...] = tuple(float(t) for t in range(0, 65, 5))
     max_arm_penetration_m: float = 0.03  # accepted, and reported, only when no clear grasp exists
     ik_refinements: int = 4  # IK restarts per seed while searching (8 for the place pose)
+    # IK: the closed form (exact, fast) first; an element it cannot refine is refined again with the
+    # numeric solver, whose near-misses (within the tolerances) sometimes keep the arm clearer
+    ik_method: IkMethod = "closed_form"
+    fallback_ik_method: IkMethod | None = "numeric"
     escape_radius_m: float = 3.0  # after an install the robot must get this far (escapes())
     bearing_spread_rad: float = math.radians(70.0)
     yaw_spread_rad: float = math.radians(60.0)
@@ -380,6 +389,8 @@ class _Refiner:
         self.robot_at = start or Pose2(0.0, 0.0, 0.0)
         self.picked: set[str] = set()
         self.carry_cache: dict[bytes, CarryGeometry] = {}
+        self.method: IkMethod = settings.ik_method
+        self.fallbacks = 0
         self._nav_pose_cache: dict[tuple[float, ...] | None, tuple[tuple[float, ...], str]] = {}
         assert robot.spec.arm is not None
         self.arm = robot.spec.arm
@@ -442,10 +453,11 @@ class _Refiner:
         xyz = (float(frame[0, 3]), float(frame[1, 3]), float(frame[2, 3]))
         if seeds:
             res = solve_ik(self.robot, xyz, rpy_of(frame), seeds=list(seeds), pos_tol_m=pos_tol,
-                           rot_tol_rad=rot_tol, refinements=n)
+                           rot_tol_rad=rot_tol, refinements=n, method=self.method)
             if res.reachable or not fallback:
                 return res
-        return solve_ik(self.robot, xyz, rpy_of(frame), pos_tol_m=pos_tol, rot_tol_rad=rot_tol, refinements=n)
+        return solve_ik(self.robot, xyz, rpy_of(frame), pos_tol_m=pos_tol, rot_tol_rad=rot_tol, refinements=n,
+                        method=self.method)
 
     def horizontal_reach(self, z: float) -> float:
         shoulder = self.robot.floor_z + self.robot.spec.arm_mount_xyz[2] + self.arm.d[0]
@@ -632,12 +644,12 @@ class _Refiner:
         assert we.local_bounds is not None
         nominal_tie = np.linalg.inv(frame) @ tool
         cache_key = (np.round(nominal_tie, 3).tobytes()
-                     + np.round(np.asarray(we.local_bounds.as_list()), 4).tobytes())
+                     + np.round(np.asarray(we.local_bounds.as_list()), 4).tobytes() + self.method.encode())
         geo = self.carry_cache.get(cache_key)
         if geo is None:
             cseeds = [carry_seed] if carry_seed is not None else []
             geo = carry_modes(self.robot, we.local_bounds, tie, seeds=cseeds,
-                              refinements=self.s.ik_refinements)
+                              refinements=self.s.ik_refinements, method=self.method)
             self.carry_cache[cache_key] = geo
         return geo
 
@@ -774,9 +786,32 @@ class _Refiner:
 
     # ---- one element ---------------------------------------------------------------------------
     def element(self, iri: str) -> None:
+        """B4 for one element with the IK of the settings; again with the fallback IK if that fails."""
         steps = self.plan.steps_for(iri)
         if not steps:
             return
+        saved = ([(s.feasible, s.reason, s.base_pose, dict(s.arm_poses), list(s.notes)) for s in steps],
+                 set(self.picked), self.robot_at, self.checker)
+        self.method = self.s.ik_method
+        self._element(iri, steps)
+        fallback = self.s.fallback_ik_method
+        if fallback is None or fallback == self.method or all(s.feasible for s in steps):
+            return
+        first = next(s.reason for s in steps if not s.feasible) or ""
+        if first.startswith(_NOT_IK_FAILURES):
+            return  # another IK cannot help
+        for s, (feasible, reason, base, arm, notes) in zip(steps, saved[0], strict=True):
+            s.feasible, s.reason, s.base_pose, s.arm_poses, s.notes = feasible, reason, base, arm, notes
+        self.picked, self.robot_at, self.checker = saved[1], saved[2], saved[3]
+        self.method = fallback
+        self._element(iri, steps)
+        self.method = self.s.ik_method
+        self.fallbacks += 1
+        if all(s.feasible for s in steps):
+            steps[0].notes.append(f"B4 arm poses by the {fallback} IK (the {self.s.ik_method} IK gave: "
+                                  f"{first})")
+
+    def _element(self, iri: str, steps: list[SkillCall]) -> None:
         bad = next((i for i, s in enumerate(steps) if not s.feasible), None)
         if bad is not None:
             _skip_after(steps, bad)

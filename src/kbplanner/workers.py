@@ -139,7 +139,7 @@ class _Router:
             k = max(1, math.ceil(math.sqrt(free.size / MAX_ROUTING_CELLS)))
             if k > 1:  # a big site: route on cells k times coarser, free where all their fine cells are
                 ny, nx = free.shape[0] // k * k, free.shape[1] // k * k
-                free = free[:ny, :nx].reshape(ny // k, k, nx // k, k).all(axis=(1, 3))
+                free = np.asarray(free[:ny, :nx].reshape(ny // k, k, nx // k, k).all(axis=(1, 3)), dtype=bool)
                 self.grid = OccupancyGrid(~free, origin=grid.origin, resolution=grid.resolution * k)
             self.free = free
         self._memo: dict[tuple[tuple[int, int], tuple[int, int]], np.ndarray] = {}

@@ -704,6 +704,7 @@ class WorldTables:
     extent: Bounds | None
     robot_start: Pose | None
     schedule: dict[str, tuple[datetime, datetime]] | None  # element -> (finish, start); None: SPARQL per date
+    arrivals: tuple[Pose, ...] = ()  # kbp:robotArrival poses of the first site layout, by elevation
 
 
 def world_tables(project: Project) -> WorldTables:
@@ -756,7 +757,15 @@ def world_tables(project: Project) -> WorldTables:
         model_id=id(project.model), tasks=tuple(run_named(project.model, "world_tasks").rows),
         storeys=storeys, storey_of=storey_of, site_objects=_site_objects(project), elements=tuple(records),
         workers=_workers(project), layout_rows=layout_rows, extent=extent, robot_start=start,
-        schedule=_schedule_table(project))
+        schedule=_schedule_table(project), arrivals=_arrivals(project))
+
+
+def _arrivals(project: Project) -> tuple[Pose, ...]:
+    """Where the robot is set down on other floors (``kbp:robotArrival`` of the first site layout)."""
+    rows = run_named(project.model, "robot_arrivals").rows
+    first = rows[0][0] if rows else None
+    return tuple(Pose(float(x), float(y), float(z), 0.0, 0.0, float(yaw or 0.0))
+                 for layout, _a, x, y, z, yaw in rows if layout == first)
 
 
 def _schedule_table(project: Project) -> dict[str, tuple[datetime, datetime]] | None:
@@ -880,6 +889,8 @@ def build_world(
                     tables.layout_rows)
     ground_z = start.z if start is not None else 0.0
     task_storey = _task_storey(task, storey_of, storeys, ground_z)
+    start = _start_on_storey(start, tables.arrivals, next((s for s in storeys if s.iri == task_storey), None),
+                             ground_z)
     unplaced = [o for o in omitted if o.iri in task_elements]
     if unplaced:
         log.warning("%d of %d task elements not placed (first: %s): %s", len(unplaced), len(task_elements),
@@ -920,6 +931,20 @@ def _local_bounds(mesh_path: Path, installed: Pose | None) -> Bounds:
     if installed is not None:
         vertices = trimesh.transform_points(vertices, np.linalg.inv(pose_matrix(installed)))
     return Bounds.of_points(vertices)
+
+
+def _start_on_storey(start: Pose | None, arrivals: Sequence[Pose], storey: StoreyInfo | None,
+                     ground_z: float) -> Pose | None:
+    """The robot's start for a task on ``storey``: its arrival there (a lift landing), else the site start."""
+    if storey is None or abs(storey.elevation_m - ground_z) <= GROUND_STOREY_TOLERANCE_M:
+        return start
+    here = [a for a in arrivals if abs(a.z - storey.elevation_m) <= GROUND_STOREY_TOLERANCE_M]
+    if here:
+        return here[0]
+    log.warning("the task is on %s (%.2f m) but the site layout has no kbp:robotArrival at that elevation: "
+                "the robot starts at the site's robot start; add a kbp:robotArrival pose (e.g. the lift "
+                "landing) with z = %.2f", storey.label, storey.elevation_m, storey.elevation_m)
+    return start
 
 
 def _task_storey(
