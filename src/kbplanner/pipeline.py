@@ -110,12 +110,13 @@ def _project_files(project: Project) -> list[Path]:
 
 def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | None = None,
                  say: Say | None = None, simulate: bool = True, seed: int | None = None,
-                 tasks: str = "main", workers: int = 1) -> PipelineResult:
+                 tasks: str = "main", workers: int = 1, max_elements: int | None = None) -> PipelineResult:
     """Run every stage on a project and write the run directory.
 
     ``tasks="all"`` simulates every robotized task of each scenario (a whole building: the
     ``[simulation] task`` into ``simulation/`` as usual, the others into ``tasks/<id>/``, with
-    ``tasks.csv``), on ``workers`` local processes (:mod:`kbplanner.task_runs`).
+    ``tasks.csv``), on ``workers`` local processes (:mod:`kbplanner.task_runs`). ``max_elements`` simulates
+    the first elements of each task only (a quick look).
 
     Example:
         >>> r = run_pipeline(Path("data/case_study"), Path("runs/case_study"))  # doctest: +SKIP
@@ -176,7 +177,8 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
                 with clock.stage("simulation (every task)", name):
                     truns = simulate_tasks(project_dir, name, out_dir=sdir / "tasks",
                                            main_dir=sdir / "simulation", keyframes=True, workers=workers,
-                                           seed=seed, progress=say, project=project)
+                                           seed=seed, progress=say, project=project,
+                                           max_elements=max_elements)
                 summary.simulated, summary.installed, summary.elements = True, truns.installed, truns.elements
                 summary.tasks = len(truns.tasks)
                 summary.sim_time_s = truns.sim_time_s
@@ -186,7 +188,7 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
             elif simulate and val.conforms and sel.fit:
                 with clock.stage("simulation", name):
                     srun = simulate_scenario(project_dir, name, seed=seed, out_dir=sdir / "simulation",
-                                             progress=say)
+                                             progress=say, project=project, max_elements=max_elements)
                 summary.simulated, summary.installed, summary.elements = True, srun.installed, srun.elements
                 sims.append(srun)
                 sel_rows = [list(r) for r in sel.rows()]

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import logging
 import multiprocessing
+import os
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
@@ -58,7 +59,7 @@ class TaskFigures:
     min_separation_m: float
     below_threshold_s: float
     worker_stops: int
-    run_dir: str  # relative to the output directory
+    run_dir: str  # relative to the tasks directory (``out_dir``)
 
     def row(self) -> list[Any]:
         """One row of ``tasks.csv``."""
@@ -227,7 +228,7 @@ def simulate_tasks(
     for task_id, label, start in known:
         is_main = task_id == main_task
         where = main_dir if (is_main and main_dir is not None) else out_dir / task_id
-        rel = str(where.relative_to(out_dir.parent)) if where.is_relative_to(out_dir.parent) else str(where)
+        rel = Path(os.path.relpath(where.resolve(), out_dir.resolve())).as_posix()
         jobs.append(_Job(project_dir, scenario, task_id, label, None if is_main else start, seed, where, rel,
                          keyframes and is_main, is_main, max_elements))
     _LOADED[(str(project_dir.resolve()), scenario)] = project

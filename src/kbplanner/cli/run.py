@@ -26,6 +26,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--tasks", choices=("main", "all"), default="main",
                    help="simulate the [simulation] task only (main, default) or every robotized task of the "
                         "schedule, each in the world at its start (all: a whole building)")
+    p.add_argument("--max-elements", type=int, metavar="N",
+                   help="simulate the first N elements of each task only (a quick look)")
     p.add_argument("--workers", type=int, default=1,
                    help="local processes for --tasks all (default 1; the number of cores is a good choice)")
     p.set_defaults(func=run)
@@ -54,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
     with err.status("starting") as status:
         result = run_pipeline(Path(args.project), Path(args.out), scenarios=args.scenarios,
                               say=lambda m: status.update(m), simulate=not args.no_simulation, seed=args.seed,
-                              tasks=args.tasks, workers=args.workers)
+                              tasks=args.tasks, workers=args.workers, max_elements=args.max_elements)
     out.print(f"Bare model: {result.requirements} additional modeling requirement(s) "
               f"covering {result.requirement_elements} element(s) (requirements.csv)")
     out.print(summary_table(result))
