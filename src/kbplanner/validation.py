@@ -16,10 +16,12 @@ import logging
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from pyshacl import validate
 from rdflib import RDF, RDFS, Graph, Literal, URIRef
 from rdflib.compare import to_canonical_graph
+from rdflib.plugins.sparql import prepareQuery
 from rdflib.term import Node
 
 from kbplanner.knowledge_base import SH, curie
@@ -135,13 +137,36 @@ _INDEX_TYPES = (KBP.TaskSpecification, KBP.Skill, KBP.Action)
 _INDEX_PROPS = (KBP.specificationId, KBP.skillId)
 
 
+class _PreparedQueryGraph(Graph):
+    """A graph that parses each SPARQL text once: pySHACL runs a SHACL-SPARQL constraint's text again
+    for every focus node (with the focus node bound), and parsing is most of the cost of such a query."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self._prepared: dict[tuple[str, tuple[tuple[str, str], ...]], Any] = {}
+
+    def query(self, query_object: Any, processor: Any = "sparql", result: Any = "sparql",
+              initNs: Any = None, initBindings: Any = None,
+              use_store_provided: bool = True, **kwargs: Any) -> Any:
+        """``Graph.query`` with the parsed form of a query text kept for the next call."""
+        if isinstance(query_object, str) and processor == "sparql":
+            ns = dict(initNs) if initNs else dict(self.namespaces())
+            key = (query_object, tuple(sorted((str(k), str(v)) for k, v in ns.items())))
+            prepared = self._prepared.get(key)
+            if prepared is None:
+                prepared = prepareQuery(query_object, initNs=ns)
+                self._prepared[key] = prepared
+            query_object = prepared
+        return super().query(query_object, processor, result, initNs, initBindings, use_store_provided,
+                             **kwargs)
+
+
 def _data_copy(model: Graph, kb: Graph) -> Graph:
     """The model plus the KB class hierarchy and KB index, in a new graph."""
-    data = Graph()
+    data = _PreparedQueryGraph()
     bind_prefixes(data)
     data.bind("kbps", SHAPES_NS)
-    for t in model:
-        data.add(t)
+    data.addN((s, p, o, data) for s, p, o in model)
     for t in kb.triples((None, RDFS.subClassOf, None)):
         data.add(t)
     for cls in _INDEX_TYPES:
