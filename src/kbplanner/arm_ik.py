@@ -143,6 +143,8 @@ def analytic_arm(robot: RobotModel) -> AnalyticArm | None:
         arm = DhArm(tuple(spec.d), tuple(spec.a), tuple(spec.alpha), tuple(lo), tuple(hi))
         if ur_structure(arm) is not None:
             saved = robot.arm_positions()
+            saved_base = robot.base_pose()
+            robot.set_base_pose(0.0, 0.0, 0.0, z=0.0)  # far from the origin PyBullet's poses lose digits
             try:
                 base_in_arm_base = np.eye(4)
                 tool = []
@@ -160,6 +162,7 @@ def analytic_arm(robot: RobotModel) -> AnalyticArm | None:
                                 robot.spec.name, err)
             finally:
                 robot.set_arm(saved)
+                robot.set_base_pose(*saved_base)
     _ANALYTIC[robot] = result
     return result
 
