@@ -279,3 +279,19 @@ def test_auto_gives_the_numeric_result_for_poses_in_reach_and_the_closed_form_re
     assert far.reason.split(" m > ")[1] == numeric.reason.split(" m > ")[1]
     # the arm stretched towards the target: about as close as the numeric solver gets
     assert far.position_error_m == pytest.approx(numeric.position_error_m, rel=0.2)
+
+
+def test_the_closed_form_is_calibrated_wherever_the_robot_stands() -> None:
+    """Far from the origin PyBullet's poses are single precision: calibration must not depend on that."""
+    from kbplanner.arm_ik import analytic_arm
+    from kbplanner.robot_model import RobotModel
+
+    robot = RobotModel.load("husky_ur16e")
+    try:
+        robot.floor_z = 27.0
+        robot.set_base_pose(85.3, 7.1, 2.0)
+        assert analytic_arm(robot) is not None
+        x, y, _yaw = robot.base_pose()
+        assert (x, y) == pytest.approx((85.3, 7.1), abs=1e-4)  # put back where it was
+    finally:
+        robot.close()
