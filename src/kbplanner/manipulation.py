@@ -558,7 +558,7 @@ class _Refiner:
                 if done:
                     break
         if best is not None:
-            log.warning("%s: no collision-free grasp; the best reachable one overlaps by %.3f m", we.label,
+            log.info("%s: no collision-free grasp; the best reachable one overlaps by %.3f m", we.label,
                         -best.clearance_m)
             return best
         if nominal is not None and tried == 0 and free_count == 0:
@@ -678,7 +678,7 @@ class _Refiner:
             if best is None or res.clearance_m > best.clearance_m:
                 best = res
         if best is not None:
-            log.warning("%s: no install pose keeps the element clear of the robot; best overlap %.3f m",
+            log.info("%s: no install pose keeps the element clear of the robot; best overlap %.3f m",
                         we.label, -best.clearance_m)
             return best
         return "; ".join(reasons)
