@@ -2,7 +2,8 @@
 
 Not a pipeline step: measurement plumbing only. Wall time (:class:`Timer`, :func:`timed`), peak
 resident memory of this process (:func:`peak_rss_mb`, ``ru_maxrss``: run a case in a fresh process,
-:func:`run_child_json`, for a per-case figure), CPU seconds of this process and its children
+:func:`run_child_json`, for a per-case figure), a command's wall time, peak memory and CPU time with its
+worker processes (:func:`run_measured`, ``os.wait4``), CPU seconds of this process and its children
 (:func:`cpu_seconds`), the machine description recorded with every result (:func:`machine_info`),
 the JSON results file (:func:`write_json`), and the RDF pose/box nodes of the synthetic models
 (imported lazily, so that a script's measured memory does not include rdflib unless it uses it).
@@ -11,12 +12,15 @@ The scripts import it as ``from _common import ...`` (their own folder is first 
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import platform
 import resource
+import signal
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -80,10 +84,14 @@ def cpu_seconds() -> float:
 # ---- memory --------------------------------------------------------------------------------------
 
 
+def maxrss_mb(ru_maxrss: float) -> float:
+    """A ``ru_maxrss`` figure in MiB (it is KiB on Linux, bytes on macOS)."""
+    return ru_maxrss / 1024.0 if sys.platform != "darwin" else ru_maxrss / (1024.0 * 1024.0)
+
+
 def peak_rss_mb() -> float:
-    """Peak resident memory of this process so far (MiB; ``ru_maxrss`` is KiB on Linux, bytes on macOS)."""
-    kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    return kb / 1024.0 if sys.platform != "darwin" else kb / (1024.0 * 1024.0)
+    """Peak resident memory of this process so far (MiB)."""
+    return maxrss_mb(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
 
 
 def run_child_json(cmd: Sequence[str]) -> dict[str, Any]:
@@ -93,6 +101,37 @@ def run_child_json(cmd: Sequence[str]) -> dict[str, Any]:
     done = subprocess.run(list(cmd), check=True, capture_output=True, text=True)
     figures: dict[str, Any] = json.loads(done.stdout.strip().splitlines()[-1])
     return figures
+
+
+def run_measured(cmd: Sequence[str], *, log: Path, timeout_s: float,
+                 env: dict[str, str] | None = None) -> dict[str, Any]:
+    """Run ``cmd`` (output to the file ``log``) and measure it: wall seconds, exit code, the peak resident
+    memory of the largest process of its tree (MiB) and the CPU seconds of the tree.
+
+    ``os.wait4`` gives the child's own resource usage with that of the processes it waited for (its
+    worker processes), whatever ran before in this process. The command runs in its own session; past
+    ``timeout_s`` that process group is killed (exit code -9).
+    """
+    with log.open("wb") as out:
+        t0 = time.perf_counter()
+        proc = subprocess.Popen(list(cmd), stdout=out, stderr=subprocess.STDOUT, env=env,
+                                start_new_session=True)
+
+        def kill() -> None:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(proc.pid, signal.SIGKILL)
+
+        watchdog = threading.Timer(timeout_s, kill)
+        watchdog.start()
+        try:
+            _pid, status, usage = os.wait4(proc.pid, 0)
+        finally:
+            watchdog.cancel()
+        seconds = time.perf_counter() - t0
+    proc.returncode = os.waitstatus_to_exitcode(status)  # reaped here: Popen must not wait again
+    return {"seconds": round(seconds, 3), "exit": proc.returncode,
+            "peak_rss_mb": round(maxrss_mb(usage.ru_maxrss), 1),
+            "cpu_s": round(usage.ru_utime + usage.ru_stime, 1)}
 
 
 # ---- results -------------------------------------------------------------------------------------
