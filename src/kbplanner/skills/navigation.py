@@ -78,6 +78,21 @@ def window(grid: OccupancyGrid, points: list[tuple[float, float]], margin_m: flo
                          band=grid.band)
 
 
+UNSTICK_RADIUS_M = 0.5  # how far the robot may move straight to leave a blocked start pose
+
+
+def _nearest_free_pose(checker: PoseChecker, start: Pose2D, footprints: list[Footprint]) -> Pose2D | None:
+    """The nearest pose (rings of 2.5 cm, 16 bearings, same heading) where any of the footprints is free."""
+    for k in range(1, int(UNSTICK_RADIUS_M / 0.025) + 1):
+        r = 0.025 * k
+        for j in range(16):
+            x = start[0] + r * math.cos(j * math.pi / 8)
+            y = start[1] + r * math.sin(j * math.pi / 8)
+            if any(checker.free(f, x, y, start[2]) for f in footprints):
+                return (x, y, start[2])
+    return None
+
+
 @dataclass
 class _Route:
     """A planned route: pieces of path, each with the carry mode to drive it in ("" without a load)."""
@@ -242,12 +257,34 @@ class NavigationSkill(Skill):
         return None
 
     def _plan(self, start: Pose2D, obstacle: shapely.Geometry | None) -> _Route | str:
-        """The route to the goal; NV-2 turns the load at a pose near start or goal when it must."""
+        """The route to the goal; NV-2 turns the load at a pose near start or goal when it must.
+
+        A robot that stands where the (conservative) configuration space calls it blocked - a few
+        centimetres off its planned pose next to a wall, or where an earlier step failed - first moves
+        straight to the nearest free pose within ``UNSTICK_RADIUS_M`` (event ``unstick``).
+        """
         env = self.c.env
         grid = env.grid
         if obstacle is not None:
             grid = mark_polygon(grid, obstacle)
         normal, narrow = self._footprints()
+        checker = PoseChecker(grid)
+        fps = [normal] if narrow is None else [normal, narrow]
+        if not any(checker.free(f, *start) for f in fps):
+            free = _nearest_free_pose(checker, start, fps)
+            if free is not None:
+                rest = self._plan_from(grid, free, normal, narrow)
+                if isinstance(rest, str):
+                    return rest
+                mode = (self.c.carry_mode or NORMAL) if self.geo is not None else ""
+                step = math.hypot(free[0] - start[0], free[1] - start[1])
+                self.c.emit("unstick", x=round(start[0], 3), y=round(start[1], 3), distance_m=round(step, 3))
+                return _Route([([start, free], mode), *rest.pieces], rest.length_m + step,
+                              rest.narrow_length_m)
+        return self._plan_from(grid, start, normal, narrow)
+
+    def _plan_from(self, grid: OccupancyGrid, start: Pose2D, normal: Footprint,
+                   narrow: Footprint | None) -> _Route | str:
         first = self._leg(grid, start, self.goal, normal, narrow)
         if not isinstance(first, str):
             return first
