@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import logging
 import math
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -86,13 +87,19 @@ def transform(x: float, y: float, z: float, roll: float = 0.0, pitch: float = 0.
 
 def pose_of(m: Matrix) -> tuple[float, float, float, float, float, float]:
     """(x, y, z, roll, pitch, yaw) of a 4x4 transform."""
-    r, p, y = (float(v) for v in Rotation.from_matrix(m[:3, :3]).as_euler("xyz"))
+    r, p, y = rpy_of(m)
     return (float(m[0, 3]), float(m[1, 3]), float(m[2, 3]), r, p, y)
 
 
 def rpy_of(m: Matrix) -> Vec3:
-    """roll, pitch, yaw of a rotation (3x3) or transform (4x4)."""
-    r, p, y = (float(v) for v in Rotation.from_matrix(np.asarray(m)[:3, :3]).as_euler("xyz"))
+    """roll, pitch, yaw of a rotation (3x3) or transform (4x4).
+
+    At pitch +-90 deg (gimbal lock) roll and yaw are not unique; SciPy then sets the third angle to 0,
+    which gives the same rotation, so its warning is silenced.
+    """
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Gimbal lock detected")
+        r, p, y = (float(v) for v in Rotation.from_matrix(np.asarray(m)[:3, :3]).as_euler("xyz"))
     return (r, p, y)
 
 
