@@ -78,3 +78,11 @@ def test_kbplanner_run_tasks_all_writes_the_task_table(building: Path, tmp_path:
     assert (sdir / "tasks" / "T-FRAME-L02" / "trajectories.csv").is_file()
     assert (out / "report.html").is_file()
     assert "2/2 (2 tasks)" in capsys.readouterr().out
+
+
+def test_a_task_other_than_the_simulation_task_gets_the_world_at_its_start(building: Path) -> None:
+    project = Project.load(building, scenario=SCENARIO)
+    (first, _l1, _s1), (second, _l2, start) = [t[:3] for t in robotized_tasks(project)]
+    assert project.world_date(first) == project.world_date(None)  # the [simulation] task: its date
+    assert start is not None and project.world_date(second) == start
+    assert project.world(task_id=second).at == start

@@ -150,14 +150,9 @@ class SimulationResult:
 
 
 def _world(project: Project, plan: Plan) -> World:
-    from kbplanner.world import build_world, parse_date
+    from kbplanner.world import build_world
 
-    date = project.manifest.simulation.get("date")
-    if date is None:
-        raise KbplannerError("no [simulation] date in project.toml", file=project.manifest.path,
-                             element="simulation.date",
-                             fix='add date = "YYYY-MM-DDTHH:MM" under [simulation]')
-    return build_world(project, parse_date(str(date)), plan.task_id)
+    return build_world(project, project.world_date(plan.task_id), plan.task_id)
 
 
 def _project_files(project: Project) -> list[Path]:

@@ -321,8 +321,11 @@ def _world_date(project: Project, task: RobotizedTask, at: datetime | None) -> t
     if at is not None:
         return at, "given"
     default = project.manifest.simulation.get("date")
-    if default is not None:
+    sim_task = project.manifest.simulation.get("task")
+    if default is not None and (sim_task is None or str(sim_task) == task.task_id):
         return parse_date(str(default)), "[simulation] date of project.toml"
+    if default is not None and not isinstance(project.model.value(task.iri, KBP.start), Literal):
+        return parse_date(str(default)), "[simulation] date of project.toml (the task has no start)"
     start = project.model.value(task.iri, KBP.start)
     if isinstance(start, Literal) and isinstance(start.toPython(), datetime):
         value = start.toPython()

@@ -378,15 +378,29 @@ class Project:
                                file=self.manifest.path, fix="name the task (its task_id in the schedule)")
         return select_robots(self.model, self.kb, task, scenario=self.scenario)
 
-    def world(self, at: datetime | str | None = None, task_id: str | None = None) -> World:
-        """A6: the simulation world at a date (default: ``[simulation] date``)."""
-        from kbplanner.world import build_world, parse_date
+    def world_date(self, task_id: str | None = None) -> datetime:
+        """The date of a task's world: ``[simulation] date`` for the ``[simulation] task`` (and when no
+        task is named), the start of any other task (else the ``[simulation] date``)."""
+        from kbplanner.world import parse_date
 
-        when = at if at is not None else self.manifest.simulation.get("date")
-        if when is None:
+        default = self.manifest.simulation.get("date")
+        sim_task = self.manifest.simulation.get("task")
+        if task_id is not None and sim_task is not None and task_id != str(sim_task):
+            rows = self.query("tasks_and_elements", taskId=task_id).rows
+            start = rows[0][3] if rows else None
+            if isinstance(start, datetime):
+                return start.replace(tzinfo=None)
+        if default is None:
             raise ProjectError("no date given and no [simulation] date in project.toml",
                                file=self.manifest.path,
                                fix='add date = "2022-05-10T07:00:00" under [simulation]')
+        return parse_date(str(default))
+
+    def world(self, at: datetime | str | None = None, task_id: str | None = None) -> World:
+        """A6: the simulation world at a date (default: :meth:`world_date` of the task)."""
+        from kbplanner.world import build_world, parse_date
+
+        when = at if at is not None else self.world_date(task_id)
         if isinstance(when, str):
             when = parse_date(when)
         return build_world(self, when, task_id=task_id)

@@ -17,8 +17,6 @@ import argparse
 import sys
 from pathlib import Path
 
-from kbplanner.errors import KbplannerError
-
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
@@ -48,18 +46,13 @@ def run(args: argparse.Namespace) -> int:
     from kbplanner.planning import plan_task
     from kbplanner.project import Project
     from kbplanner.skills import ExecSettings
-    from kbplanner.world import build_world, parse_date
+    from kbplanner.world import build_world
     from kbplanner.world_exports import storey_map
 
     console = Console(stderr=True)
     project = Project.load(args.project, scenario=args.scenario)
-    date = project.manifest.simulation.get("date")
-    if date is None:
-        raise KbplannerError("no [simulation] date in project.toml", file=project.manifest.path,
-                             element="simulation.date",
-                             fix='add date = "YYYY-MM-DDTHH:MM" under [simulation] (the world of the task)')
     seed = args.seed if args.seed is not None else project.manifest.seed
-    world = build_world(project, parse_date(str(date)), args.task)
+    world = build_world(project, project.world_date(args.task), args.task)
     plan = plan_task(project, args.task, args.robot, world=world)
     if not plan.robot_id:
         reasons = sorted({s.reason or "" for s in plan.steps if not s.feasible})

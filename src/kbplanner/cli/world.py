@@ -44,11 +44,10 @@ def run(args: argparse.Namespace) -> int:
     at = parse_date(args.date) if args.date is not None else None  # checked before the project load
     project = Project.load(args.project, scenario=args.scenario)
     if at is None:
-        default = project.manifest.simulation.get("date")
-        if default is None:
+        if project.manifest.simulation.get("date") is None and args.task is None:
             raise WorldError("no --date and no [simulation] date in project.toml", file=project.manifest.path,
                              element="--date", fix="give --date YYYY-MM-DD[THH:MM]")
-        at = parse_date(str(default))
+        at = project.world_date(args.task)
     world = build_world(project, at, args.task)
     if args.storey is not None and world.storey(args.storey) is None:
         known = ", ".join(s.label for s in world.storeys) or "none"
