@@ -151,7 +151,8 @@ def _simulation_stages(rec: Recorder, project: Project, plan: Any, world: Any, g
     srun = ScenarioRun(scenario=project.scenario or "bare", run_dir=run_dir, installed=installed,
                        elements=len(result.elements), grid=grid, layout=layout)
     comp = rec.run("report",
-                   lambda: write_outputs(project.path, [srun], report_dir, requirements=requirements),
+                   lambda: write_outputs(project.path, [srun], report_dir, requirements=requirements,
+                                         project=project),
                    frames=frames)
     if comp is not None:
         rec.stages[-1]["report_html"] = (report_dir / "report.html").is_file()

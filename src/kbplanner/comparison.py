@@ -193,13 +193,18 @@ def write_outputs(
     threshold_m: float = 1.0,
     requirements: Any = None,
     selection: Sequence[Sequence[Any]] = (),
+    project: Project | None = None,
 ) -> Comparison:
-    """Comparison table, durations written back to the 4D model, and the report, into ``out_dir``."""
+    """Comparison table, durations written back to the 4D model, and the report, into ``out_dir``.
+
+    ``project`` is the loaded project (any scenario), to save loading it again.
+    """
     runs = {s.scenario: RunRecord.load(s.run_dir) for s in scenario_runs}
     comp = compare_runs(runs, threshold_m=threshold_m)
     atomic_write_text(out_dir / "comparison.csv", comp.csv())
     write_json(out_dir / "comparison.json", [asdict(f) for f in comp.figures])
-    project = Project.load(project_dir)
+    if project is None:
+        project = Project.load(project_dir)
     cal = WorkCalendar.from_calendar(project.manifest.calendar)
     task_rows = {r[1]: r for r in project.query("tasks_and_elements").rows}
     window = None

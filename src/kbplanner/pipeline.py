@@ -195,7 +195,7 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
         if sims:
             with clock.stage("comparison and report"):
                 result.comparison = write_outputs(project_dir, sims, stage, requirements=req,
-                                                  selection=sel_rows)
+                                                  selection=sel_rows, project=bare)
         result.timings = clock.timings
         result.seconds = round(time.perf_counter() - t_start, 3)
         write_json(stage / "metrics.json", {

@@ -270,8 +270,11 @@ class RunRecord:
             (c, m) if c and (c, m) in sets else ("", "")
             for c, m in zip(tr.carried, tr.carry_mode, strict=True)
         ]
-        for key in sorted(set(keys)):
-            idx = np.array([i for i, k in enumerate(keys) if k == key], dtype=int)
+        order = sorted(set(keys))
+        code = {k: i for i, k in enumerate(order)}
+        codes = np.fromiter((code[k] for k in keys), dtype=np.int64, count=len(keys))
+        for i, key in enumerate(order):
+            idx = np.flatnonzero(codes == i)
             rects = sets.get(key, robot)
             out[idx] = point_to_rects_distance(px[idx], py[idx], tr.x[idx], tr.y[idx], tr.yaw[idx], rects)
         return out
