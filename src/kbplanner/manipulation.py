@@ -986,6 +986,7 @@ def refine_plan(
         grid = storey_map(world).grid
     robot = RobotModel.load(robot_name(out))
     robot.floor_z = float(out.storey_elevation_m)  # the robot works on the task's storey
+    fallbacks = 0
     try:
         if robot.spec.arm is None:
             for s in out.steps:
@@ -999,7 +1000,11 @@ def refine_plan(
             refiner.element(iri)
             if progress is not None:
                 progress(iri, n, len(order))
+        fallbacks = refiner.fallbacks
     finally:
         robot.close()
-    out.notes.append(f"B4: arm and base poses by PyBullet IK (seed {seed})")
+    used = settings or RefineSettings()
+    again = (f"; {fallbacks} element(s) tried again with the {used.fallback_ik_method} IK"
+             if fallbacks else "")
+    out.notes.append(f"B4: arm and base poses by the {used.ik_method} IK (seed {seed}){again}")
     return out
