@@ -76,7 +76,8 @@ def test_kbplanner_run_tasks_all_writes_the_task_table(building: Path, tmp_path:
     assert [r.split(",")[0] for r in table[1:]] == ["T-FRAME-L01", "T-FRAME-L02", "all"]
     assert (sdir / "simulation" / "trajectories.csv").is_file()  # the [simulation] task, for the report
     assert (sdir / "tasks" / "T-FRAME-L02" / "trajectories.csv").is_file()
-    assert (out / "report.html").is_file()
+    html = (out / "report.html").read_text(encoding="utf-8")
+    assert "Every robotized task (whole building)" in html and "T-FRAME-L02" in html
     assert "2/2 (2 tasks)" in capsys.readouterr().out
 
 

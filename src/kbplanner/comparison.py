@@ -194,10 +194,12 @@ def write_outputs(
     requirements: Any = None,
     selection: Sequence[Sequence[Any]] = (),
     project: Project | None = None,
+    task_tables: Mapping[str, tuple[Sequence[str], Sequence[Sequence[Any]]]] | None = None,
 ) -> Comparison:
     """Comparison table, durations written back to the 4D model, and the report, into ``out_dir``.
 
-    ``project`` is the loaded project (any scenario), to save loading it again.
+    ``project`` is the loaded project (any scenario), to save loading it again; ``task_tables`` the
+    per-scenario task tables of a whole-building run (a report section).
     """
     runs = {s.scenario: RunRecord.load(s.run_dir) for s in scenario_runs}
     comp = compare_runs(runs, threshold_m=threshold_m)
@@ -247,6 +249,7 @@ def write_outputs(
         threshold_m=threshold_m,
         space_of=_space_finder(project),
         reference=project.manifest.reference,
+        task_tables=task_tables,
     )
     doc.write(out_dir)
     return comp

@@ -146,6 +146,7 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
             requirement_elements=sum(len(r.elements) for r in req.requirements),
         )
         sims: list[ScenarioRun] = []
+        task_tables: dict[str, tuple[list[str], list[list[Any]]]] = {}
         sel_rows: list[list[Any]] = []
         for name in names:
             sdir = stage / "scenarios" / name
@@ -184,6 +185,9 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
                 summary.sim_time_s = truns.sim_time_s
                 if truns.main is not None:
                     sims.append(truns.main)
+                from kbplanner.task_runs import TASK_COLUMNS
+
+                task_tables[name] = (list(TASK_COLUMNS), truns.rows())
                 sel_rows = [list(r) for r in sel.rows()]
             elif simulate and val.conforms and sel.fit:
                 with clock.stage("simulation", name):
@@ -195,7 +199,8 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
         if sims:
             with clock.stage("comparison and report"):
                 result.comparison = write_outputs(project_dir, sims, stage, requirements=req,
-                                                  selection=sel_rows, project=bare)
+                                                  selection=sel_rows, project=bare,
+                                                  task_tables=task_tables or None)
         result.timings = clock.timings
         result.seconds = round(time.perf_counter() - t_start, 3)
         write_json(stage / "metrics.json", {

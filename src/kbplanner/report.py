@@ -100,8 +100,14 @@ def build_report(runs: Mapping[str, RunRecord], *, title: str,
                  requirements: Sequence[Sequence[Any]] = (), requirement_columns: Sequence[str] = (),
                  selection: Sequence[Sequence[Any]] = (), window: tuple[datetime, datetime] | None = None,
                  fits: Mapping[str, Any] | None = None, threshold_m: float = 1.0,
-                 space_of: Any = None, reference: Mapping[str, Any] | None = None) -> ReportDoc:
-    """Assemble the report (see module docstring) from run records and optional context."""
+                 space_of: Any = None, reference: Mapping[str, Any] | None = None,
+                 task_tables: Mapping[str, tuple[Sequence[str], Sequence[Sequence[Any]]]] | None = None,
+                 ) -> ReportDoc:
+    """Assemble the report (see module docstring) from run records and optional context.
+
+    ``task_tables`` (per scenario: columns and rows of ``tasks.csv``, the last row the total) adds a
+    section on every robotized task of a whole-building run (``kbplanner run --tasks all``).
+    """
     doc = ReportDoc(title)
     prox = {name: rec.proximity(threshold_m=threshold_m) for name, rec in runs.items()}
     figures = [scenario_figures(rec, prox[name]) for name, rec in runs.items()]
@@ -194,6 +200,24 @@ def build_report(runs: Mapping[str, RunRecord], *, title: str,
                       caption=f"{name}: elements not installed")
         for kname, png in _keyframes(rec)[:4]:
             doc.image(f"{name}_{kname}", png, f"{name}: key frame {kname}")
+
+    if task_tables:
+        doc.heading("Every robotized task (whole building)")
+        doc.paragraph("Each robotized task simulated in the world at its own date (its storey, the robot "
+                      "set down at the storey's arrival pose); the sections above show the simulation task "
+                      "of project.toml. Minimum separations include the storeys between the robot and the "
+                      "workers, who walk on the ground.")
+        per_task: dict[str, dict[str, float]] = {}
+        for name, (columns, task_rows) in task_tables.items():
+            doc.table(list(columns), [list(r) for r in task_rows],
+                      caption=f"{name}: every task (tasks/tasks.csv)")
+            cols = list(columns)
+            if "task" in cols and "simulated (min)" in cols:
+                i, j = cols.index("task"), cols.index("simulated (min)")
+                per_task[name] = {str(r[i]): float(r[j] or 0.0) for r in task_rows[:-1]}
+        if per_task:
+            doc.image("tasks.png", grouped_bars(per_task, title="simulated time per task", ylabel="minutes"),
+                      "Simulated time of each robotized task (minutes)")
 
     doc.heading("Durations")
     per_frame = {name: {e.element: e.duration_s / 60.0 for e in rec.durations().elements}
