@@ -87,3 +87,18 @@ def test_a_task_other_than_the_simulation_task_gets_the_world_at_its_start(build
     assert project.world_date(first) == project.world_date(None)  # the [simulation] task: its date
     assert start is not None and project.world_date(second) == start
     assert project.world(task_id=second).at == start
+
+
+def test_a_robot_arrival_without_an_elevation_does_not_conform(building: Path) -> None:
+    from rdflib import URIRef
+
+    from kbplanner.vocab import KBP
+
+    project = Project.load(building, scenario=SCENARIO)
+    assert project.validate().conforms
+    arrival = next(project.model.objects(None, KBP.robotArrival))
+    assert isinstance(arrival, URIRef)
+    project.model.remove((arrival, KBP.z, None))
+    result = project.validate()
+    assert not result.conforms
+    assert any("kbp:z" in r.message for r in result.violations)
