@@ -108,14 +108,15 @@ def test_a_walled_off_goal_fails_with_its_reason_without_using_the_time_budget()
 
 def test_the_time_budget_ends_planning_with_a_reason(door_09: OccupancyGrid) -> None:
     # The door needs hundreds of tree states (about 0.05 s here); 0.1 ms is not enough on any machine.
-    path = plan_path(door_09, START, GOAL, NARROW, NavSettings(time_limit_s=0.0001, seed=3))
+    settings = NavSettings(time_limit_s=0.0001, seed=3, cell_fallback=False)
+    path = plan_path(door_09, START, GOAL, NARROW, settings)
     assert not path.ok and "or 0.0001 s" in path.reason
     assert path.planning_time_s < 0.5
 
 
 def test_the_work_budget_ends_planning_the_same_way_on_any_machine(door_09: OccupancyGrid) -> None:
     # Ten motion checks cannot cross the door: the same failure, whatever the machine's speed.
-    settings = NavSettings(max_motion_checks=10, time_limit_s=60.0, seed=3)
+    settings = NavSettings(max_motion_checks=10, time_limit_s=60.0, seed=3, cell_fallback=False)
     a = plan_path(door_09, START, GOAL, NARROW, settings)
     b = plan_path(door_09, START, GOAL, NARROW, settings)
     assert not a.ok and a.reason.startswith("no path within 10 motion checks")
@@ -202,3 +203,18 @@ def test_skid_steer_paths_turn_on_the_spot_and_drive_straight(door_09: Occupancy
     holonomic = plan_path(door_09, START, GOAL, BASE, NavSettings(seed=4, base_motion="holonomic"))
     assert holonomic.ok and len(holonomic.poses) < len(path.poses)
     assert holonomic.length_m == pytest.approx(path.length_m)
+
+
+def test_where_free_cells_certainly_cross_the_door_the_cell_path_settles_what_ompl_cannot(
+    door_09: OccupancyGrid,
+) -> None:
+    # Ten motion checks are not enough for RRTConnect; face-adjacent free cells join start and goal,
+    # so the cell path (shortened by exact checks) is the answer, the same on every run.
+    cs = ConfigurationSpace.build(door_09, NARROW)
+    settings = NavSettings(max_motion_checks=10, time_limit_s=60.0, seed=3)
+    a = plan_path(cs, START, GOAL, settings=settings)
+    b = plan_path(cs, START, GOAL, settings=settings)
+    assert a.ok and a.planner.endswith("+cells") and "cell search" in a.reason
+    assert a.poses == b.poses
+    assert path_is_free(cs, a.poses)
+    assert a.length_m < 1.3 * grid_shortest_path_length(cs, START, GOAL)

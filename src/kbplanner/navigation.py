@@ -34,7 +34,7 @@ import logging
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import numpy.typing as npt
@@ -66,6 +66,9 @@ OK = "ok"
 FAILED = "failed"
 
 
+CERTAIN_PASSAGE_CHECKS = 100_000  # OMPL's budget where free cells certainly join start and goal
+
+
 @dataclass(frozen=True)
 class NavSettings:
     """How to plan: planner name, time budget, yaw bins, seed and checking resolutions."""
@@ -83,6 +86,9 @@ class NavSettings:
     check_step_m: float | None = None  # motion check step; default: a quarter of a grid cell
     base_motion: str = "turn_drive_turn"  # or "holonomic": keep OMPL's SE(2) segments as they are
     allow_reverse: bool = True  # turn_drive_turn may drive backwards when that turns less
+    # where free cells certainly join start and goal and OMPL finds no path within its (then smaller)
+    # budget, take the cell path (breadth-first over face-adjacent free cells, shortened)
+    cell_fallback: bool = True
 
     def __post_init__(self) -> None:
         if self.planner not in PLANNERS:
@@ -365,12 +371,112 @@ def plan_path(
         return _failed("no path: the goal is walled off from the start for this footprint", name, fp)
 
     t0 = time.perf_counter()
+    certain = settings.cell_fallback and _face_connected(cs, start, goal)
+    run = settings
+    if certain:
+        # A passage certainly exists: OMPL gets a smaller budget, and the cell path settles the query
+        # when RRTConnect cannot find the narrow passage within it.
+        run = replace(settings, max_motion_checks=min(settings.max_motion_checks, CERTAIN_PASSAGE_CHECKS))
     level = ou.getLogLevel()
     ou.setLogLevel(ou.LogLevel.LOG_INFO if log.isEnabledFor(logging.DEBUG) else ou.LogLevel.LOG_WARN)
     try:
-        return _solve(cs, start, goal, settings, t0)
+        result = _solve(cs, start, goal, run, t0)
     finally:
         ou.setLogLevel(level)
+    if result.ok or not certain:
+        return result
+    cells = _face_path(cs, start, goal)
+    if cells is None:
+        return result
+    return _cell_route(cs, start, goal, cells, settings, t0, result.reason)
+
+
+def _face_connected(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D) -> bool:
+    """Whether face-adjacent free cells of (x, y, yaw bin) join start and goal (see :func:`_face_path`)."""
+    g = cs.grid
+    ends = []
+    for p in (start, goal):
+        ix, iy = g.cell_of(p[0], p[1])
+        if not (0 <= ix < g.shape[1] and 0 <= iy < g.shape[0]):
+            return False
+        ends.append((cs.yaw_bin(p[2]), iy, ix))
+    labels, _ = ndimage.label(cs.free)  # 6-connectivity
+    parent: dict[int, int] = {}
+
+    def find(a: int) -> int:
+        while parent.get(a, a) != a:
+            a = parent.get(a, a)
+        return a
+
+    first, last = labels[0], labels[-1]  # the yaw axis wraps: bin n-1 touches bin 0 in the same cell
+    both = (first > 0) & (last > 0)
+    for a_lab, b_lab in set(zip(first[both].tolist(), last[both].tolist(), strict=True)):
+        ra, rb = find(a_lab), find(b_lab)
+        if ra != rb:
+            parent[max(ra, rb)] = min(ra, rb)
+    a, b = int(labels[ends[0]]), int(labels[ends[1]])
+    return a > 0 and find(a) == find(b)
+
+
+def _face_path(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D) -> list[Pose2D] | None:
+    """A path through face-adjacent free cells of (x, y, yaw bin) from start to goal, or None.
+
+    Every pose in a free cell is free (the configuration space is conservative), so moving between
+    face-adjacent free cells is a collision-free motion: when this finds a path, a path certainly
+    exists. Breadth-first search (scipy) over the free cells of the start's component; the yaw axis
+    wraps. Returns the cell centres (yaw at the bin centre).
+    """
+    from scipy import sparse
+    from scipy.sparse import csgraph
+
+    g = cs.grid
+    ends = []
+    for p in (start, goal):
+        ix, iy = g.cell_of(p[0], p[1])
+        if not (0 <= ix < g.shape[1] and 0 <= iy < g.shape[0]):
+            return None
+        ends.append((cs.yaw_bin(p[2]), iy, ix))
+    if not (cs.free[ends[0]] and cs.free[ends[1]]):
+        return None
+    index = np.full(cs.free.shape, -1, dtype=np.int64)
+    flat = np.flatnonzero(cs.free)
+    index.ravel()[flat] = np.arange(len(flat))
+    rows, cols = [], []
+    for a, b in ((index[:, :, :-1], index[:, :, 1:]), (index[:, :-1, :], index[:, 1:, :]),
+                 (index[:-1], index[1:]), (index[-1:], index[:1])):
+        both = (a >= 0) & (b >= 0)
+        rows.append(a[both])
+        cols.append(b[both])
+    r, c = np.concatenate(rows), np.concatenate(cols)
+    graph = sparse.csr_matrix((np.ones(len(r), dtype=np.int8), (r, c)), shape=(len(flat), len(flat)))
+    src, dst = int(index[ends[0]]), int(index[ends[1]])
+    _order, pred = csgraph.breadth_first_order(graph, src, directed=False, return_predecessors=True)
+    if src != dst and pred[dst] < 0:
+        return None
+    nodes = [dst]
+    while nodes[-1] != src:
+        nodes.append(int(pred[nodes[-1]]))
+    cell = np.asarray(np.unravel_index(flat[nodes[::-1]], cs.free.shape), dtype=np.int64).T
+    res, (ox, oy), w = g.resolution, g.origin, cs.bin_width
+    return [(ox + (float(x) + 0.5) * res, oy + (float(y) + 0.5) * res, _wrap(float(b) * w))
+            for b, y, x in cell.tolist()]
+
+
+def _cell_route(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, cells: list[Pose2D],
+                settings: NavSettings, t0: float, ompl_reason: str) -> NavPath:
+    """The path of :func:`_face_path`, shortened by exact motion checks (OMPL found none in its budget)."""
+    motion = _ExactMotion(cs)
+    poses: list[Pose2D] = [(start[0], start[1], _wrap(start[2])), *cells, (goal[0], goal[1], _wrap(goal[2]))]
+    if not motion.path_free(poses):
+        return _failed(f"{ompl_reason}; the cell path failed the exact check", settings.planner,
+                       cs.footprint.name, time.perf_counter() - t0)
+    poses = _shortcut(motion, poses, cs.grid.resolution * 5)
+    how = f"cell search over free configuration cells (RRTConnect: {ompl_reason})"
+    if settings.base_motion == "turn_drive_turn":
+        poses, kept = turn_drive_turn(cs, poses, allow_reverse=settings.allow_reverse)
+        how += "; turn-drive-turn" + (f" ({kept} segment(s) partly turning while driving)" if kept else "")
+    return NavPath(poses=tuple(poses), length_m=_path_length(poses), planning_time_s=time.perf_counter() - t0,
+                   planner=f"{settings.planner}+cells", status=OK, reason=how, footprint=cs.footprint.name)
 
 
 def _solve(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSettings, t0: float) -> NavPath:
