@@ -34,7 +34,7 @@ import logging
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
@@ -371,19 +371,20 @@ def plan_path(
         return _failed("no path: the goal is walled off from the start for this footprint", name, fp)
 
     t0 = time.perf_counter()
-    certain = settings.cell_fallback and _face_connected(cs, start, goal)
-    run = settings
-    if certain:
-        # A passage certainly exists: OMPL gets a smaller budget, and the cell path settles the query
-        # when RRTConnect cannot find the narrow passage within it.
-        run = replace(settings, max_motion_checks=min(settings.max_motion_checks, CERTAIN_PASSAGE_CHECKS))
+    certain: list[bool] = []
+
+    def cells_certain() -> bool:
+        """Asked once, when RRTConnect has used CERTAIN_PASSAGE_CHECKS without a path."""
+        certain.append(_face_connected(cs, start, goal))
+        return certain[-1]
+
     level = ou.getLogLevel()
     ou.setLogLevel(ou.LogLevel.LOG_INFO if log.isEnabledFor(logging.DEBUG) else ou.LogLevel.LOG_WARN)
     try:
-        result = _solve(cs, start, goal, run, t0)
+        result = _solve(cs, start, goal, settings, t0, cells_certain if settings.cell_fallback else None)
     finally:
         ou.setLogLevel(level)
-    if result.ok or not certain:
+    if result.ok or not (certain and certain[-1]):
         return result
     cells = _face_path(cs, start, goal)
     if cells is None:
@@ -479,7 +480,11 @@ def _cell_route(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, cells: list
                    planner=f"{settings.planner}+cells", status=OK, reason=how, footprint=cs.footprint.name)
 
 
-def _solve(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSettings, t0: float) -> NavPath:
+def _solve(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSettings, t0: float,
+           cells_certain: Callable[[], bool] | None = None) -> NavPath:
+    """RRTConnect within the work budget. With ``cells_certain``: after CERTAIN_PASSAGE_CHECKS motion
+    checks without a path it is asked whether free cells certainly join start and goal; if so, planning
+    stops there (the caller takes the cell path), else the same tree grows on to the full budget."""
     name = settings.planner
     fp = cs.footprint.name
     grid = cs.grid
@@ -510,16 +515,26 @@ def _solve(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSet
     ss.setStartAndGoalStates(s, g)
     deadline = time.perf_counter() + settings.time_limit_s
     budget = settings.max_motion_checks
+    first = min(budget, CERTAIN_PASSAGE_CHECKS) if cells_certain is not None else budget
     ptc = ob.PlannerTerminationCondition(
-        lambda: validator.calls >= budget or time.perf_counter() > deadline)
+        lambda: validator.calls >= first or time.perf_counter() > deadline)
     status = ss.solve(ptc)
+    if cells_certain is not None and not ss.haveExactSolutionPath() and time.perf_counter() <= deadline:
+        if cells_certain():
+            budget = first  # the caller takes the cell path
+        elif first < budget:
+            ptc = ob.PlannerTerminationCondition(
+                lambda: validator.calls >= budget or time.perf_counter() > deadline)
+            status = ss.solve(ptc)  # the planner keeps its trees: this continues the same search
+    elif first < budget and not ss.haveExactSolutionPath():
+        budget = first
     if validator.calls < budget and time.perf_counter() > deadline:
         log.warning("planning hit the %.0f s safety cap before its work budget: the result may depend on "
                     "machine speed", settings.time_limit_s)
     exact = ss.haveExactSolutionPath()
     if not exact:
         elapsed = time.perf_counter() - t0
-        reason = (f"no path within {settings.max_motion_checks} motion checks or {settings.time_limit_s:g} s "
+        reason = (f"no path within {budget} motion checks or {settings.time_limit_s:g} s "
                   f"({status.asString()})")
         del ss, planner
         return _failed(reason, name, fp, elapsed)
