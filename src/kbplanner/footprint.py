@@ -225,6 +225,45 @@ class ConfigurationSpace:
         out[ok] = self.free[k[ok], iy[ok], ix[ok]]
         return out
 
+    def components(self, *, diagonal: bool = False) -> npt.NDArray[np.int64]:
+        """Connected components of the free cells (bin, iy, ix), the yaw axis closed into a ring.
+
+        ``diagonal=False``: face-adjacent cells only - every pose in a free cell is free, so cells of
+        one component are certainly joined by a collision-free motion. ``diagonal=True``: 26-connected
+        (across the wrap too), which over-connects, so different components are certainly apart.
+        0 is blocked; labels are joined across the wrap (bin n-1 next to bin 0).
+        """
+        from scipy import ndimage
+
+        structure = np.ones((3, 3, 3), dtype=bool) if diagonal else ndimage.generate_binary_structure(3, 1)
+        labels, n = ndimage.label(self.free, structure=structure)
+        parent = np.arange(n + 1)
+
+        def find(a: int) -> int:
+            while parent[a] != a:
+                a = int(parent[a])
+            return a
+
+        first, last = labels[0], labels[-1]
+        shifts = [(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1)] if diagonal else [(0, 0)]
+        for dy, dx in shifts:
+            b = np.roll(np.roll(last, dy, axis=0), dx, axis=1)
+            both = (first > 0) & (b > 0)
+            for a_lab, b_lab in sorted(set(zip(first[both].tolist(), b[both].tolist(), strict=True))):
+                ra, rb = find(a_lab), find(b_lab)
+                if ra != rb:
+                    parent[max(ra, rb)] = min(ra, rb)
+        roots = np.array([find(i) for i in range(n + 1)], dtype=np.int64)
+        return np.asarray(roots[labels], dtype=np.int64)
+
+    def component_of(self, labels: npt.NDArray[np.int64], x: float, y: float, yaw: float) -> int:
+        """The component (of :meth:`components`) of a pose; 0 when blocked or off the grid."""
+        ix, iy = self.grid.cell_of(x, y)
+        ny, nx = self.grid.shape
+        if not (0 <= ix < nx and 0 <= iy < ny):
+            return 0
+        return int(labels[self.yaw_bin(yaw), iy, ix])
+
     def free_any_yaw(self) -> BoolArray:
         """Cells where at least one yaw bin is free (where the robot's centre can be at all)."""
         return np.asarray(self.free.any(axis=0))

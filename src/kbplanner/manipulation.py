@@ -225,8 +225,6 @@ def escapes(grid: OccupancyGrid, footprint: Footprint, pose: Pose2, *, radius_m:
         >>> escapes(g, Footprint((Rect(0, 0, 0.5, 0.3),)), Pose2(2.0, 2.0, 0.0), radius_m=1.5)
         False
     """
-    from scipy import ndimage
-
     from kbplanner.footprint import ConfigurationSpace
 
     res = grid.resolution
@@ -238,25 +236,10 @@ def escapes(grid: OccupancyGrid, footprint: Footprint, pose: Pose2, *, radius_m:
     sub = OccupancyGrid(occupied=grid.occupied[iy0:iy1, ix0:ix1], origin=(grid.origin[0] + ix0 * res,
                         grid.origin[1] + iy0 * res), resolution=res, band=grid.band)
     cs = ConfigurationSpace.build(sub, footprint, n_bins)
-    labels, _ = ndimage.label(cs.free, structure=ndimage.generate_binary_structure(3, 1))
-    parent: dict[int, int] = {}
-
-    def find(a: int) -> int:
-        while parent.get(a, a) != a:
-            a = parent.get(a, a)
-        return a
-
-    first, last = labels[0], labels[-1]
-    both = (first > 0) & (last > 0)
-    for a, b in sorted(set(zip(first[both].tolist(), last[both].tolist(), strict=True))):
-        ra, rb = find(a), find(b)
-        if ra != rb:
-            parent[max(ra, rb)] = min(ra, rb)
-    cx, cy = sub.cell_of(pose.x, pose.y)
-    own = labels[cs.yaw_bin(pose.yaw), cy, cx]
-    if own == 0:
+    labels = cs.components()
+    root = cs.component_of(labels, pose.x, pose.y, pose.yaw)
+    if root == 0:
         return False
-    root = find(int(own))
     # Off the window counts as occupied, so free cells stop a footprint radius short of its border:
     # the band of that width (plus two cells) along the border is "away". The map's own edges are not.
     band = math.ceil((footprint.radius_m + 2 * res) / res)
@@ -269,8 +252,7 @@ def escapes(grid: OccupancyGrid, footprint: Footprint, pose: Pose2, *, radius_m:
         border[:band, :] = True
     if iy1 < ny:
         border[-band:, :] = True
-    found = {find(int(v)) for v in np.unique(labels[:, border]) if v}
-    return root in found
+    return bool((labels[:, border] == root).any())
 
 
 # --------------------------------------------------------------------------------------------

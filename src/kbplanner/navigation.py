@@ -41,7 +41,6 @@ import numpy.typing as npt
 from ompl import base as ob
 from ompl import geometric as og
 from ompl import util as ou
-from scipy import ndimage
 
 from kbplanner.errors import KbplannerError
 from kbplanner.footprint import ConfigurationSpace, Footprint
@@ -160,31 +159,8 @@ def _connected(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D) -> bool:
     26-connectivity with the yaw axis closed into a ring over-connects, so "not connected" is
     certain: no continuous path exists in the (conservative) configuration space.
     """
-    labels, _ = ndimage.label(cs.free, structure=np.ones((3, 3, 3), dtype=bool))
-    # Join labels across the yaw wrap (bin n-1 next to bin 0).
-    parent: dict[int, int] = {}
-
-    def find(a: int) -> int:
-        while parent.get(a, a) != a:
-            a = parent.get(a, a)
-        return a
-
-    first, last = labels[0], labels[-1]
-    for shift_y in (-1, 0, 1):
-        for shift_x in (-1, 0, 1):
-            b = np.roll(np.roll(last, shift_y, axis=0), shift_x, axis=1)
-            both = (first > 0) & (b > 0)
-            for a_lab, b_lab in set(zip(first[both].tolist(), b[both].tolist(), strict=True)):
-                ra, rb = find(a_lab), find(b_lab)
-                if ra != rb:
-                    parent[max(ra, rb)] = min(ra, rb)
-
-    def label_of(p: Pose2D) -> int:
-        g = cs.grid
-        ix, iy = g.cell_of(p[0], p[1])
-        return int(labels[cs.yaw_bin(p[2]), iy, ix])
-
-    return find(label_of(start)) == find(label_of(goal))
+    labels = cs.components(diagonal=True)
+    return cs.component_of(labels, *start) == cs.component_of(labels, *goal)
 
 
 def _validity_checker(cs: ConfigurationSpace) -> Callable[[ob.State], bool]:
@@ -394,29 +370,9 @@ def plan_path(
 
 def _face_connected(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D) -> bool:
     """Whether face-adjacent free cells of (x, y, yaw bin) join start and goal (see :func:`_face_path`)."""
-    g = cs.grid
-    ends = []
-    for p in (start, goal):
-        ix, iy = g.cell_of(p[0], p[1])
-        if not (0 <= ix < g.shape[1] and 0 <= iy < g.shape[0]):
-            return False
-        ends.append((cs.yaw_bin(p[2]), iy, ix))
-    labels, _ = ndimage.label(cs.free)  # 6-connectivity
-    parent: dict[int, int] = {}
-
-    def find(a: int) -> int:
-        while parent.get(a, a) != a:
-            a = parent.get(a, a)
-        return a
-
-    first, last = labels[0], labels[-1]  # the yaw axis wraps: bin n-1 touches bin 0 in the same cell
-    both = (first > 0) & (last > 0)
-    for a_lab, b_lab in set(zip(first[both].tolist(), last[both].tolist(), strict=True)):
-        ra, rb = find(a_lab), find(b_lab)
-        if ra != rb:
-            parent[max(ra, rb)] = min(ra, rb)
-    a, b = int(labels[ends[0]]), int(labels[ends[1]])
-    return a > 0 and find(a) == find(b)
+    labels = cs.components(diagonal=False)
+    a = cs.component_of(labels, *start)
+    return a > 0 and a == cs.component_of(labels, *goal)
 
 
 def _face_path(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D) -> list[Pose2D] | None:
