@@ -87,9 +87,7 @@ def simulate_scenario(
     world = project.world(at=at, task_id=task_id)
     plan = plan_task(project, task_id, world=world)
     if max_elements is not None:
-        keep = {e.iri for e in plan.elements[:max_elements]}
-        plan.elements = [e for e in plan.elements if e.iri in keep]
-        plan.steps = [s for s in plan.steps if s.element in keep]
+        plan.keep_first(max_elements)
     if not plan.robot_id:
         reasons = sorted({s.reason or "" for s in plan.steps if not s.feasible})
         raise KbplannerError(

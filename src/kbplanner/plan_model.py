@@ -104,6 +104,12 @@ class Plan:
     task_iri: str = ""  # the construction task (plan.ttl links to it)
     spec_iri: str = ""  # the task specification of the knowledge base
 
+    def keep_first(self, n: int) -> None:
+        """Keep only the first ``n`` elements of the plan's order and their steps (a quick look)."""
+        keep = {e.iri for e in self.elements[:n]}
+        self.elements = [e for e in self.elements if e.iri in keep]
+        self.steps = [s for s in self.steps if s.element in keep]
+
     def steps_for(self, element_iri: str) -> list[SkillCall]:
         """The skill calls of one element, in order."""
         return [s for s in self.steps if s.element == element_iri]

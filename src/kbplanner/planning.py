@@ -47,7 +47,7 @@ from rdflib.collection import Collection
 from rdflib.term import Node
 
 from kbplanner.element_order import element_order
-from kbplanner.errors import KbplannerError, KnowledgeBaseError
+from kbplanner.errors import KbplannerError, KnowledgeBaseError, ProjectError
 from kbplanner.ifc_geometry import Pose
 from kbplanner.jobsite import ActionParameters, action_parameters, jobsite_parameters
 from kbplanner.knowledge_base import curie, select, source_of
@@ -321,17 +321,13 @@ def _world_date(project: Project, task: RobotizedTask, at: datetime | None) -> t
     if at is not None:
         return at, "given"
     default = project.manifest.simulation.get("date")
-    sim_task = project.manifest.simulation.get("task")
-    if default is not None and (sim_task is None or str(sim_task) == task.task_id):
-        return parse_date(str(default)), "[simulation] date of project.toml"
-    if default is not None and not isinstance(project.model.value(task.iri, KBP.start), Literal):
-        return parse_date(str(default)), "[simulation] date of project.toml (the task has no start)"
-    start = project.model.value(task.iri, KBP.start)
-    if isinstance(start, Literal) and isinstance(start.toPython(), datetime):
-        value = start.toPython()
-        assert isinstance(value, datetime)
-        return value.replace(tzinfo=None), f"start of task {task.task_id}"
-    return FALLBACK_DATE, "no date known (task elements are placed at their storage whatever the date)"
+    try:
+        when = project.world_date(task.task_id)  # the one rule: Project.world_date
+    except ProjectError:
+        return FALLBACK_DATE, "no date known (task elements are placed at their storage whatever the date)"
+    if default is not None and when == parse_date(str(default)):
+        return when, "[simulation] date of project.toml"
+    return when, f"start of task {task.task_id}"
 
 
 def _runtime_inputs(spec: TaskSpecification) -> str | None:

@@ -422,9 +422,7 @@ class Project:
         world = self.world(task_id=task_id)
         plan = plan_task(self, task_id, robot_id, world=world)
         if max_elements is not None:
-            keep = {e.iri for e in plan.elements[:max_elements]}
-            plan.elements = [e for e in plan.elements if e.iri in keep]
-            plan.steps = [s for s in plan.steps if s.element in keep]
+            plan.keep_first(max_elements)
         if refine and plan.robot_id:
             plan = refine_plan(plan, world, seed=self.manifest.seed if seed is None else seed)
         return plan

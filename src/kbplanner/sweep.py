@@ -516,9 +516,7 @@ def run_variant(task: VariantTask) -> VariantResult:
             row.status, row.reason = FAILED, "no robot of the knowledge base fits the task"
             return row
         if task.max_elements is not None:
-            keep = {e.iri for e in plan.elements[: task.max_elements]}
-            plan.elements = [e for e in plan.elements if e.iri in keep]
-            plan.steps = [s for s in plan.steps if s.element in keep]
+            plan.keep_first(task.max_elements)
         refined = refine_plan(plan, world, seed=v.seed, grid=grid)
         horizon = 1800.0 + WORKER_HORIZON_S_PER_STEP * len(refined.steps)
         workers = shifted_workers(project, grid, seed=v.seed, horizon_s=horizon, offset_s=v.start_offset_s)

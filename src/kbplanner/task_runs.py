@@ -130,7 +130,6 @@ class _Job:
     scenario: str | None
     task_id: str
     label: str
-    at: datetime | None
     seed: int | None
     out_dir: Path
     rel_dir: str
@@ -155,12 +154,11 @@ def _run(job: _Job) -> tuple[TaskFigures, ScenarioRun | None, float]:
     t0 = time.perf_counter()
     project = _project(job.project_dir, job.scenario)
     run = simulate_scenario(job.project_dir, job.scenario, seed=job.seed, out_dir=job.out_dir,
-                            keyframes=job.keyframes, task_id=job.task_id, at=job.at, project=project,
+                            keyframes=job.keyframes, task_id=job.task_id, project=project,
                             max_elements=job.max_elements)
     rec = RunRecord.load(job.out_dir)
     fig = scenario_figures(rec, rec.proximity(threshold_m=1.0))
-    when = job.at or project.manifest.simulation.get("date")
-    world_date = when.isoformat() if isinstance(when, datetime) else str(when or "")
+    world_date = project.world_date(job.task_id).isoformat()  # the date simulate_scenario's world used
     figures = TaskFigures(
         task_id=job.task_id, label=job.label, world_date=world_date, installed=fig.installed,
         elements=fig.elements, sim_time_s=float(rec.metrics.get("totals", {}).get("sim_time_s", 0.0)),
@@ -225,11 +223,11 @@ def simulate_tasks(
     if not main_task and known:
         main_task = known[0][0]
     jobs = []
-    for task_id, label, start in known:
+    for task_id, label, _start in known:
         is_main = task_id == main_task
         where = main_dir if (is_main and main_dir is not None) else out_dir / task_id
         rel = Path(os.path.relpath(where.resolve(), out_dir.resolve())).as_posix()
-        jobs.append(_Job(project_dir, scenario, task_id, label, None if is_main else start, seed, where, rel,
+        jobs.append(_Job(project_dir, scenario, task_id, label, seed, where, rel,
                          keyframes and is_main, is_main, max_elements))
     _LOADED[(str(project_dir.resolve()), scenario)] = project
     result = TaskRunsResult(scenario=scenario, out_dir=out_dir, workers=workers)
