@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 
-.PHONY: all setup run test test-slow check lint typecheck bench clean
+.PHONY: all setup run test test-slow check lint layers typecheck bench clean
 
 all: test
 
@@ -27,7 +27,10 @@ test: check
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -n 2 -q -m slow
 
-check: lint typecheck
+check: lint typecheck layers
+
+layers: $(STAMP)
+	$(BIN)/lint-imports
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks

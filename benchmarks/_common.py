@@ -163,7 +163,7 @@ def rdf_pose(g: Graph, node: URIRef, x: float, y: float, z: float = 0.0) -> URIR
     """Add a ``kbp:Pose`` at (x, y, z), no rotation, as ``node`` to graph ``g``; returns ``node``."""
     from rdflib import RDF, Literal
 
-    from kbplanner.vocab import KBP
+    from kbplanner.core.vocab import KBP
 
     g.add((node, RDF.type, KBP.Pose))
     for p, v in ((KBP.x, x), (KBP.y, y), (KBP.z, z), (KBP.roll, 0.0), (KBP.pitch, 0.0), (KBP.yaw, 0.0)):
@@ -175,7 +175,7 @@ def rdf_box(g: Graph, node: URIRef, lo: tuple[float, ...], hi: tuple[float, ...]
     """Add a ``kbp:Box`` from ``lo`` to ``hi`` as ``node`` to graph ``g``; returns ``node``."""
     from rdflib import RDF, Literal
 
-    from kbplanner.vocab import KBP
+    from kbplanner.core.vocab import KBP
 
     g.add((node, RDF.type, KBP.Box))
     for p, v in zip((KBP.minX, KBP.minY, KBP.minZ, KBP.maxX, KBP.maxY, KBP.maxZ), (*lo, *hi), strict=True):

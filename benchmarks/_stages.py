@@ -1,7 +1,7 @@
 """Stages of the scale benchmark (benchmarks/run.py), run in one process per building size.
 
 Not a pipeline step: measurement of the pipeline. ``measure_size(storeys, units, workdir, endpoint=...)``
-generates a building (kbplanner.building_generator), then times every pipeline stage that exists on it,
+generates a building (kbplanner.scale.building_generator), then times every pipeline stage that exists on it,
 in order, and returns JSON-ready records: wall time, the process's peak resident memory after the stage
 and how much the stage raised it (``ru_maxrss``, so a fresh process per size), and what the stage
 produced. Stages: generate, import (IFC -> graph and meshes, cache cleared first), load (bare model),
@@ -36,10 +36,10 @@ from typing import Any
 
 from _common import Timer, peak_rss_mb
 
-from kbplanner.building_generator import SCENARIO, generate_building
-from kbplanner.named_queries import catalogue, run_text
+from kbplanner.core.named_queries import catalogue, run_text
+from kbplanner.core.stores import result_json
 from kbplanner.project import Project, import_cached, read_manifest
-from kbplanner.stores import result_json
+from kbplanner.scale.building_generator import SCENARIO, generate_building
 
 log = logging.getLogger(__name__)
 
@@ -96,12 +96,12 @@ def _simulation_stages(rec: Recorder, project: Project, plan: Any, world: Any, g
     plan's elements), the x of its growth exponent.
     """
     try:
-        from kbplanner.comparison import ScenarioRun, write_outputs
-        from kbplanner.executor import INSTALLED, simulate
-        from kbplanner.manipulation import refine_plan
-        from kbplanner.plots import LayoutObject
-        from kbplanner.run_record import RunRecord
-        from kbplanner.skills import ExecSettings
+        from kbplanner.analysis.comparison import ScenarioRun, write_outputs
+        from kbplanner.analysis.plots import LayoutObject
+        from kbplanner.analysis.run_record import RunRecord
+        from kbplanner.planning.manipulation import refine_plan
+        from kbplanner.simulation.executor import INSTALLED, simulate
+        from kbplanner.simulation.skills import ExecSettings
     except ImportError as exc:
         rec.stages.append({"stage": "simulation (B5)", "ok": False, "seconds": None,
                            "error": f"not available: {exc}"})
@@ -163,8 +163,8 @@ def _simulation_stages(rec: Recorder, project: Project, plan: Any, world: Any, g
 def measure_size(storeys: int, units: int, workdir: Path, *, endpoint: str | None = None, repeats: int = 2,
                  simulate_max_frames: int = 0) -> dict[str, Any]:
     """Every stage on a generated ``storeys`` x ``units`` building (see the module docstring)."""
-    from kbplanner.planning import plan_task, plan_tasks
-    from kbplanner.world_exports import storey_map
+    from kbplanner.planning.planner import plan_task, plan_tasks
+    from kbplanner.world.exports import storey_map
 
     rec = Recorder()
     directory = workdir / f"building-{storeys}x{units}"

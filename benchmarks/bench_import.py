@@ -29,8 +29,8 @@ GENERATED = {
 
 def run_case(ifc: Path, processes: int) -> dict[str, object]:
     """Import one file in this process; returns the figures."""
-    from kbplanner.ifc_import import import_ifc
-    from kbplanner.iris import base_iri
+    from kbplanner.core.iris import base_iri
+    from kbplanner.model.ifc_import import import_ifc
 
     with tempfile.TemporaryDirectory() as out:
         with Timer() as timer:

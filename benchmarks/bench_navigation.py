@@ -1,7 +1,7 @@
 """Navigation benchmark (B5): planning time, success and path-length ratio vs the grid shortest path.
 
 Maps: synthetic two-room maps (0.9 m and 1.2 m doors), a four-room flat with a corridor, and, when
-the case study's Duplex IFC is present, its Level 1 imported with kbplanner.ifc_import (doors open,
+the case study's Duplex IFC is present, its Level 1 imported with kbplanner.model.ifc_import (doors open,
 spaces not obstacles). Planners: RRTConnect (default, stops at the first solution, deterministic per
 seed) against BIT* and InformedRRT* with a fixed time budget; every path is shortcut-simplified.
 Also the carry-mode planner (wide 1.2 m panel through a 0.9 m door).
@@ -22,9 +22,14 @@ import numpy as np
 import trimesh
 from _common import REPO, RESULTS_DIR, Timer, machine_info, write_json
 
-from kbplanner.footprint import ConfigurationSpace, Footprint, Rect
-from kbplanner.navigation import NavSettings, grid_shortest_path_length, plan_path, plan_with_carry_modes
-from kbplanner.occupancy import Box, OccupancyGrid, occupancy_from_meshes
+from kbplanner.simulation.navigation import (
+    NavSettings,
+    grid_shortest_path_length,
+    plan_path,
+    plan_with_carry_modes,
+)
+from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect
+from kbplanner.world.occupancy import Box, OccupancyGrid, occupancy_from_meshes
 
 RESULTS = RESULTS_DIR
 DUPLEX = REPO / "data" / "case_study" / "model" / "Duplex_A_20110907.ifc"
@@ -75,9 +80,9 @@ def duplex_level1() -> (
         return None
     from rdflib import RDF
 
-    from kbplanner.ifc_import import import_ifc_graph
-    from kbplanner.iris import base_iri
-    from kbplanner.vocab import BOT, KBP
+    from kbplanner.core.iris import base_iri
+    from kbplanner.core.vocab import BOT, KBP
+    from kbplanner.model.ifc_import import import_ifc_graph
 
     res = import_ifc_graph(DUPLEX, base=base_iri("duplex"))
     storey = min((s for s in res.storeys if s.elevation_m > -0.5), key=lambda s: s.elevation_m)

@@ -25,17 +25,17 @@ from _common import rdf_box as _box
 from _common import rdf_pose as _pose
 from rdflib import RDF, RDFS, XSD, Graph, Literal
 
-from kbplanner.element_order import element_order
-from kbplanner.iris import element_iri, mint, task_iri
-from kbplanner.knowledge_base import load_kb
-from kbplanner.planning import plan_task, resolve_task
+from kbplanner.core.iris import element_iri, mint, task_iri
+from kbplanner.core.rdf_io import bind_prefixes
+from kbplanner.core.vocab import BOT, KBP
+from kbplanner.knowledge.knowledge_base import load_kb
+from kbplanner.knowledge.robot_selection import select_robots
+from kbplanner.knowledge.task_specs import task_specification
+from kbplanner.planning.element_order import element_order
+from kbplanner.planning.planner import plan_task, resolve_task
+from kbplanner.planning.skill_inputs import resolve_inputs
 from kbplanner.project import Calendar, Manifest, Project
-from kbplanner.rdf_io import bind_prefixes
-from kbplanner.robot_selection import select_robots
-from kbplanner.skill_inputs import resolve_inputs
-from kbplanner.task_specs import task_specification
-from kbplanner.vocab import BOT, KBP
-from kbplanner.world import build_world
+from kbplanner.world.build import build_world
 
 RESULTS = RESULTS_DIR / "planning.json"
 BASE = "https://w3id.org/kbplanner/data/bench-plan/"

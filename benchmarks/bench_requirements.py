@@ -22,12 +22,12 @@ from _common import rdf_box as _box
 from _common import rdf_pose as _pose
 from rdflib import RDF, RDFS, XSD, Graph, Literal
 
-from kbplanner.iris import element_iri, mint, task_iri
-from kbplanner.knowledge_base import load_kb
-from kbplanner.rdf_io import bind_prefixes
-from kbplanner.requirements import derive_requirements
-from kbplanner.validation import validate_model
-from kbplanner.vocab import KBP
+from kbplanner.core.iris import element_iri, mint, task_iri
+from kbplanner.core.rdf_io import bind_prefixes
+from kbplanner.core.vocab import KBP
+from kbplanner.knowledge.knowledge_base import load_kb
+from kbplanner.knowledge.requirements import derive_requirements
+from kbplanner.knowledge.validation import validate_model
 
 RESULTS = RESULTS_DIR / "requirements.json"
 BASE = "https://w3id.org/kbplanner/data/bench/"

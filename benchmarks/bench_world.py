@@ -28,9 +28,9 @@ def run_case(project_dir: Path, scenario: str | None, date: str | None) -> dict[
     import pybullet as p
 
     from kbplanner.project import Project
-    from kbplanner.sim_world import load_world, settle
-    from kbplanner.world import build_world, parse_date
-    from kbplanner.world_exports import export_world, storey_map
+    from kbplanner.simulation.sim_world import load_world, settle
+    from kbplanner.world.build import build_world, parse_date
+    from kbplanner.world.exports import export_world, storey_map
 
     t0 = time.perf_counter()
     project = Project.load(project_dir, scenario=scenario)

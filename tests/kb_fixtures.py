@@ -17,9 +17,9 @@ from datetime import datetime
 
 from rdflib import RDF, RDFS, XSD, Graph, Literal, URIRef
 
-from kbplanner.iris import element_iri, mint, task_iri
-from kbplanner.rdf_io import bind_prefixes
-from kbplanner.vocab import BOT, KBP
+from kbplanner.core.iris import element_iri, mint, task_iri
+from kbplanner.core.rdf_io import bind_prefixes
+from kbplanner.core.vocab import BOT, KBP
 
 BASE = "https://w3id.org/kbplanner/data/test-site/"
 

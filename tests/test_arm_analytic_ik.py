@@ -12,7 +12,7 @@ import numpy as np
 import pybullet as p
 import pytest
 
-from kbplanner.arm_analytic_ik import (
+from kbplanner.robot.arm_analytic_ik import (
     DhArm,
     beyond_reach_m,
     forward_kinematics,
@@ -22,8 +22,8 @@ from kbplanner.arm_analytic_ik import (
     ur_structure,
     wrap_to_limits,
 )
-from kbplanner.arm_ik import _near_seed, analytic_arm, solve_ik
-from kbplanner.robot_model import RobotModel, load_robot_specs, urdf_text
+from kbplanner.robot.arm_ik import _near_seed, analytic_arm, solve_ik
+from kbplanner.robot.robot_model import RobotModel, load_robot_specs, urdf_text
 
 ROBOTS = ("husky_ur5", "husky_ur16e")
 HALF = math.pi / 2
@@ -283,8 +283,8 @@ def test_auto_gives_the_numeric_result_for_poses_in_reach_and_the_closed_form_re
 
 def test_the_closed_form_is_calibrated_wherever_the_robot_stands() -> None:
     """Far from the origin PyBullet's poses are single precision: calibration must not depend on that."""
-    from kbplanner.arm_ik import analytic_arm
-    from kbplanner.robot_model import RobotModel
+    from kbplanner.robot.arm_ik import analytic_arm
+    from kbplanner.robot.robot_model import RobotModel
 
     robot = RobotModel.load("husky_ur16e")
     try:

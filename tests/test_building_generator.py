@@ -14,17 +14,17 @@ import ifcopenshell.util.element
 import ifcopenshell.util.placement
 import pytest
 
-from kbplanner.building_generator import (
+from kbplanner.cli import main
+from kbplanner.planning.element_order import RULE_SEQUENCE
+from kbplanner.planning.planner import plan_task
+from kbplanner.project import Project
+from kbplanner.scale.building_generator import (
     MAX_PANEL_LENGTH,
     SCENARIO,
     GeneratedBuilding,
     GeneratorError,
     generate_building,
 )
-from kbplanner.cli import main
-from kbplanner.element_order import RULE_SEQUENCE
-from kbplanner.planning import plan_task
-from kbplanner.project import Project
 
 
 def _files(directory: Path) -> dict[str, bytes]:

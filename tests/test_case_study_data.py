@@ -28,9 +28,9 @@ import trimesh
 from rdflib import RDF, RDFS, BNode, Graph, Literal, URIRef
 from rdflib.namespace import XSD
 
-from kbplanner.iris import element_iri
-from kbplanner.rdf_io import parse_turtle
-from kbplanner.vocab import BOT, KBP
+from kbplanner.core.iris import element_iri
+from kbplanner.core.rdf_io import parse_turtle
+from kbplanner.core.vocab import BOT, KBP
 
 CASE = Path(__file__).resolve().parents[1] / "data" / "case_study"
 EXPECTED = tomllib.loads((CASE / "expected.toml").read_text(encoding="utf-8"))
@@ -368,7 +368,7 @@ def test_on_the_simulation_date_roof_and_framing_are_in_progress_and_level_1_par
 
 
 def test_the_schedule_reader_resolves_the_framing_task_to_the_eleven_frames(ifc: Any) -> None:
-    from kbplanner.schedule_csv import read_csv_schedule
+    from kbplanner.model.schedule_csv import read_csv_schedule
 
     model = Graph()
     storeys: dict[str, URIRef] = {}
@@ -573,7 +573,7 @@ def test_the_loaded_case_study_matches_the_expected_summary(projects: dict[str |
 
 def test_the_bare_model_needs_a_frame_storage_and_grasp_points_for_every_frame(
         projects: dict[str | None, Any]) -> None:
-    from kbplanner.requirements import derive_requirements
+    from kbplanner.knowledge.requirements import derive_requirements
 
     p = projects[None]
     result = derive_requirements(p.model, p.kb)
@@ -588,8 +588,8 @@ def test_the_bare_model_needs_a_frame_storage_and_grasp_points_for_every_frame(
 @pytest.mark.parametrize("name", sorted(SCENARIOS))
 def test_each_storage_scenario_meets_every_requirement_and_conforms(projects: dict[str | None, Any],
                                                                    name: str) -> None:
-    from kbplanner.requirements import derive_requirements
-    from kbplanner.validation import validate_model
+    from kbplanner.knowledge.requirements import derive_requirements
+    from kbplanner.knowledge.validation import validate_model
 
     p = projects[name]
     requirements = derive_requirements(p.model, p.kb).requirements
@@ -600,8 +600,8 @@ def test_each_storage_scenario_meets_every_requirement_and_conforms(projects: di
 
 def test_the_jobsite_admits_a_robot_through_the_front_door_and_slows_it_down_with_a_frame(
         projects: dict[str | None, Any]) -> None:
-    from kbplanner.jobsite import action_parameters, jobsite_parameters
-    from kbplanner.task_specs import task_specification
+    from kbplanner.knowledge.jobsite import action_parameters, jobsite_parameters
+    from kbplanner.knowledge.task_specs import task_specification
 
     exp = EXPECTED["jobsite"]
     p = projects[None]

@@ -13,13 +13,13 @@ from typing import Any
 import numpy as np
 import pytest
 
-from kbplanner.carry import transform
-from kbplanner.executor import INSTALLED, SimulationResult, simulate
-from kbplanner.manipulation import refine_plan, target_variants
-from kbplanner.plan_model import Plan
-from kbplanner.sim_env import angle_between
-from kbplanner.vocab import KBP
-from kbplanner.workers import RouteStop, WorkerMotion, WorkerSpec
+from kbplanner.core.vocab import KBP
+from kbplanner.planning.carry import transform
+from kbplanner.planning.manipulation import refine_plan, target_variants
+from kbplanner.planning.plan_model import Plan
+from kbplanner.simulation.executor import INSTALLED, SimulationResult, simulate
+from kbplanner.simulation.sim_env import angle_between
+from kbplanner.simulation.workers import RouteStop, WorkerMotion, WorkerSpec
 from sim_project_factory import DOOR_CENTER, DOOR_WIDTH_M, SimCase, load_sim_case
 
 SEED = 3
@@ -217,12 +217,12 @@ def test_the_environment_falls_back_to_headless_without_a_display_and_closes_twi
         runs: Runs, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture) -> None:
     import pybullet as p
 
-    from kbplanner.manipulation import robot_name
-    from kbplanner.sim_env import SimEnv
+    from kbplanner.planning.manipulation import robot_name
+    from kbplanner.simulation.sim_env import SimEnv
 
     monkeypatch.delenv("DISPLAY", raising=False)
     env = SimEnv(runs.case.world, robot_name(runs.case.refined), grid=runs.case.grid, gui=True)
-    with caplog.at_level("WARNING", logger="kbplanner.sim_env"):
+    with caplog.at_level("WARNING", logger="kbplanner.simulation.sim_env"):
         env.reset(seed=SEED)
     assert "no display" in caplog.text
     assert p.getConnectionInfo(env.client)["connectionMethod"] == p.DIRECT

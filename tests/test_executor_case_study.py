@@ -10,14 +10,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from kbplanner.carry import transform
-from kbplanner.executor import INSTALLED, simulate
-from kbplanner.manipulation import refine_plan, target_variants
-from kbplanner.planning import plan_task
+from kbplanner.planning.carry import transform
+from kbplanner.planning.manipulation import refine_plan, target_variants
+from kbplanner.planning.planner import plan_task
 from kbplanner.project import Project
-from kbplanner.sim_env import angle_between
-from kbplanner.world import build_world, parse_date
-from kbplanner.world_exports import storey_map
+from kbplanner.simulation.executor import INSTALLED, simulate
+from kbplanner.simulation.sim_env import angle_between
+from kbplanner.world.build import build_world, parse_date
+from kbplanner.world.exports import storey_map
 
 CASE_STUDY = Path(__file__).resolve().parents[1] / "data" / "case_study"
 POS_TOL_M = 0.02

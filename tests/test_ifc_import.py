@@ -16,11 +16,11 @@ import trimesh
 from rdflib import RDF, RDFS, XSD, Graph, Literal, URIRef
 
 from ifc_factory import TestBuilding, write_test_building
-from kbplanner.errors import IfcError
-from kbplanner.ifc_geometry import matrix_to_pose
-from kbplanner.ifc_import import ImportResult, import_ifc, import_ifc_graph
-from kbplanner.iris import element_iri
-from kbplanner.vocab import BOT, KBP
+from kbplanner.core.errors import IfcError
+from kbplanner.core.iris import element_iri
+from kbplanner.core.vocab import BOT, KBP
+from kbplanner.model.ifc_geometry import matrix_to_pose
+from kbplanner.model.ifc_import import ImportResult, import_ifc, import_ifc_graph
 
 BASE = "https://w3id.org/kbplanner/data/test/"
 DUPLEX_CANDIDATES = (
@@ -354,7 +354,7 @@ def tree_digest(directory: Path) -> dict[str, str]:
 
 def test_output_is_byte_identical_across_runs_hash_seeds_and_process_counts(tmp_path: Path) -> None:
     b = write_test_building(tmp_path / "m.ifc", furniture_per_space=1, space_boundaries=True)
-    script = ("import sys; from pathlib import Path; from kbplanner.ifc_import import import_ifc; "
+    script = ("import sys; from pathlib import Path; from kbplanner.model.ifc_import import import_ifc; "
               "a = sys.argv; "
               "import_ifc(Path(a[1]), Path(a[2]), base=a[3], processes=int(a[4]))")
     digests = []
@@ -438,7 +438,7 @@ def test_matrix_to_pose_recovers_roll_pitch_yaw() -> None:
 def test_an_element_whose_data_cannot_be_read_is_dropped_and_reported(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from kbplanner import ifc_semantics
+    from kbplanner.model import ifc_semantics
 
     b = write_test_building(tmp_path / "m.ifc")
     bad = next(gid for gid, w in b.walls.items() if not w.is_external)

@@ -10,8 +10,8 @@ from pathlib import Path
 from rdflib import RDF, Graph
 
 from ifc_factory import write_test_building
-from kbplanner.iris import base_iri, element_iri
-from kbplanner.vocab import BOT
+from kbplanner.core.iris import base_iri, element_iri
+from kbplanner.core.vocab import BOT
 
 
 def kbplanner(*args: str) -> subprocess.CompletedProcess[str]:

@@ -9,7 +9,9 @@ import pytest
 from rdflib import Graph, Literal, URIRef
 
 from kb_fixtures import frame_gid, make_model
-from kbplanner.binding_paths import (
+from kbplanner.core.errors import KnowledgeBaseError, RdfSyntaxError
+from kbplanner.core.vocab import KBP
+from kbplanner.knowledge.binding_paths import (
     InversePath,
     PredicatePath,
     SequencePath,
@@ -17,11 +19,9 @@ from kbplanner.binding_paths import (
     read_path,
     sparql_path,
 )
-from kbplanner.errors import KnowledgeBaseError, RdfSyntaxError
-from kbplanner.knowledge_base import KB, load_kb, source_of
-from kbplanner.requirement_shapes import requirement_shapes
-from kbplanner.task_specs import robotized_tasks, skill_ids, specification_ids, task_specification
-from kbplanner.vocab import KBP
+from kbplanner.knowledge.knowledge_base import KB, load_kb, source_of
+from kbplanner.knowledge.requirement_shapes import requirement_shapes
+from kbplanner.knowledge.task_specs import robotized_tasks, skill_ids, specification_ids, task_specification
 
 PREFIXES = """@prefix kbp: <https://w3id.org/kbplanner/ontology#> .
 @prefix kb: <https://w3id.org/kbplanner/kb#> .
@@ -112,7 +112,7 @@ def test_robotized_tasks_come_from_the_schedule_with_their_elements_sorted() -> 
 def test_generated_shapes_copy_the_binding_path_as_shacl_structure(kb: Graph) -> None:
     shapes = requirement_shapes(make_model(n_frames=2), kb)
     nv1 = next(t for t in shapes.targets.values() if t.action.order == 1)
-    from kbplanner.knowledge_base import SH
+    from kbplanner.knowledge.knowledge_base import SH
 
     path_node = shapes.graph.value(nv1.shape, SH.path)
     assert path_node is not None

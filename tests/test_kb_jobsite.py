@@ -7,11 +7,11 @@ import pytest
 from rdflib import RDF, Graph, Literal
 
 from kb_fixtures import BASE, add_jobsite, make_model
-from kbplanner.iris import mint
-from kbplanner.jobsite import JobsiteError, action_parameters, jobsite_parameters
-from kbplanner.knowledge_base import KB, load_kb
-from kbplanner.task_specs import task_specification
-from kbplanner.vocab import KBP
+from kbplanner.core.iris import mint
+from kbplanner.core.vocab import KBP
+from kbplanner.knowledge.jobsite import JobsiteError, action_parameters, jobsite_parameters
+from kbplanner.knowledge.knowledge_base import KB, load_kb
+from kbplanner.knowledge.task_specs import task_specification
 
 
 @pytest.fixture(scope="module")

@@ -9,9 +9,9 @@ from collections.abc import Iterator
 import pybullet as p
 import pytest
 
-from kbplanner.arm_ik import solve_ik
-from kbplanner.lidar import lidar_spec, scan, sensor_view_hits
-from kbplanner.robot_model import RobotModel
+from kbplanner.robot.arm_ik import solve_ik
+from kbplanner.robot.lidar import lidar_spec, scan, sensor_view_hits
+from kbplanner.robot.robot_model import RobotModel
 
 WORKER_RADIUS_M = 0.25
 

@@ -10,9 +10,8 @@ from collections.abc import Iterator
 import numpy as np
 import pytest
 
-from kbplanner.carry import NARROW, NORMAL, geometry_from_joints, transform
-from kbplanner.footprint import ConfigurationSpace, Footprint, Rect
-from kbplanner.manipulation import (
+from kbplanner.planning.carry import NARROW, NORMAL, geometry_from_joints, transform
+from kbplanner.planning.manipulation import (
     KIND_GRASP,
     KIND_NAVIGATION,
     KIND_NAVIGATION_WITH_OBJECT,
@@ -24,10 +23,11 @@ from kbplanner.manipulation import (
     target_variants,
     tool_frame,
 )
-from kbplanner.occupancy import OccupancyGrid
-from kbplanner.plan_model import Plan, Pose2, SkillCall
-from kbplanner.robot_model import RobotModel
-from kbplanner.sim_env import angle_between
+from kbplanner.planning.plan_model import Plan, Pose2, SkillCall
+from kbplanner.robot.robot_model import RobotModel
+from kbplanner.simulation.sim_env import angle_between
+from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect
+from kbplanner.world.occupancy import OccupancyGrid
 from sim_project_factory import SimCase, load_sim_case
 
 SEED = 3

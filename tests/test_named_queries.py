@@ -6,9 +6,9 @@ import pytest
 from rdflib import RDF, RDFS, Graph, Literal, URIRef
 from rdflib.plugins.sparql import prepareQuery
 
-from kbplanner.errors import QueryError
-from kbplanner.named_queries import catalogue, get_query, run_named
-from kbplanner.vocab import BOT, KBP
+from kbplanner.core.errors import QueryError
+from kbplanner.core.named_queries import catalogue, get_query, run_named
+from kbplanner.core.vocab import BOT, KBP
 
 
 def test_every_named_query_has_a_description_columns_and_parses() -> None:

@@ -8,8 +8,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from kbplanner.footprint import ConfigurationSpace, Footprint, Rect
-from kbplanner.navigation import (
+from kbplanner.simulation.navigation import (
     NavSettings,
     grid_shortest_path_length,
     path_is_free,
@@ -17,7 +16,8 @@ from kbplanner.navigation import (
     plan_with_carry_modes,
     time_parameterize,
 )
-from kbplanner.occupancy import Box, OccupancyGrid, occupancy_from_meshes
+from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect
+from kbplanner.world.occupancy import Box, OccupancyGrid, occupancy_from_meshes
 
 BASE = Footprint((Rect(0.0, 0.0, 0.99, 0.67),), name="husky")
 # A 1.2 m wide panel: flat across the robot (normal mode), or on its side along the robot (narrow mode).
@@ -51,7 +51,7 @@ def door_09() -> OccupancyGrid:
 
 def _dense_free(cs: ConfigurationSpace, poses: tuple[tuple[float, float, float], ...], step: float = 0.01
                 ) -> bool:
-    from kbplanner.navigation import _densify
+    from kbplanner.simulation.navigation import _densify
 
     return bool(cs.is_free_many(_densify(poses, step, math.radians(1.0))).all())
 

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 import shapely
 
-from kbplanner.errors import KbplannerError
-from kbplanner.footprint import ConfigurationSpace, Footprint, Rect
-from kbplanner.occupancy import OccupancyGrid
+from kbplanner.core.errors import KbplannerError
+from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect
+from kbplanner.world.occupancy import OccupancyGrid
 
 RES = 0.05
 

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from kbplanner.errors import InputFileError, KbplannerError
-from kbplanner.occupancy import Box, OccupancyGrid, occupancy_from_meshes, storey_occupancy
+from kbplanner.core.errors import InputFileError, KbplannerError
+from kbplanner.world.occupancy import Box, OccupancyGrid, occupancy_from_meshes, storey_occupancy
 
 BAND = (0.05, 1.5)
 

@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 from rdflib import RDF, Graph, URIRef
 
-from kbplanner import vocab_gen
-from kbplanner.resources import data_dir, ontology_files
+from kbplanner.core import vocab_gen
+from kbplanner.core.resources import data_dir, ontology_files
 
 KBP = vocab_gen.KBP_NS
 BOT = vocab_gen.BOT_NS
@@ -63,12 +63,12 @@ def test_every_kbp_term_used_in_sparql_queries_is_declared() -> None:
 
 def test_vocab_module_equals_a_fresh_generation() -> None:
     text = vocab_gen.render(vocab_gen.ontology_graph(data_dir("ontology")))
-    current = (REPO / "src" / "kbplanner" / "vocab.py").read_text()
-    assert text == current, "run: python -m kbplanner.vocab_gen"
+    current = (REPO / "src" / "kbplanner" / "core" / "vocab.py").read_text()
+    assert text == current, "run: python -m kbplanner.core.vocab_gen"
 
 
 def test_closed_vocabulary_rejects_a_typo() -> None:
-    from kbplanner.vocab import KBP as K
+    from kbplanner.core.vocab import KBP as K
 
     assert str(K.installedPose).endswith("#installedPose")
     with pytest.raises(AttributeError):

@@ -18,7 +18,8 @@ import sys, kbplanner
 from pathlib import Path
 from rdflib import Graph
 from rdflib.plugins.sparql import prepareQuery
-from kbplanner import resources, named_queries
+from kbplanner.core import resources
+from kbplanner.core import named_queries
 assert str(Path(kbplanner.__file__).resolve()).startswith(sys.argv[1]), kbplanner.__file__
 ttl = resources.ontology_files() + resources.shape_files()
 for p in ttl:

@@ -11,8 +11,8 @@ from rdflib import Graph
 
 from conftest import CASE_STUDY
 from kbplanner.cli import main
-from kbplanner.plan_model import Plan
-from kbplanner.vocab import KBP
+from kbplanner.core.vocab import KBP
+from kbplanner.planning.plan_model import Plan
 
 
 def _kbplanner(*args: str) -> subprocess.CompletedProcess[str]:

@@ -12,15 +12,15 @@ import trimesh
 from rdflib import RDF, Graph, Literal, URIRef
 
 from kb_fixtures import BASE, add_pose, frame_gid, make_model
-from kbplanner.element_order import RULE_GLOBAL_ID, RULE_NEAREST, RULE_SEQUENCE, element_order
-from kbplanner.errors import KnowledgeBaseError
-from kbplanner.iris import element_iri, mint, task_iri
-from kbplanner.knowledge_base import load_kb
-from kbplanner.plan_model import Plan, Pose2
-from kbplanner.planning import PlanningError, PoseChoice, assign_poses, plan_task
+from kbplanner.core.errors import KnowledgeBaseError
+from kbplanner.core.iris import element_iri, mint, task_iri
+from kbplanner.core.vocab import BOT, KBP
+from kbplanner.knowledge.knowledge_base import load_kb
+from kbplanner.planning.element_order import RULE_GLOBAL_ID, RULE_NEAREST, RULE_SEQUENCE, element_order
+from kbplanner.planning.plan_model import Plan, Pose2
+from kbplanner.planning.planner import PlanningError, PoseChoice, assign_poses, plan_task
 from kbplanner.project import Calendar, Manifest, Project
-from kbplanner.vocab import BOT, KBP
-from kbplanner.world import pose_matrix
+from kbplanner.world.build import pose_matrix
 
 TEST = "https://example.org/test-kb#"
 
@@ -141,7 +141,7 @@ def test_element_sizes_come_from_the_mesh_seen_from_the_installed_pose(tmp_path:
     g.set((pose, KBP.yaw, Literal(math.pi / 2)))  # type: ignore[arg-type]
     box = trimesh.creation.box(extents=(0.7, 0.09, 2.4))
     box.apply_translation((0.0, 0.0, 1.2))
-    from kbplanner.ifc_geometry import Pose
+    from kbplanner.model.ifc_geometry import Pose
 
     box.apply_transform(pose_matrix(Pose(5.5, 4.5, 0.0, 0.0, 0.0, math.pi / 2)))  # site frame, turned
     plan = plan_task(small_project(tmp_path, g, meshes={el: box}))

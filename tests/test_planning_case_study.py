@@ -9,12 +9,12 @@ import pytest
 from rdflib import Graph, URIRef
 
 from conftest import CASE_STUDY
-from kbplanner.plan_model import Plan
-from kbplanner.plan_rdf import plan_graph, plan_turtle
-from kbplanner.planning import plan_task
+from kbplanner.core.vocab import KBP
+from kbplanner.knowledge.requirements import derive_requirements
+from kbplanner.planning.plan_model import Plan
+from kbplanner.planning.plan_rdf import plan_graph, plan_turtle
+from kbplanner.planning.planner import plan_task
 from kbplanner.project import Project
-from kbplanner.requirements import derive_requirements
-from kbplanner.vocab import KBP
 
 EXPECTED = tomllib.loads((CASE_STUDY / "expected.toml").read_text())
 

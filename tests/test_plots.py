@@ -4,8 +4,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from kbplanner.occupancy import OccupancyGrid
-from kbplanner.plots import GanttBar, LayoutObject, distance_over_time, gantt, grouped_bars, site_layout
+from kbplanner.analysis.plots import (
+    GanttBar,
+    LayoutObject,
+    distance_over_time,
+    gantt,
+    grouped_bars,
+    site_layout,
+)
+from kbplanner.world.occupancy import OccupancyGrid
 
 PNG = b"\x89PNG\r\n\x1a\n"
 

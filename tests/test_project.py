@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from kbplanner.errors import ProjectError
+from kbplanner.core.errors import ProjectError
 from kbplanner.project import Project, read_manifest
 from project_factory import make_project
 

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from kbplanner.footprint import Rect
-from kbplanner.proximity import SsmParameters, intervals_below, point_to_rects_distance, robot_speed
+from kbplanner.analysis.proximity import SsmParameters, intervals_below, point_to_rects_distance, robot_speed
+from kbplanner.world.footprint import Rect
 
 BASE = Rect(0.0, 0.0, 1.0, 0.6)  # 1.0 m long, 0.6 m wide, centred on the robot origin
 LOAD = Rect(0.0, 0.0, 0.2, 2.4)  # a frame carried across the robot: 2.4 m wide

@@ -12,8 +12,8 @@ from pathlib import Path
 import pytest
 from PIL import Image
 
-from kbplanner.report import build_report
-from kbplanner.run_record import RunRecord
+from kbplanner.analysis.report import build_report
+from kbplanner.analysis.run_record import RunRecord
 from run_factory import write_run
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from kbplanner.report_doc import ReportDoc
+from kbplanner.analysis.report_doc import ReportDoc
 
 PNG = b"\x89PNG\r\n\x1a\nfake"
 

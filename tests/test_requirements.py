@@ -13,11 +13,11 @@ from rdflib import RDF, Graph, Literal
 from rdflib.compare import isomorphic
 
 from kb_fixtures import BASE, add_pose, frame_gid, make_model
-from kbplanner.errors import KnowledgeBaseError
-from kbplanner.iris import mint
-from kbplanner.knowledge_base import load_kb
-from kbplanner.requirements import MISSING, WRONG_TYPE, derive_requirements
-from kbplanner.vocab import KBP
+from kbplanner.core.errors import KnowledgeBaseError
+from kbplanner.core.iris import mint
+from kbplanner.core.vocab import KBP
+from kbplanner.knowledge.knowledge_base import load_kb
+from kbplanner.knowledge.requirements import MISSING, WRONG_TYPE, derive_requirements
 
 EXTENSION = Path(__file__).parent / "kb_extension" / "fixing_point.ttl"
 
@@ -195,8 +195,8 @@ def test_a_pose_typed_in_the_model_but_stored_elsewhere_still_counts(kb: Graph) 
 
 
 def test_an_oxigraph_backed_model_gives_the_same_requirements_and_validation(kb: Graph) -> None:
-    from kbplanner.rdf_io import new_graph
-    from kbplanner.validation import validate_model
+    from kbplanner.core.rdf_io import new_graph
+    from kbplanner.knowledge.validation import validate_model
 
     memory = make_model(n_frames=3)
     oxi = new_graph("oxigraph")

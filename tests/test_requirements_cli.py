@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 from rdflib import RDF, Graph
 
-from kbplanner.vocab import KBP
+from kbplanner.core.vocab import KBP
 
 CASE = Path(__file__).resolve().parents[1] / "data" / "case_study"
 pytestmark = pytest.mark.skipif(not (CASE / "project.toml").is_file(), reason="case study not present")

@@ -10,8 +10,8 @@ import numpy as np
 import pybullet as p
 import pytest
 
-from kbplanner.errors import InputFileError
-from kbplanner.robot_model import (
+from kbplanner.core.errors import InputFileError
+from kbplanner.robot.robot_model import (
     ARM_JOINT_NAMES,
     RobotModel,
     load_robot_specs,

@@ -10,10 +10,10 @@ import pybullet as p
 import pytest
 import trimesh
 
-from kbplanner.arm_ik import reach_base_poses, solve_ik
-from kbplanner.footprint import ConfigurationSpace
-from kbplanner.occupancy import Box, occupancy_from_meshes
-from kbplanner.robot_model import RobotModel
+from kbplanner.robot.arm_ik import reach_base_poses, solve_ik
+from kbplanner.robot.robot_model import RobotModel
+from kbplanner.world.footprint import ConfigurationSpace
+from kbplanner.world.occupancy import Box, occupancy_from_meshes
 
 DOWN = (0.0, math.pi, 0.0)  # tool z axis pointing at the floor
 

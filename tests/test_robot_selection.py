@@ -8,10 +8,10 @@ import pytest
 from rdflib import Graph, Literal
 
 from kb_fixtures import add_jobsite, frame_gid, make_model
-from kbplanner.errors import KbplannerError, KnowledgeBaseError
-from kbplanner.knowledge_base import KB, load_kb
-from kbplanner.robot_selection import CAPABILITY, DOOR, PAYLOAD, SITE, load_robots, select_robots
-from kbplanner.vocab import KBP
+from kbplanner.core.errors import KbplannerError, KnowledgeBaseError
+from kbplanner.core.vocab import KBP
+from kbplanner.knowledge.knowledge_base import KB, load_kb
+from kbplanner.knowledge.robot_selection import CAPABILITY, DOOR, PAYLOAD, SITE, load_robots, select_robots
 
 
 @pytest.fixture(scope="module")

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from kbplanner.errors import InputFileError
-from kbplanner.run_record import RunRecord
+from kbplanner.analysis.run_record import RunRecord
+from kbplanner.core.errors import InputFileError
 from run_factory import write_run
 
 

@@ -15,13 +15,13 @@ import pytest
 from rdflib import XSD, Literal
 
 from conftest import CASE_STUDY
-from kbplanner.building_generator import SCENARIO, generate_building
-from kbplanner.planning import PlanningError, plan_task, plan_tasks
+from kbplanner.core.vocab import KBP
+from kbplanner.knowledge.task_specs import robotized_tasks
+from kbplanner.model.schedule_model import query_text
+from kbplanner.planning.planner import PlanningError, plan_task, plan_tasks
 from kbplanner.project import Project
-from kbplanner.schedule_model import query_text
-from kbplanner.task_specs import robotized_tasks
-from kbplanner.vocab import KBP
-from kbplanner.world import BUILT, NOT_STARTED, World, WorldError, build_world, world_tables
+from kbplanner.scale.building_generator import SCENARIO, generate_building
+from kbplanner.world.build import BUILT, NOT_STARTED, World, WorldError, build_world, world_tables
 
 # The index as it was written before (a property path from an unbound storey): the reference.
 PATH_INDEX = """PREFIX bot: <https://w3id.org/bot#>

@@ -9,11 +9,11 @@ import ifcopenshell.guid
 import pytest
 from rdflib import RDF, RDFS, XSD, Graph, Literal, URIRef
 
-from kbplanner.errors import InputFileError, KbplannerError, ScheduleCycleError, ScheduleError
-from kbplanner.iris import element_iri
-from kbplanner.schedule import read_csv_schedule
-from kbplanner.schedule_csv import COLUMNS
-from kbplanner.vocab import BOT, KBP
+from kbplanner.core.errors import InputFileError, KbplannerError, ScheduleCycleError, ScheduleError
+from kbplanner.core.iris import element_iri
+from kbplanner.core.vocab import BOT, KBP
+from kbplanner.model.schedule import read_csv_schedule
+from kbplanner.model.schedule_csv import COLUMNS
 
 BASE = "https://w3id.org/kbplanner/data/test/"
 HEADER = ",".join(COLUMNS)

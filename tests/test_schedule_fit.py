@@ -8,10 +8,15 @@ from pathlib import Path
 import pytest
 from rdflib import URIRef
 
-from kbplanner.errors import ProjectError
+from kbplanner.analysis.schedule_fit import (
+    WorkCalendar,
+    fit_schedule,
+    results_graph,
+    schedule_csv_with_results,
+)
+from kbplanner.core.errors import ProjectError
+from kbplanner.core.vocab import KBP
 from kbplanner.project import Calendar
-from kbplanner.schedule_fit import WorkCalendar, fit_schedule, results_graph, schedule_csv_with_results
-from kbplanner.vocab import KBP
 
 CAL = WorkCalendar.from_calendar(Calendar("07:00", "15:30", ("Mon", "Tue", "Wed", "Thu", "Fri")))
 
@@ -60,7 +65,7 @@ def test_an_ifc_schedule_gets_the_simulated_figures_in_a_copy(tmp_path: Path) ->
     import ifcopenshell
     import ifcopenshell.util.element
 
-    from kbplanner.schedule_fit import ifc_with_results
+    from kbplanner.analysis.schedule_fit import ifc_with_results
     from test_schedule_ifc import write_schedule_model
 
     path, _, _ = write_schedule_model(tmp_path)

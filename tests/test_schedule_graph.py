@@ -9,10 +9,11 @@ import pytest
 from rdflib import RDF, RDFS, XSD, BNode, Graph, Literal, URIRef
 from rdflib.plugins.sparql import prepareQuery
 
-from kbplanner.errors import QueryError
-from kbplanner.iris import element_iri, task_iri
-from kbplanner.resources import queries_dir
-from kbplanner.schedule import (
+from kbplanner.core.errors import QueryError
+from kbplanner.core.iris import element_iri, task_iri
+from kbplanner.core.resources import queries_dir
+from kbplanner.core.vocab import BOT, KBP
+from kbplanner.model.schedule import (
     Schedule,
     Task,
     element_state_rows,
@@ -21,7 +22,6 @@ from kbplanner.schedule import (
     schedule_iri,
     schedule_to_graph,
 )
-from kbplanner.vocab import BOT, KBP
 
 BASE = "https://w3id.org/kbplanner/data/test/"
 E1, E2, E3, E4 = (element_iri(BASE, f"{c}" * 22) for c in "ABCD")

@@ -17,10 +17,10 @@ import ifcopenshell.guid
 import pytest
 from rdflib import XSD, Literal
 
-from kbplanner.errors import IfcError, ScheduleCycleError, ScheduleError
-from kbplanner.iris import element_iri, task_iri
-from kbplanner.schedule import read_ifc_schedule, schedule_iri, schedule_to_graph
-from kbplanner.vocab import KBP
+from kbplanner.core.errors import IfcError, ScheduleCycleError, ScheduleError
+from kbplanner.core.iris import element_iri, task_iri
+from kbplanner.core.vocab import KBP
+from kbplanner.model.schedule import read_ifc_schedule, schedule_iri, schedule_to_graph
 
 BASE = "https://w3id.org/kbplanner/data/test/"
 seq = ifcopenshell.api.sequence

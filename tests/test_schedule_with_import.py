@@ -11,10 +11,10 @@ import pytest
 from rdflib import Graph, URIRef
 
 from ifc_factory import TestBuilding, write_test_building
-from kbplanner.ifc_import import import_ifc_graph
-from kbplanner.iris import base_iri, element_iri
-from kbplanner.schedule import element_states, read_csv_schedule, read_ifc_schedule, schedule_to_graph
-from kbplanner.vocab import KBP
+from kbplanner.core.iris import base_iri, element_iri
+from kbplanner.core.vocab import KBP
+from kbplanner.model.ifc_import import import_ifc_graph
+from kbplanner.model.schedule import element_states, read_csv_schedule, read_ifc_schedule, schedule_to_graph
 
 BASE = base_iri("schedule import test")
 HEADER = "task_id,name,start,finish,predecessors,elements,robotized,task_specification"

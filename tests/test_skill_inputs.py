@@ -9,12 +9,12 @@ from rdflib import RDF, RDFS, Graph, Literal, URIRef
 from rdflib.plugins.sparql import prepareQuery
 
 from kb_fixtures import BASE, add_box, add_pose, add_task, frame_gid, make_model
-from kbplanner.iris import element_iri, mint, task_iri
-from kbplanner.knowledge_base import load_kb
-from kbplanner.requirements import derive_requirements
-from kbplanner.skill_inputs import prepared_query, resolve_input, resolve_inputs, value_query
-from kbplanner.task_specs import Binding, specification_ids, task_specification
-from kbplanner.vocab import KBP
+from kbplanner.core.iris import element_iri, mint, task_iri
+from kbplanner.core.vocab import KBP
+from kbplanner.knowledge.knowledge_base import load_kb
+from kbplanner.knowledge.requirements import derive_requirements
+from kbplanner.knowledge.task_specs import Binding, specification_ids, task_specification
+from kbplanner.planning.skill_inputs import prepared_query, resolve_input, resolve_inputs, value_query
 
 EXTENSION = Path(__file__).parent / "kb_extension" / "fixing_point.ttl"
 EXT = "https://example.org/kb-extension#"

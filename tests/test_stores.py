@@ -16,13 +16,10 @@ import pytest
 from rdflib import Literal, URIRef
 from rdflib.term import Identifier
 
-from kbplanner.building_generator import SCENARIO, generate_building
 from kbplanner.cli import main
-from kbplanner.errors import KbplannerError
-from kbplanner.named_queries import catalogue, run_text, to_term
-from kbplanner.planning import plan_task
-from kbplanner.project import Project
-from kbplanner.stores import (
+from kbplanner.core.errors import KbplannerError
+from kbplanner.core.named_queries import catalogue, run_text, to_term
+from kbplanner.core.stores import (
     EndpointStore,
     StoreError,
     bind_values,
@@ -30,6 +27,9 @@ from kbplanner.stores import (
     parse_store,
     result_json,
 )
+from kbplanner.planning.planner import plan_task
+from kbplanner.project import Project
+from kbplanner.scale.building_generator import SCENARIO, generate_building
 
 SERVER_START_TIMEOUT_S = 15.0
 

@@ -1,4 +1,4 @@
-"""Stud-frame panel geometry (kbplanner.stud_frames), shared by the building generator and the case
+"""Stud-frame panel geometry (kbplanner.model.stud_frames), shared by the building generator and the case
 study's build_frames.py."""
 
 from __future__ import annotations
@@ -7,8 +7,15 @@ import itertools
 
 import pytest
 
-from kbplanner.errors import KbplannerError
-from kbplanner.stud_frames import DENSITY, MAX_STUD_SPACING, PANEL_HEIGHT, STUD_DEPTH, STUD_WIDTH, stud_frame
+from kbplanner.core.errors import KbplannerError
+from kbplanner.model.stud_frames import (
+    DENSITY,
+    MAX_STUD_SPACING,
+    PANEL_HEIGHT,
+    STUD_DEPTH,
+    STUD_WIDTH,
+    stud_frame,
+)
 
 
 @pytest.mark.parametrize("length", [0.3, 0.6, 0.638, 0.639, 0.75, 1.2, 2.9])

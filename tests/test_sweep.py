@@ -10,9 +10,9 @@ from pathlib import Path
 import pytest
 
 from kbplanner.cli import main
-from kbplanner.errors import KbplannerError
+from kbplanner.core.errors import KbplannerError
 from kbplanner.project import Project
-from kbplanner.sweep import (
+from kbplanner.scale.sweep import (
     FAILED,
     OK,
     REJECTED,
@@ -123,7 +123,7 @@ def test_grid_candidates_are_free_inside_the_site_and_deterministic(project: Pat
 
 def test_a_later_start_shifts_the_workers_into_their_day(project: Path) -> None:
     p = Project.load(project, scenario="stored")
-    from kbplanner.world_exports import storey_map
+    from kbplanner.world.exports import storey_map
 
     grid = storey_map(p.world()).grid
     day = shifted_workers(p, grid, seed=3, horizon_s=1000.0, offset_s=0.0)

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pytest
 
-from kbplanner.sweep import SweepResult, SweepSpec, parse_vary, run_sweep
+from kbplanner.scale.sweep import SweepResult, SweepSpec, parse_vary, run_sweep
 from sim_project_factory import make_sim_project
 
 RAY_START_TIMEOUT_S = 180.0

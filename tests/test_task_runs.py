@@ -7,11 +7,11 @@ from pathlib import Path
 
 import pytest
 
-from kbplanner.building_generator import generate_building
 from kbplanner.cli import main
-from kbplanner.errors import KbplannerError
+from kbplanner.core.errors import KbplannerError
 from kbplanner.project import Project
-from kbplanner.task_runs import robotized_tasks, simulate_tasks
+from kbplanner.scale.building_generator import generate_building
+from kbplanner.scale.task_runs import robotized_tasks, simulate_tasks
 
 SCENARIO = "storage-in-units"
 
@@ -92,7 +92,7 @@ def test_a_task_other_than_the_simulation_task_gets_the_world_at_its_start(build
 def test_a_robot_arrival_without_an_elevation_does_not_conform(building: Path) -> None:
     from rdflib import URIRef
 
-    from kbplanner.vocab import KBP
+    from kbplanner.core.vocab import KBP
 
     project = Project.load(building, scenario=SCENARIO)
     assert project.validate().conforms

@@ -11,10 +11,10 @@ from rdflib import RDF, Graph, Literal
 from rdflib.compare import isomorphic
 
 from kb_fixtures import BASE, add_jobsite, add_pose, frame_gid, make_model
-from kbplanner.iris import mint, task_iri
-from kbplanner.knowledge_base import SH, load_kb
-from kbplanner.validation import ValidationResult, validate_model
-from kbplanner.vocab import KBP
+from kbplanner.core.iris import mint, task_iri
+from kbplanner.core.vocab import KBP
+from kbplanner.knowledge.knowledge_base import SH, load_kb
+from kbplanner.knowledge.validation import ValidationResult, validate_model
 
 
 @pytest.fixture(scope="module")

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 from rdflib import RDF, Graph
 
-from kbplanner.knowledge_base import SH
+from kbplanner.knowledge.knowledge_base import SH
 
 CASE = Path(__file__).resolve().parents[1] / "data" / "case_study"
 pytestmark = pytest.mark.skipif(not (CASE / "project.toml").is_file(), reason="case study not present")

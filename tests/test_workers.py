@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 from rdflib import RDF, RDFS, Graph, Literal, URIRef
 
-from kbplanner.occupancy import OccupancyGrid
-from kbplanner.vocab import KBP
-from kbplanner.workers import load_workers, plan_worker_motion, plan_workers
+from kbplanner.core.vocab import KBP
+from kbplanner.simulation.workers import load_workers, plan_worker_motion, plan_workers
+from kbplanner.world.occupancy import OccupancyGrid
 
 
 def _site() -> Graph:

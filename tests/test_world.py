@@ -8,9 +8,9 @@ from datetime import datetime
 
 import pytest
 
-from kbplanner.errors import KbplannerError
+from kbplanner.core.errors import KbplannerError
 from kbplanner.project import Project
-from kbplanner.world import (
+from kbplanner.world.build import (
     BUILT,
     IN_PROGRESS,
     NOT_STARTED,

@@ -12,12 +12,12 @@ import pybullet as p
 import pytest
 from rdflib import Literal, URIRef
 
-from kbplanner.iris import element_iri
+from kbplanner.core.iris import element_iri
+from kbplanner.core.vocab import BOT, KBP
 from kbplanner.project import Project
-from kbplanner.sim_world import load_world, settle
-from kbplanner.vocab import BOT, KBP
-from kbplanner.world import NOT_STARTED, World, build_world, parse_date, site_object_mesh
-from kbplanner.world_exports import StoreyMap, storey_map
+from kbplanner.simulation.sim_world import load_world, settle
+from kbplanner.world.build import NOT_STARTED, World, build_world, parse_date, site_object_mesh
+from kbplanner.world.exports import StoreyMap, storey_map
 
 Expected = dict[str, Any]
 CASE = Path(__file__).resolve().parents[1] / "data" / "case_study"

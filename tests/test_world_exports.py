@@ -14,10 +14,9 @@ import pytest
 import trimesh
 
 from kbplanner.cli import main
-from kbplanner.occupancy import OccupancyGrid
 from kbplanner.project import Project
-from kbplanner.world import World, build_world, parse_date
-from kbplanner.world_exports import (
+from kbplanner.world.build import World, build_world, parse_date
+from kbplanner.world.exports import (
     MapSettings,
     StoreyMap,
     export_world,
@@ -25,6 +24,7 @@ from kbplanner.world_exports import (
     write_element_sdf,
     write_world_existing_sdf,
 )
+from kbplanner.world.occupancy import OccupancyGrid
 from test_world_support import DATE, EXTENT, NO_GO, WORKSPACE, WorldProject, make_world_project
 
 

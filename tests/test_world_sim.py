@@ -8,10 +8,10 @@ import numpy as np
 import pybullet as p
 import pytest
 
-from kbplanner.errors import KbplannerError
+from kbplanner.core.errors import KbplannerError
 from kbplanner.project import Project
-from kbplanner.sim_world import SimWorld, element_frame, load_world, settle
-from kbplanner.world import World, build_world, parse_date, pose_matrix
+from kbplanner.simulation.sim_world import SimWorld, element_frame, load_world, settle
+from kbplanner.world.build import World, build_world, parse_date, pose_matrix
 from test_world_support import DATE, WorldProject, make_world_project
 
 

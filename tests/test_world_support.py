@@ -28,7 +28,7 @@ import ifcopenshell.guid
 import numpy as np
 
 from ifc_factory import TestBuilding, write_test_building
-from kbplanner.iris import element_iri
+from kbplanner.core.iris import element_iri
 
 BASE = "https://w3id.org/kbplanner/data/worldtest/"
 PANEL_SIZE = (0.6, 0.09, 2.4)  # along the wall, across it (thickness), height

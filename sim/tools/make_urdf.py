@@ -1,7 +1,7 @@
 """Regenerate the robot URDFs of sim/robots/ from sim/robots/robots.toml.
 
 Usage: python sim/tools/make_urdf.py [--table sim/robots/robots.toml] [--out sim/robots]
-The generator itself is kbplanner.robot_model.write_urdfs; tests check the checked-in files match.
+The generator itself is kbplanner.robot.robot_model.write_urdfs; tests check the checked-in files match.
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from kbplanner.robot_model import write_urdfs
+from kbplanner.robot.robot_model import write_urdfs
 
 HERE = Path(__file__).resolve().parent
 

@@ -20,8 +20,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from kbplanner.comparison import Comparison, ScenarioRun, simulate_scenario, write_outputs
-from kbplanner.outputs import atomic_write_text, input_hashes, run_directory, versions, write_json
+from kbplanner.analysis.comparison import Comparison, ScenarioRun, simulate_scenario, write_outputs
+from kbplanner.core.outputs import atomic_write_text, input_hashes, run_directory, versions, write_json
 from kbplanner.project import Project, read_manifest
 
 log = logging.getLogger(__name__)
@@ -115,7 +115,8 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
 
     ``tasks="all"`` simulates every robotized task of each scenario (a whole building: the
     ``[simulation] task`` into ``simulation/`` as usual, the others into ``tasks/<id>/``, with
-    ``tasks.csv``), on ``workers`` local processes (:mod:`kbplanner.task_runs`). ``max_elements`` simulates
+    ``tasks.csv``), on ``workers`` local processes (:mod:`kbplanner.scale.task_runs`). ``max_elements``
+    simulates
     the first elements of each task only (a quick look).
 
     Example:
@@ -160,7 +161,7 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
                 sel = project.select_robots()
                 atomic_write_text(sdir / "robots.txt", sel.text())
             with clock.stage("world", name):
-                from kbplanner.world_exports import export_world
+                from kbplanner.world.exports import export_world
 
                 world = project.world()
                 exported = export_world(world, sdir / "world")
@@ -173,7 +174,7 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
             )
             result.scenarios.append(summary)
             if simulate and val.conforms and sel.fit and tasks == "all":
-                from kbplanner.task_runs import simulate_tasks
+                from kbplanner.scale.task_runs import simulate_tasks
 
                 with clock.stage("simulation (every task)", name):
                     truns = simulate_tasks(project_dir, name, out_dir=sdir / "tasks",
@@ -185,7 +186,7 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
                 summary.sim_time_s = truns.sim_time_s
                 if truns.main is not None:
                     sims.append(truns.main)
-                from kbplanner.task_runs import TASK_COLUMNS
+                from kbplanner.scale.task_runs import TASK_COLUMNS
 
                 task_tables[name] = (list(TASK_COLUMNS), truns.rows())
                 sel_rows = [list(r) for r in sel.rows()]

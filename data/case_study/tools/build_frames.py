@@ -5,7 +5,7 @@ Takes ``model/Duplex_A_20110907.ifc`` (buildingSMART Duplex, IFC2X3, metres) and
 - ``model/Duplex_A_frames.ifc``: the Duplex plus 11 ``IfcMember`` panels "Stud frame panel F01".."F11"
   (ObjectType "Interior stud frame panel", material "Wood - SPF", contained in Level 1), each with
   real geometry: 38 x 89 mm studs at <= 600 mm centres, bottom and top plates and one row of
-  mid-height noggings, all as extruded rectangles (``kbplanner.stud_frames``, the same panels as the
+  mid-height noggings, all as extruded rectangles (``kbplanner.model.stud_frames``, the same panels as the
   building generator's);
 - ``augmentation/grasp_points.ttl``: a local grasp point for every panel (its centre of mass);
 - ``model/frames.json``: the panel table (id, GlobalId, host wall, pose, size, studs, volume, mass).
@@ -42,7 +42,7 @@ import ifcopenshell.util.element
 import ifcopenshell.util.placement
 import numpy as np
 
-from kbplanner.stud_frames import (
+from kbplanner.model.stud_frames import (
     DENSITY,
     MATERIAL,
     MAX_STUD_SPACING,
@@ -62,7 +62,7 @@ OUT_GRASP = Path("augmentation") / "grasp_points.ttl"
 BASE_IRI = "https://w3id.org/kbplanner/data/duplex/"
 
 N_PANELS = 11
-# Panel height, stud section and spacing, density, material: kbplanner.stud_frames
+# Panel height, stud section and spacing, density, material: kbplanner.model.stud_frames
 UNIT_SPACE_PREFIX = "A1"    # Level-1 spaces of unit A
 WALL_NAME = "Interior - Partition (92mm Stud)"
 STOREY = "Level 1"

@@ -15,7 +15,7 @@ import sys
 from collections.abc import Sequence
 
 from kbplanner import __version__
-from kbplanner.errors import KbplannerError
+from kbplanner.core.errors import KbplannerError
 
 EXIT_OK = 0
 EXIT_NEGATIVE = 1

@@ -31,7 +31,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from kbplanner.comparison import compare
+    from kbplanner.analysis.comparison import compare
 
     names = [s.strip() for s in args.scenarios.split(",") if s.strip()]
     err = Console(stderr=True)

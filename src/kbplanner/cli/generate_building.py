@@ -1,7 +1,7 @@
 """``kbplanner generate-building``: write a generated test building as a complete project (scale).
 
 ``kbplanner generate-building --storeys N --units-per-storey M --out DIR [--seed S] [--force]`` writes a
-real IFC4 building (``kbplanner.building_generator``) with its schedule, site layout, workers, jobsite
+real IFC4 building (``kbplanner.scale.building_generator``) with its schedule, site layout, workers, jobsite
 parameters and a storage scenario into DIR, and prints what it holds. Exit code 0, or 2 on bad input.
 """
 
@@ -13,7 +13,7 @@ import sys
 from dataclasses import asdict
 from pathlib import Path
 
-from kbplanner.building_generator import generate_building
+from kbplanner.scale.building_generator import generate_building
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

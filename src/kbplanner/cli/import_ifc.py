@@ -17,9 +17,9 @@ from pathlib import Path
 
 from rich.progress import Progress
 
-from kbplanner.errors import IfcError, ProjectError
-from kbplanner.ifc_import import MESH_DIR, MODEL_FILE, ImportResult, import_ifc
-from kbplanner.iris import base_iri
+from kbplanner.core.errors import IfcError, ProjectError
+from kbplanner.core.iris import base_iri
+from kbplanner.model.ifc_import import MESH_DIR, MODEL_FILE, ImportResult, import_ifc
 
 MANIFEST = "project.toml"
 

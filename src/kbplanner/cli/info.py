@@ -7,8 +7,8 @@ import json
 import sys
 from dataclasses import asdict
 
+from kbplanner.core.stores import add_store_argument
 from kbplanner.project import Project
-from kbplanner.stores import add_store_argument
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

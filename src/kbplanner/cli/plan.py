@@ -17,13 +17,13 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from kbplanner.outputs import atomic_write_text
-from kbplanner.plan_model import Plan
-from kbplanner.plan_rdf import plan_turtle
-from kbplanner.planning import plan_task
+from kbplanner.core.outputs import atomic_write_text
+from kbplanner.core.tables import render
+from kbplanner.planning.plan_model import Plan
+from kbplanner.planning.plan_rdf import plan_turtle
+from kbplanner.planning.planner import plan_task
 from kbplanner.project import Project
-from kbplanner.tables import render
-from kbplanner.world import parse_date
+from kbplanner.world.build import parse_date
 
 EXIT_FEASIBLE = 0
 EXIT_INFEASIBLE = 1

@@ -13,11 +13,11 @@ from pathlib import Path
 from rdflib import URIRef
 from rdflib.term import Identifier
 
-from kbplanner.errors import InputFileError, QueryError
-from kbplanner.named_queries import catalogue, get_query, result_rows, run_text, to_term
+from kbplanner.core.errors import InputFileError, QueryError
+from kbplanner.core.named_queries import catalogue, get_query, result_rows, run_text, to_term
+from kbplanner.core.stores import add_store_argument
+from kbplanner.core.tables import FORMATS, iri_shortener, render
 from kbplanner.project import Project
-from kbplanner.stores import add_store_argument
-from kbplanner.tables import FORMATS, iri_shortener, render
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

@@ -11,7 +11,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from kbplanner.errors import InputFileError
+from kbplanner.core.errors import InputFileError
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -28,10 +28,10 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from kbplanner.comparison import ScenarioRun, write_outputs
+    from kbplanner.analysis.comparison import ScenarioRun, write_outputs
+    from kbplanner.analysis.run_record import RunRecord
     from kbplanner.project import Project
-    from kbplanner.run_record import RunRecord
-    from kbplanner.world_exports import storey_map
+    from kbplanner.world.exports import storey_map
 
     if args.out is None and len(args.runs) > 1:
         raise InputFileError("several run directories and no --out", fix="give --out DIR for the report")
@@ -48,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
         project = Project.load(project_dir, scenario=rec.scenario)
         world = project.world()
         layout_grid = storey_map(world).grid
-        from kbplanner.plots import LayoutObject
+        from kbplanner.analysis.plots import LayoutObject
 
         layout = [
             LayoutObject(o.label, o.kind, o.pose.x, o.pose.y, o.size[0], o.size[1], o.pose.yaw)

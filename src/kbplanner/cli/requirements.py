@@ -11,10 +11,10 @@ import argparse
 import sys
 from pathlib import Path
 
+from kbplanner.core.stores import add_store_argument
+from kbplanner.core.tables import render
+from kbplanner.knowledge.requirements import RequirementsResult, derive_requirements
 from kbplanner.project import Project
-from kbplanner.requirements import RequirementsResult, derive_requirements
-from kbplanner.stores import add_store_argument
-from kbplanner.tables import render
 
 FORMATS = ("table", "csv", "json", "ttl")
 

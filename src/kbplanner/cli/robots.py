@@ -10,11 +10,11 @@ import argparse
 import json
 import sys
 
-from kbplanner.errors import KbplannerError
+from kbplanner.core.errors import KbplannerError
+from kbplanner.core.tables import render
+from kbplanner.knowledge.robot_selection import select_robots
+from kbplanner.knowledge.task_specs import robotized_tasks
 from kbplanner.project import Project
-from kbplanner.robot_selection import select_robots
-from kbplanner.tables import render
-from kbplanner.task_specs import robotized_tasks
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

@@ -9,8 +9,8 @@ from pathlib import Path
 from rich.console import Console
 from rich.table import Table
 
+from kbplanner.analysis.report import COMPARISON_COLUMNS
 from kbplanner.pipeline import PipelineResult, run_pipeline
-from kbplanner.report import COMPARISON_COLUMNS
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

@@ -1,9 +1,9 @@
 """``kbplanner simulate PROJECT [--scenario S] [--seed N] [--task ID] [--robot R] [--gui] --out DIR`` (B1-B5).
 
 Builds the world at the project's ``[simulation] date``, the action-level plan (B1-B3,
-:func:`kbplanner.planning.plan_task`), refines it with arm and base poses (B4,
-:func:`kbplanner.manipulation.refine_plan`) and executes it in PyBullet (B5,
-:func:`kbplanner.executor.simulate`), writing the run directory ``DIR`` atomically. Shows progress
+:func:`kbplanner.planning.planner.plan_task`), refines it with arm and base poses (B4,
+:func:`kbplanner.planning.manipulation.refine_plan`) and executes it in PyBullet (B5,
+:func:`kbplanner.simulation.executor.simulate`), writing the run directory ``DIR`` atomically. Shows progress
 over elements and steps and a summary table at the end.
 
 Exit codes: 0 every element installed; 1 some element not installed (the reasons are in the table
@@ -41,13 +41,13 @@ def run(args: argparse.Namespace) -> int:
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
     from rich.table import Table
 
-    from kbplanner.executor import INSTALLED, simulate
-    from kbplanner.manipulation import refine_plan
-    from kbplanner.planning import plan_task
+    from kbplanner.planning.manipulation import refine_plan
+    from kbplanner.planning.planner import plan_task
     from kbplanner.project import Project
-    from kbplanner.skills import ExecSettings
-    from kbplanner.world import build_world
-    from kbplanner.world_exports import storey_map
+    from kbplanner.simulation.executor import INSTALLED, simulate
+    from kbplanner.simulation.skills import ExecSettings
+    from kbplanner.world.build import build_world
+    from kbplanner.world.exports import storey_map
 
     console = Console(stderr=True)
     project = Project.load(args.project, scenario=args.scenario)

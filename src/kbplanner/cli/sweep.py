@@ -45,7 +45,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from kbplanner.sweep import SweepError, SweepSpec, parse_vary, run_sweep
+    from kbplanner.scale.sweep import SweepError, SweepSpec, parse_vary, run_sweep
 
     if args.max_elements is not None and args.max_elements < 1:
         raise SweepError(f"--max-elements {args.max_elements} is not positive", element="--max-elements",

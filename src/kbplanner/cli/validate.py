@@ -13,9 +13,9 @@ import sys
 from pathlib import Path
 
 from kbplanner.cli import EXIT_NEGATIVE, EXIT_OK
+from kbplanner.core.stores import add_store_argument
+from kbplanner.knowledge.validation import validate_model
 from kbplanner.project import Project
-from kbplanner.stores import add_store_argument
-from kbplanner.validation import validate_model
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

@@ -13,11 +13,11 @@ import argparse
 import sys
 from pathlib import Path
 
-from kbplanner.errors import KbplannerError
-from kbplanner.outputs import run_directory
+from kbplanner.core.errors import KbplannerError
+from kbplanner.core.outputs import run_directory
 from kbplanner.project import Project
-from kbplanner.world import WorldError, build_world, parse_date
-from kbplanner.world_exports import MapSettings, export_world, map_summary
+from kbplanner.world.build import WorldError, build_world, parse_date
+from kbplanner.world.exports import MapSettings, export_world, map_summary
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

@@ -1,0 +1,465 @@
+"""A project directory (4D BIM environment): its manifest, and the 4D model graph built from it.
+
+A project (``project.toml``) names an IFC model, a schedule (CSV, or ``"ifc"`` for the IFC's own work
+schedule), site layout and jobsite Turtle files, always-applied augmentation, and scenarios, each an
+overlay of Turtle files on the same base. ``Project.load(path, scenario=...)`` imports the IFC (cached
+by content hash), reads the schedule and overlays, and gives the model graph (``model``), the
+knowledge base (``kb``) and typed entry points for the later steps.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import os
+import tomllib
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from datetime import datetime
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Self
+
+from rdflib import RDF, Graph
+
+from kbplanner.core.errors import ProjectError
+from kbplanner.core.iris import base_iri
+from kbplanner.core.named_queries import QueryResult, run_named
+from kbplanner.core.rdf_io import bind_prefixes, parse_turtle
+
+if TYPE_CHECKING:
+    from kbplanner.model.ifc_import import ImportResult
+
+log = logging.getLogger(__name__)
+
+MANIFEST = "project.toml"
+CACHE_ENV = "KBPLANNER_CACHE_DIR"
+
+ProgressFn = Callable[[str], None]
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """An overlay on the base model: extra Turtle files (site layout variant, augmentation)."""
+
+    name: str
+    description: str
+    overlays: tuple[Path, ...]
+
+
+@dataclass(frozen=True)
+class Calendar:
+    """Working hours of the project (for fitting simulated durations into the schedule)."""
+
+    work_start: str = "07:00"
+    work_end: str = "15:30"
+    workdays: tuple[str, ...] = ("Mon", "Tue", "Wed", "Thu", "Fri")
+
+
+@dataclass(frozen=True)
+class Manifest:
+    """The parsed ``project.toml`` with every path resolved against the project directory."""
+
+    path: Path
+    name: str
+    description: str
+    base: str
+    seed: int
+    ifc: Path
+    schedule: Path | None
+    schedule_from_ifc: bool
+    site: tuple[Path, ...]
+    jobsite: tuple[Path, ...]
+    knowledge_base: tuple[Path, ...]
+    augmentation: tuple[Path, ...]
+    calendar: Calendar
+    simulation: dict[str, Any]
+    scenarios: dict[str, Scenario]
+    reference: dict[str, Any] = field(default_factory=dict)  # figures to compare with, per scenario
+
+    @property
+    def directory(self) -> Path:
+        """The project directory."""
+        return self.path.parent
+
+
+def _as_list(value: Any, key: str, manifest: Path) -> list[str]:
+    if value is None:
+        return []
+    if isinstance(value, str):
+        return [value]
+    if isinstance(value, list) and all(isinstance(v, str) for v in value):
+        return list(value)
+    raise ProjectError(f"'{key}' must be a path or a list of paths", file=manifest, element=key,
+                       fix=f'write {key} = ["file.ttl", ...]')
+
+
+def _resolve(directory: Path, rel: str, key: str, manifest: Path) -> Path:
+    p = (directory / rel).resolve()
+    if not p.exists():
+        raise ProjectError(f"'{key}' names a file that does not exist: {rel}", file=manifest, element=key,
+                           fix=f"create {p} or correct the path (relative to {directory})")
+    return p
+
+
+def read_manifest(project_dir: Path) -> Manifest:
+    """Parse and check ``project_dir/project.toml``.
+
+    Example:
+        >>> m = read_manifest(Path("data/case_study"))  # doctest: +SKIP
+        >>> sorted(m.scenarios)  # doctest: +SKIP
+        ['storage-inside', 'storage-outside']
+    """
+    project_dir = Path(project_dir)
+    if project_dir.is_file() and project_dir.name == MANIFEST:
+        project_dir = project_dir.parent
+    manifest = project_dir / MANIFEST
+    if not project_dir.is_dir():
+        raise ProjectError("project directory not found", file=project_dir,
+                           fix="give the path of a directory holding project.toml "
+                               "(create one with 'kbplanner import-ifc MODEL.ifc --out DIR')")
+    if not manifest.is_file():
+        raise ProjectError("no project.toml in the project directory", file=project_dir,
+                           fix="create project.toml (see docs/projects.md) or run "
+                               "'kbplanner import-ifc MODEL.ifc --out DIR'")
+    try:
+        data = tomllib.loads(manifest.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise ProjectError(f"project.toml is not valid TOML: {exc}", file=manifest,
+                           fix="correct the TOML syntax") from None
+    d = project_dir.resolve()
+    proj = data.get("project", {})
+    model = data.get("model", {})
+    name = str(proj.get("name") or d.name)
+    if "ifc" not in model:
+        raise ProjectError("[model] has no 'ifc' entry", file=manifest, element="model.ifc",
+                           fix='add ifc = "model/your_model.ifc" under [model]')
+    ifc = _resolve(d, str(model["ifc"]), "model.ifc", manifest)
+    sched_value = model.get("schedule")
+    schedule: Path | None = None
+    from_ifc = False
+    if sched_value == "ifc":
+        from_ifc = True
+    elif sched_value:
+        schedule = _resolve(d, str(sched_value), "model.schedule", manifest)
+
+    def paths(section: dict[str, Any], key: str, label: str) -> tuple[Path, ...]:
+        return tuple(_resolve(d, v, label, manifest) for v in _as_list(section.get(key), label, manifest))
+
+    scenarios: dict[str, Scenario] = {}
+    for sname, sdata in sorted((data.get("scenarios") or {}).items()):
+        if not isinstance(sdata, dict):
+            raise ProjectError(f"scenario {sname!r} must be a table", file=manifest, element=sname,
+                               fix=f'write [scenarios.{sname}] with overlays = ["..."]')
+        scenarios[sname] = Scenario(
+            name=sname,
+            description=str(sdata.get("description", "")),
+            overlays=paths(sdata, "overlays", f"scenarios.{sname}.overlays"),
+        )
+    cal = data.get("calendar", {})
+    calendar = Calendar(
+        work_start=str(cal.get("work_start", "07:00")),
+        work_end=str(cal.get("work_end", "15:30")),
+        workdays=tuple(cal.get("workdays", ("Mon", "Tue", "Wed", "Thu", "Fri"))),
+    )
+    seed = proj.get("seed", 0)
+    if not isinstance(seed, int):
+        raise ProjectError("[project] seed must be an integer", file=manifest, element="project.seed",
+                           fix="write seed = 7")
+    return Manifest(
+        path=manifest.resolve(),
+        name=name,
+        description=str(proj.get("description", "")),
+        base=str(proj.get("base_iri") or base_iri(name)),
+        seed=seed,
+        ifc=ifc,
+        schedule=schedule,
+        schedule_from_ifc=from_ifc,
+        site=paths(model, "site", "model.site"),
+        jobsite=paths(model, "jobsite", "model.jobsite"),
+        knowledge_base=paths(model, "knowledge_base", "model.knowledge_base"),
+        augmentation=paths(model, "augmentation", "model.augmentation"),
+        calendar=calendar,
+        simulation=dict(data.get("simulation", {})),
+        scenarios=scenarios,
+        reference=dict(data.get("reference", {})),
+    )
+
+
+def file_sha256(path: Path) -> str:
+    """Hex SHA-256 of a file's bytes."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def cache_root(project_dir: Path) -> Path:
+    """Where imported models are cached: ``$KBPLANNER_CACHE_DIR`` or ``PROJECT/.kbplanner-cache``."""
+    env = os.environ.get(CACHE_ENV)
+    return Path(env) if env else project_dir / ".kbplanner-cache"
+
+
+@dataclass(frozen=True)
+class ProjectInfo:
+    """A summary of a loaded project (``kbplanner info``)."""
+
+    name: str
+    path: str
+    scenario: str | None
+    ifc: str
+    schema: str
+    counts: dict[str, int]
+    walls_interior: int
+    walls_exterior: int
+    storeys: list[tuple[str, float | None, int]]
+    tasks: int
+    robotized_tasks: list[tuple[str, str, str | None]]
+    date_range: tuple[str | None, str | None]
+    site_objects: dict[str, int]
+    workers: int
+    scenarios: list[str]
+    triples: int
+
+
+@dataclass
+class ProjectData:
+    """A loaded project: the model graph of one scenario (or the bare model) and the knowledge base.
+
+    This is the data every later step reads; :class:`kbplanner.project.Project` is the facade with
+    the later steps as methods.
+    """
+
+    manifest: Manifest
+    scenario: str | None
+    model: Graph
+    kb: Graph
+    import_dir: Path
+    kb_files: list[Path] = field(default_factory=list)
+    _merged: Graph | None = field(default=None, repr=False)
+
+    # ---- loading -------------------------------------------------------------------------------
+    @classmethod
+    def load(
+        cls,
+        path: str | Path,
+        scenario: str | None = None,
+        *,
+        progress: ProgressFn | None = None,
+        store: str | None = None,
+    ) -> Self:
+        """Load a project directory, optionally with a scenario overlay.
+
+        ``store`` puts the model and the merged graph on another backend (:mod:`kbplanner.core.stores`:
+        ``oxigraph``, ``oxigraph:DIR``, ``sparql+http://HOST:PORT/query``); default: rdflib in memory.
+
+        Example:
+            >>> p = Project.load("data/case_study", scenario="storage-outside")  # doctest: +SKIP
+            >>> p.query("storeys").rows[0][1]  # doctest: +SKIP
+            'T/FDN'
+        """
+        manifest = read_manifest(Path(path))
+        if store is not None:
+            from kbplanner.core.stores import parse_store
+
+            parse_store(store)  # a bad spec fails before the import
+        if scenario is not None and scenario not in manifest.scenarios:
+            known = ", ".join(sorted(manifest.scenarios)) or "none"
+            raise ProjectError(f"unknown scenario {scenario!r}", file=manifest.path, element=scenario,
+                               fix=f"choose one of: {known}")
+        say = progress or (lambda _msg: None)
+        say(f"importing {manifest.ifc.name}")
+        result_graph, import_dir = import_cached(manifest)
+        model = Graph()
+        bind_prefixes(model)
+        for t in result_graph:
+            model.add(t)
+        if manifest.schedule is not None or manifest.schedule_from_ifc:
+            say("reading schedule")
+            model += _schedule_graph(manifest, model)
+        overlays: list[Path] = [*manifest.site, *manifest.jobsite, *manifest.augmentation]
+        if scenario is not None:
+            overlays += list(manifest.scenarios[scenario].overlays)
+        for p in overlays:
+            say(f"reading {p.name}")
+            parse_turtle(p, into=model)
+        say("loading knowledge base")
+        kb, kb_files = _load_kb(manifest.knowledge_base)
+        merged: Graph | None = None
+        if store is not None:
+            from kbplanner.core.stores import place_graphs
+
+            say(f"placing the model on {store}")
+            model, merged = place_graphs(store, model, kb,
+                                         graph_base=f"{manifest.base}graph/{scenario or 'bare'}/")
+        return cls(manifest=manifest, scenario=scenario, model=model, kb=kb, import_dir=import_dir,
+                   kb_files=kb_files, _merged=merged)
+
+    # ---- basic properties ----------------------------------------------------------------------
+    @property
+    def path(self) -> Path:
+        """The project directory."""
+        return self.manifest.directory
+
+    @property
+    def name(self) -> str:
+        """The project's name."""
+        return self.manifest.name
+
+    @property
+    def base(self) -> str:
+        """Base IRI of the project's instance data."""
+        return self.manifest.base
+
+    @property
+    def graph(self) -> Graph:
+        """The model and the knowledge base merged (for queries that need both). Do not mutate."""
+        if self._merged is None:
+            g = Graph()
+            bind_prefixes(g)
+            for t in self.model:
+                g.add(t)
+            for t in self.kb:
+                g.add(t)
+            self._merged = g
+        return self._merged
+
+    def mesh_path(self, mesh_file: str) -> Path:
+        """Absolute path of a ``kbp:meshFile`` value."""
+        return self.import_dir / mesh_file
+
+    # ---- queries -------------------------------------------------------------------------------
+    def query(self, name: str, **bindings: Any) -> QueryResult:
+        """Run a named query on the model + knowledge base with values bound.
+
+        Example:
+            >>> p.query("doors_and_widths", storeyLabel="Level 1")  # doctest: +SKIP
+        """
+        return run_named(self.graph, name, **bindings)
+
+    def element_states(self, at: datetime) -> dict[str, str]:
+        """State of every scheduled element at a date: IRI -> 'built' | 'in progress' | 'not started'."""
+        from kbplanner.model.schedule import element_states
+
+        names = {"Built": "built", "InProgress": "in progress", "NotStarted": "not started"}
+        return {str(el): names.get(str(st).rsplit("#", 1)[-1], str(st))
+                for el, st in element_states(self.model, at).items()}
+
+    # ---- the task and date of a world ----------------------------------------------------------
+    def default_task(self) -> str | None:
+        """The robotized task simulated by default: ``[simulation] task`` or the only robotized task."""
+        task = self.manifest.simulation.get("task")
+        if task:
+            return str(task)
+        robotized = [r[1] for r in self.query("tasks_and_elements").rows if r[5]]
+        return str(robotized[0]) if len(robotized) == 1 else None
+
+    def world_date(self, task_id: str | None = None) -> datetime:
+        """The date of a task's world: ``[simulation] date`` for the ``[simulation] task`` (and when no
+        task is named), the start of any other task (else the ``[simulation] date``)."""
+        from kbplanner.model.dates import parse_date
+
+        default = self.manifest.simulation.get("date")
+        sim_task = self.manifest.simulation.get("task")
+        if task_id is not None and sim_task is not None and task_id != str(sim_task):
+            rows = self.query("tasks_and_elements", taskId=task_id).rows
+            start = rows[0][3] if rows else None
+            if isinstance(start, datetime):
+                return start.replace(tzinfo=None)
+        if default is None:
+            raise ProjectError("no date given and no [simulation] date in project.toml",
+                               file=self.manifest.path,
+                               fix='add date = "2022-05-10T07:00:00" under [simulation]')
+        return parse_date(str(default))
+
+    def info(self) -> ProjectInfo:
+        """Counts per class, storeys, tasks, robotized tasks and date range of the loaded model."""
+        counts: dict[str, int] = {}
+        interior = exterior = 0
+        for cls_iri, external, n in self.query("element_counts").rows:
+            label = str(cls_iri).rsplit("#", 1)[-1]
+            counts[label] = counts.get(label, 0) + int(n)
+            if label == "Wall" and external is not None:
+                if external:
+                    exterior += int(n)
+                else:
+                    interior += int(n)
+        storeys = [(str(lbl), float(el) if el is not None else None, int(n))
+                   for _, lbl, el, n in self.query("storeys").rows]
+        tasks = self.query("tasks_and_elements").rows
+        starts = [r[3] for r in tasks if r[3] is not None]
+        finishes = [r[4] for r in tasks if r[4] is not None]
+        robotized = [(str(r[1]), str(r[2] or ""), r[6]) for r in tasks if r[5]]
+        site: dict[str, int] = {}
+        for row in self.query("site_objects").rows:
+            label = str(row[1]).rsplit("#", 1)[-1]
+            site[label] = site.get(label, 0) + 1
+        from kbplanner.core.vocab import KBP
+
+        schema = next((str(o) for o in self.model.objects(None, KBP.ifcSchema)), "")
+        return ProjectInfo(
+            name=self.name,
+            path=str(self.path),
+            scenario=self.scenario,
+            ifc=self.manifest.ifc.name,
+            schema=schema,
+            counts=dict(sorted(counts.items())),
+            walls_interior=interior,
+            walls_exterior=exterior,
+            storeys=storeys,
+            tasks=len(tasks),
+            robotized_tasks=robotized,
+            date_range=(min(starts).isoformat() if starts else None,
+                        max(finishes).isoformat() if finishes else None),
+            site_objects=site,
+            workers=sum(1 for _ in self.model.subjects(RDF.type, KBP.Worker)),
+            scenarios=sorted(self.manifest.scenarios),
+            triples=len(self.model),
+        )
+
+
+def import_cached(manifest: Manifest) -> tuple[Graph, Path]:
+    """Import the project's IFC, or reuse a cached import of the same bytes and importer version."""
+    from kbplanner.model import ifc_import
+
+    digest = file_sha256(manifest.ifc)[:16]
+    version = getattr(ifc_import, "IMPORTER_VERSION", "1")
+    key = hashlib.sha256(f"{digest}|{manifest.base}|{version}".encode()).hexdigest()[:20]
+    out = cache_root(manifest.directory) / key
+    ttl = out / "model.ttl"
+    if ttl.is_file():
+        log.info("using cached import %s", out)
+        return parse_turtle(ttl), out
+    result: ImportResult = ifc_import.import_ifc(manifest.ifc, out, base=manifest.base)
+    return result.graph, out
+
+
+def _schedule_graph(manifest: Manifest, model: Graph) -> Graph:
+    from kbplanner.model import schedule as sched
+
+    if manifest.schedule_from_ifc:
+        s = sched.read_ifc_schedule(manifest.ifc, manifest.base)
+        if s is None:
+            raise ProjectError("schedule = \"ifc\" but the IFC file has no work schedule",
+                               file=manifest.path, element=str(manifest.ifc),
+                               fix="add a CSV schedule (docs/schedule.md) and name it in [model] schedule")
+    else:
+        assert manifest.schedule is not None
+        s = sched.read_csv_schedule(manifest.schedule, model)
+    return sched.schedule_to_graph(s, manifest.base)
+
+
+def _load_kb(extra: Sequence[Path]) -> tuple[Graph, list[Path]]:
+    from kbplanner.core.resources import ontology_files
+
+    try:
+        from kbplanner.knowledge import knowledge_base
+    except ImportError:  # the knowledge base module arrives with the KB step
+        g = Graph()
+        files = [*ontology_files(), *extra]
+        for p in files:
+            parse_turtle(p, into=g)
+        return g, files
+    kb = knowledge_base.load_kb(list(extra))
+    files = [*ontology_files(), *extra]
+    return kb, files

@@ -1,0 +1,346 @@
+"""Closed-form arm inverse kinematics (B4 arm poses per skill) for 6R arms of the UR structure.
+
+Pipeline step: B4 (:mod:`kbplanner.planning.manipulation` via :func:`kbplanner.robot.arm_ik.solve_ik`)
+asks for
+joint angles that put the tool at a pose. For arms whose standard Denavit-Hartenberg table has the
+structure of the Universal Robots arms this module answers in closed form, in numpy, instead of
+PyBullet's iterative solver; other arms keep the numeric solver.
+
+How it works: :class:`DhArm` holds a DH table (``d``, ``a``, ``alpha``, joint limits);
+:func:`ur_structure` tests the *parameters* (not names): joints 2, 3 and 4 parallel
+(``alpha[1] = alpha[2] = 0``), joints 1, 4 and 5 turned by a quarter turn (``alpha[0]``,
+``alpha[3]``, ``alpha[4]`` = +-pi/2), ``a[4] = 0``, and upper arm and forearm of non-zero length.
+Then (Hawkins 2013, derived here for either sign of each quarter turn, with ``a[0]``, ``a[3]``,
+``d[1]``, ``d[2]``, ``a[5]`` and ``alpha[5]`` of any value):
+
+1. ``q1``: the origin of frame 5 (flange minus ``d6`` along the tool axis) lies ``d2 + d3 + d4``
+   along joint 2's axis, which is horizontal and set by ``q1`` alone: two solutions (shoulder
+   left/right); none when the target is inside the cylinder of that radius (shoulder singularity:
+   the two merge on its surface).
+2. ``q5``: the tool axis against joint 2's axis gives ``cos q5``: two solutions (wrist up/down).
+3. ``q6``: joint 2's axis seen from the flange; when ``sin q5 = 0`` (wrist singularity: joints 4
+   and 6 aligned) ``q6`` is free and taken from the seed, and ``q4`` takes up the rest.
+4. ``q2, q3, q4``: a planar two-link problem for the origin of frame 3 in frame 1 (elbow up/down),
+   and ``q4`` from the summed angle of joints 2-4.
+
+Up to 8 solutions; each is checked by :func:`forward_kinematics`, every angle is moved by whole
+turns to the value nearest the seed that lies within the joint limits (a solution that cannot be
+is dropped). :func:`ik_best_effort` gives, for an unreachable pose, the arm stretched towards it
+(arguments clamped), so callers can report how far off the pose is. No exceptions on singular
+poses; everything is deterministic.
+
+Reference: K. P. Hawkins, "Analytic Inverse Kinematics for the Universal Robots UR-5/UR-10 Arms",
+Georgia Institute of Technology, 2013 (the ``ur_kinematics`` package implements the same).
+
+Example:
+    >>> import math
+    >>> ur5 = DhArm((0.089159, 0, 0, 0.10915, 0.09465, 0.0823), (0, -0.425, -0.39225, 0, 0, 0),
+    ...             (math.pi / 2, 0, 0, math.pi / 2, -math.pi / 2, 0))
+    >>> ur_structure(ur5) is not None
+    True
+    >>> q = (0.3, -1.2, 1.4, -1.7, -1.5, 0.2)
+    >>> sols = ik_solutions(ur5, forward_kinematics(ur5, q), seed=q)
+    >>> len(sols), max(abs(x - y) for x, y in zip(sols[0], q)) < 1e-9
+    (8, True)
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+Matrix = npt.NDArray[np.float64]
+
+TWO_PI = 2.0 * math.pi
+_PARAM_TOL = 1e-6  # how close a DH parameter must be to 0 or pi/2 to count as such
+_SINGULAR = 1e-9  # |sin q5| below this: wrist singular
+_FK_TOL_M = 1e-6  # a closed-form solution must reproduce the pose this closely (m, and rad-ish)
+
+
+@dataclass(frozen=True)
+class DhArm:
+    """A 6R arm by standard DH parameters (``T = prod Rz(q) Tz(d) Tx(a) Rx(alpha)``) and joint limits."""
+
+    d: tuple[float, ...]
+    a: tuple[float, ...]
+    alpha: tuple[float, ...]
+    lower: tuple[float, ...] = (-TWO_PI,) * 6
+    upper: tuple[float, ...] = (TWO_PI,) * 6
+
+
+@dataclass(frozen=True)
+class UrStructure:
+    """The signs and lengths the closed form needs (see the module docstring)."""
+
+    s1: float  # sin alpha[0]
+    s4: float  # sin alpha[3]
+    s5: float  # sin alpha[4]
+    shoulder_m: float  # d2 + d3 + d4: frame 5's offset along joint 2's axis
+    a2: float
+    a3: float
+
+
+def _near(value: float, target: float) -> bool:
+    """``value`` equals ``target`` up to whole turns, within the parameter tolerance."""
+    diff = (value - target + math.pi) % TWO_PI - math.pi
+    return abs(diff) < _PARAM_TOL
+
+
+def ur_structure(arm: DhArm) -> UrStructure | None:
+    """The UR structure of a DH table, or ``None`` if the closed form does not apply.
+
+    Example:
+        >>> ur_structure(DhArm((0.3,) * 6, (0.2,) * 6, (0.0,) * 6)) is None
+        True
+    """
+    if len(arm.d) != 6 or len(arm.a) != 6 or len(arm.alpha) != 6:
+        return None
+    if not (_near(arm.alpha[1], 0.0) and _near(arm.alpha[2], 0.0)):
+        return None
+    signs = []
+    for k in (0, 3, 4):
+        if _near(arm.alpha[k], math.pi / 2):
+            signs.append(1.0)
+        elif _near(arm.alpha[k], -math.pi / 2):
+            signs.append(-1.0)
+        else:
+            return None
+    if abs(arm.a[4]) > _PARAM_TOL or abs(arm.a[1]) < _PARAM_TOL or abs(arm.a[2]) < _PARAM_TOL:
+        return None
+    return UrStructure(signs[0], signs[1], signs[2], arm.d[1] + arm.d[2] + arm.d[3], arm.a[1], arm.a[2])
+
+
+def dh_matrix(theta: float, d: float, a: float, alpha: float) -> Matrix:
+    """``Rz(theta) Tz(d) Tx(a) Rx(alpha)`` as a 4x4 matrix."""
+    ct, st = math.cos(theta), math.sin(theta)
+    ca, sa = math.cos(alpha), math.sin(alpha)
+    return np.array([[ct, -st * ca, st * sa, a * ct],
+                     [st, ct * ca, -ct * sa, a * st],
+                     [0.0, sa, ca, d],
+                     [0.0, 0.0, 0.0, 1.0]])
+
+
+def forward_kinematics(arm: DhArm, q: Sequence[float]) -> Matrix:
+    """DH frame 6 (the flange) in DH frame 0 (the arm base) for joint angles ``q``."""
+    t = np.eye(4)
+    for i in range(6):
+        t = t @ dh_matrix(float(q[i]), arm.d[i], arm.a[i], arm.alpha[i])
+    return t
+
+
+def _inv(t: Matrix) -> Matrix:
+    out = np.eye(4)
+    r = t[:3, :3].T
+    out[:3, :3] = r
+    out[:3, 3] = -r @ t[:3, 3]
+    return out
+
+
+def pose_error(a: Matrix, b: Matrix) -> tuple[float, float]:
+    """(position distance in m, rotation angle in rad) between two poses."""
+    pos = float(np.linalg.norm(a[:3, 3] - b[:3, 3]))
+    c = (float(np.trace(a[:3, :3].T @ b[:3, :3])) - 1.0) / 2.0
+    return pos, math.acos(max(-1.0, min(1.0, c)))
+
+
+def wrap_to_limits(theta: float, lower: float, upper: float, near: float) -> float | None:
+    """``theta`` plus whole turns, within ``[lower, upper]`` and nearest ``near``; ``None`` if none fits.
+
+    Example:
+        >>> round(wrap_to_limits(3.0, -6.3, 6.3, -2.0), 4)
+        -3.2832
+        >>> wrap_to_limits(3.0, -1.0, 1.0, 0.0) is None
+        True
+    """
+    eps = 1e-9
+    k_lo = math.ceil((lower - eps - theta) / TWO_PI)
+    k_hi = math.floor((upper + eps - theta) / TWO_PI)
+    if k_hi < k_lo:
+        return None
+    # the whole-turn shift nearest the seed, clamped into the feasible range of shifts
+    k = min(max(round((near - theta) / TWO_PI), k_lo), k_hi)
+    return min(max(theta + k * TWO_PI, lower), upper)
+
+
+def _raw_solutions(arm: DhArm, ur: UrStructure, target: Matrix, seed: Sequence[float],
+                   clamp: bool) -> list[tuple[float, ...]]:
+    """Closed-form candidates (angles in (-pi, pi]); ``clamp`` stretches towards unreachable poses."""
+    d1, d5, d6 = arm.d[0], arm.d[4], arm.d[5]
+    # strip the constant Tx(a6) Rx(alpha6) so that the flange is Rz(q6) Tz(d6) from frame 5
+    t06 = target @ _inv(dh_matrix(0.0, 0.0, arm.a[5], arm.alpha[5]))
+    z6 = t06[:3, 2]
+    p5 = t06[:3, 3] - d6 * z6
+    r = math.hypot(p5[0], p5[1])
+    big_d = ur.shoulder_m
+    # q1: s1 * (p5x sin q1 - p5y cos q1) = D, i.e. r sin(q1 - phi) = s1 D
+    if r < 1e-12:
+        if abs(big_d) > 1e-12 and not clamp:
+            return []
+        q1s = [float(seed[0])]  # on the shoulder axis: q1 is free
+    else:
+        ratio = ur.s1 * big_d / r
+        if abs(ratio) > 1.0:
+            if not clamp and abs(ratio) > 1.0 + 1e-12:
+                return []
+            ratio = max(-1.0, min(1.0, ratio))
+        phi = math.atan2(p5[1], p5[0])
+        s = math.asin(ratio)
+        q1s = [phi + s, phi + math.pi - s]
+    out: list[tuple[float, ...]] = []
+    for q1 in q1s:
+        c1, s1q = math.cos(q1), math.sin(q1)
+        z1 = np.array([ur.s1 * s1q, -ur.s1 * c1, 0.0])
+        c5 = -float(z6 @ z1) / (ur.s4 * ur.s5)
+        acos5 = math.acos(max(-1.0, min(1.0, c5)))
+        for q5 in (acos5, -acos5):
+            sin5 = math.sin(q5)
+            if abs(sin5) < _SINGULAR:
+                q6 = float(seed[5])  # wrist singular: joints 4 and 6 aligned, q6 free
+            else:
+                v = t06[:3, :3].T @ z1  # joint 2's axis seen from the flange
+                q6 = math.atan2(-ur.s4 * v[1] / sin5, ur.s4 * v[0] / sin5)
+            t46 = dh_matrix(q5, d5, 0.0, arm.alpha[4]) @ dh_matrix(q6, d6, 0.0, 0.0)
+            t14 = _inv(dh_matrix(q1, d1, arm.a[0], arm.alpha[0])) @ t06 @ _inv(t46)
+            x4 = t14[:3, 0]
+            sum234 = math.atan2(x4[1], x4[0])
+            px = t14[0, 3] - arm.a[3] * x4[0]
+            py = t14[1, 3] - arm.a[3] * x4[1]
+            c3 = (px * px + py * py - ur.a2 * ur.a2 - ur.a3 * ur.a3) / (2.0 * ur.a2 * ur.a3)
+            if abs(c3) > 1.0:
+                if not clamp and abs(c3) > 1.0 + 1e-9:
+                    continue
+                c3 = max(-1.0, min(1.0, c3))
+            acos3 = math.acos(c3)
+            for q3 in (acos3, -acos3):
+                q2 = math.atan2(py, px) - math.atan2(ur.a3 * math.sin(q3), ur.a2 + ur.a3 * math.cos(q3))
+                q4 = sum234 - q2 - q3
+                out.append(tuple((v + math.pi) % TWO_PI - math.pi for v in (q1, q2, q3, q4, q5, q6)))
+    return out
+
+
+def _place(arm: DhArm, raw: Sequence[tuple[float, ...]], seed: Sequence[float],
+           clip: bool = False) -> list[tuple[float, ...]]:
+    """Each candidate moved by whole turns into the limits nearest the seed (as :func:`wrap_to_limits`).
+
+    A candidate with a joint that fits no whole-turn shift is dropped (``clip``: clipped into the
+    limits instead); duplicates are dropped.
+    """
+    if not raw:
+        return []
+    q = np.asarray(raw, dtype=float)
+    lo, hi = np.asarray(arm.lower, dtype=float), np.asarray(arm.upper, dtype=float)
+    k_lo = np.ceil((lo - 1e-9 - q) / TWO_PI)
+    k_hi = np.floor((hi + 1e-9 - q) / TWO_PI)
+    k = np.minimum(np.maximum(np.round((np.asarray(seed, dtype=float) - q) / TWO_PI), k_lo), k_hi)
+    placed = np.minimum(np.maximum(q + k * TWO_PI, lo), hi)
+    fits = (k_hi >= k_lo).all(axis=1)
+    if clip:
+        placed = np.where(k_hi >= k_lo, placed, np.minimum(np.maximum(q, lo), hi))
+        fits[:] = True
+    out: list[tuple[float, ...]] = []
+    seen: set[tuple[float, ...]] = set()
+    for row, ok in zip(placed.tolist(), fits.tolist(), strict=True):
+        if not ok:
+            continue
+        sol = tuple(float(v) for v in row)
+        key = tuple(round(v, 9) for v in sol)
+        if key not in seen:
+            seen.add(key)
+            out.append(sol)
+    return out
+
+
+def closed_form(arm: DhArm, target: Matrix, seed: Sequence[float] | None = None) -> list[tuple[float, ...]]:
+    """The distinct closed-form solutions for ``target`` (4x4, DH frame 6 in DH frame 0), angles in (-pi, pi].
+
+    Each is checked by forward kinematics; joint limits are not applied (see :func:`place_nearest`).
+    ``seed`` only sets the joints that are free at a singularity (default: zeros). Empty when the
+    pose is out of reach or ``arm`` does not have the UR structure (see :func:`ur_structure`).
+    """
+    ur = ur_structure(arm)
+    if ur is None:
+        return []
+    s = tuple(seed) if seed is not None else (0.0,) * 6
+    target = np.asarray(target, dtype=float)
+    good: list[tuple[float, ...]] = []
+    seen: set[tuple[float, ...]] = set()
+    for q in _raw_solutions(arm, ur, target, s, clamp=False):
+        key = tuple(round(v, 9) for v in q)
+        if key in seen:
+            continue
+        seen.add(key)
+        pe, re = pose_error(forward_kinematics(arm, q), target)
+        if pe < _FK_TOL_M and re < _FK_TOL_M:
+            good.append(q)
+    return good
+
+
+def place_nearest(arm: DhArm, solutions: Sequence[tuple[float, ...]],
+                  seed: Sequence[float]) -> list[tuple[float, ...]]:
+    """Solutions moved by whole turns into the joint limits nearest ``seed``, nearest first.
+
+    A solution none of whose whole-turn equivalents fits the limits is dropped.
+    """
+    out = _place(arm, solutions, seed)
+    out.sort(key=lambda q: (joint_distance(q, seed), q))
+    return out
+
+
+def ik_solutions(arm: DhArm, target: Matrix, seed: Sequence[float] | None = None) -> list[tuple[float, ...]]:
+    """All joint solutions (up to 8) putting DH frame 6 at ``target`` (4x4, in DH frame 0).
+
+    Every angle lies within the joint limits, moved by whole turns to the value nearest ``seed``
+    (default: zeros); solutions are sorted by their distance to the seed. Empty when the pose is out
+    of reach or ``arm`` does not have the UR structure (see :func:`ur_structure`).
+    """
+    s = tuple(seed) if seed is not None else (0.0,) * 6
+    return place_nearest(arm, closed_form(arm, target, s), s)
+
+
+def ik_best_effort(arm: DhArm, target: Matrix,
+                   seed: Sequence[float] | None = None) -> list[tuple[float, ...]]:
+    """For a pose out of reach: the arm stretched towards it (clamped closed form), nearest the seed first.
+
+    Angles are clipped into the joint limits; the poses these reach are *not* the target.
+    """
+    ur = ur_structure(arm)
+    if ur is None:
+        return []
+    s = tuple(seed) if seed is not None else (0.0,) * 6
+    out = _place(arm, _raw_solutions(arm, ur, np.asarray(target, dtype=float), s, clamp=True), s, clip=True)
+    out.sort(key=lambda q: (joint_distance(q, s), q))
+    return out
+
+
+def wrist_centre(arm: DhArm, target: Matrix) -> npt.NDArray[np.float64]:
+    """Origin of DH frame 5 (where joints 5 and 6 meet the tool axis) for a flange pose ``target``."""
+    t06 = np.asarray(target, dtype=float) @ _inv(dh_matrix(0.0, 0.0, arm.a[5], arm.alpha[5]))
+    return np.asarray(t06[:3, 3] - arm.d[5] * t06[:3, 2], dtype=float)
+
+
+def beyond_reach_m(arm: DhArm, target: Matrix) -> float:
+    """A lower bound on how far the wrist centre of ``target`` lies outside what the arm can reach.
+
+    Positive: no joint angles put DH frame 6 at ``target``, nor closer to it than that; zero or
+    negative: maybe reachable. The wrist centre keeps ``d2 + d3 + d4`` from the base axis along
+    joint 2's (horizontal) axis, and in the plane across it lies at most ``|a2| + |a3| + |a4| + |d5|``
+    from joint 2's axis (``|a1|`` from the base axis). ``-inf`` for arms without the UR structure.
+    """
+    ur = ur_structure(arm)
+    if ur is None:
+        return -math.inf
+    p5 = wrist_centre(arm, target)
+    planar = abs(arm.a[1]) + abs(arm.a[2]) + abs(arm.a[3]) + abs(arm.d[4])
+    far = math.hypot(planar, ur.shoulder_m) + abs(arm.a[0])
+    out = float(np.linalg.norm(p5 - np.array([0.0, 0.0, arm.d[0]]))) - far
+    inside = abs(ur.shoulder_m) - math.hypot(float(p5[0]), float(p5[1]))
+    return max(out, inside)
+
+
+def joint_distance(q: Sequence[float], seed: Sequence[float]) -> float:
+    """Euclidean distance between two joint vectors (rad)."""
+    return math.sqrt(sum((float(x) - float(y)) ** 2 for x, y in zip(q, seed, strict=True)))

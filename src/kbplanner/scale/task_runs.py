@@ -1,0 +1,264 @@
+"""Whole-building runs (B1-B5 for every robotized task of a scenario), one task per worker process.
+
+The main job simulates the project's ``[simulation] task``. :func:`simulate_tasks` simulates each
+robotized task of the schedule (on a generated building: the framing of each storey), each in the
+world at its own date (the ``[simulation] date`` for the ``[simulation] task``, the task's start for
+the others), with the same seed, each into its own run directory, on ``workers`` local processes.
+A task's simulation depends only on the project, the task and the seed, so the figures and files are
+the same whatever the number of workers (a test checks 1 and 2); wall times are kept apart
+(``timings``, never in the deterministic tables).
+
+Example:
+    >>> from pathlib import Path
+    >>> r = simulate_tasks(Path("runs/b10x8"), "storage-in-units", out_dir=Path("runs/b10x8-tasks"),
+    ...                    workers=2)  # doctest: +SKIP
+    >>> sum(t.installed for t in r.tasks), r.sim_time_s / r.wall_s  # doctest: +SKIP
+    (1120, 240.3)
+"""
+
+from __future__ import annotations
+
+import logging
+import multiprocessing
+import os
+import time
+from collections.abc import Callable, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor
+from dataclasses import asdict, dataclass, field
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+from kbplanner.analysis.comparison import ScenarioRun, simulate_scenario
+from kbplanner.analysis.report import scenario_figures
+from kbplanner.analysis.run_record import RunRecord
+from kbplanner.core.errors import KbplannerError
+from kbplanner.core.outputs import atomic_write_text, write_json
+from kbplanner.core.tables import render
+from kbplanner.model.project_data import ProjectData
+
+log = logging.getLogger(__name__)
+
+Say = Callable[[str], None]
+
+TASK_COLUMNS = ["task", "label", "world date", "installed", "elements", "simulated (min)",
+                "per element (min)", "min separation (m)", "time < 1 m (s)", "stops for workers"]
+
+
+@dataclass(frozen=True)
+class TaskFigures:
+    """What the simulation of one robotized task gave (deterministic: no wall times)."""
+
+    task_id: str
+    label: str
+    world_date: str
+    installed: int
+    elements: int
+    sim_time_s: float
+    per_element_min: float | None
+    min_separation_m: float
+    below_threshold_s: float
+    worker_stops: int
+    run_dir: str  # relative to the tasks directory (``out_dir``)
+
+    def row(self) -> list[Any]:
+        """One row of ``tasks.csv``."""
+        return [self.task_id, self.label, self.world_date, self.installed, self.elements,
+                round(self.sim_time_s / 60.0, 2),
+                None if self.per_element_min is None else round(self.per_element_min, 2),
+                round(self.min_separation_m, 2), round(self.below_threshold_s, 1), self.worker_stops]
+
+
+@dataclass
+class TaskRunsResult:
+    """Every task of one scenario: figures in task order, the main task's run, wall times."""
+
+    scenario: str | None
+    out_dir: Path
+    tasks: list[TaskFigures] = field(default_factory=list)
+    main: ScenarioRun | None = None
+    wall_s: float = 0.0
+    task_wall_s: dict[str, float] = field(default_factory=dict)
+    workers: int = 1
+
+    @property
+    def installed(self) -> int:
+        """Elements installed over all tasks."""
+        return sum(t.installed for t in self.tasks)
+
+    @property
+    def elements(self) -> int:
+        """Elements of all tasks."""
+        return sum(t.elements for t in self.tasks)
+
+    @property
+    def sim_time_s(self) -> float:
+        """Simulated seconds over all tasks."""
+        return sum(t.sim_time_s for t in self.tasks)
+
+    def rows(self) -> list[list[Any]]:
+        """The table of ``tasks.csv`` with a totals row."""
+        out = [t.row() for t in self.tasks]
+        seps = [t.min_separation_m for t in self.tasks]
+        out.append(["all", f"{len(self.tasks)} tasks", "", self.installed, self.elements,
+                    round(self.sim_time_s / 60.0, 2),
+                    round(self.sim_time_s / 60.0 / self.installed, 2) if self.installed else None,
+                    round(min(seps), 2) if seps else None,
+                    round(sum(t.below_threshold_s for t in self.tasks), 1),
+                    sum(t.worker_stops for t in self.tasks)])
+        return out
+
+    def text(self) -> str:
+        """The table as aligned text."""
+        return render(TASK_COLUMNS, self.rows())
+
+    def write(self, out_dir: Path) -> None:
+        """``tasks.csv``, ``tasks.json`` (deterministic) and ``tasks_timings.json`` (wall times)."""
+        atomic_write_text(out_dir / "tasks.csv", render(TASK_COLUMNS, self.rows(), fmt="csv"))
+        write_json(out_dir / "tasks.json", {
+            "scenario": self.scenario, "tasks": [asdict(t) for t in self.tasks], "installed": self.installed,
+            "elements": self.elements, "sim_time_s": round(self.sim_time_s, 3)})
+        write_json(out_dir / "tasks_timings.json", {
+            "workers": self.workers, "wall_s": round(self.wall_s, 3),
+            "real_time_factor": round(self.sim_time_s / self.wall_s, 1) if self.wall_s > 0 else None,
+            "tasks": {k: round(v, 3) for k, v in self.task_wall_s.items()}})
+
+
+@dataclass(frozen=True)
+class _Job:
+    project_dir: Path
+    scenario: str | None
+    task_id: str
+    label: str
+    seed: int | None
+    out_dir: Path
+    rel_dir: str
+    keyframes: bool
+    main: bool
+    max_elements: int | None
+
+
+_LOADED: dict[tuple[str, str | None], ProjectData] = {}
+
+
+def _project(project_dir: Path, scenario: str | None) -> ProjectData:
+    """The loaded scenario, once per process (a worker process simulates several tasks)."""
+    key = (str(project_dir.resolve()), scenario)
+    if key not in _LOADED:
+        _LOADED.clear()
+        _LOADED[key] = ProjectData.load(project_dir, scenario=scenario)
+    return _LOADED[key]
+
+
+def _run(job: _Job) -> tuple[TaskFigures, ScenarioRun | None, float]:
+    t0 = time.perf_counter()
+    project = _project(job.project_dir, job.scenario)
+    run = simulate_scenario(job.project_dir, job.scenario, seed=job.seed, out_dir=job.out_dir,
+                            keyframes=job.keyframes, task_id=job.task_id, project=project,
+                            max_elements=job.max_elements)
+    rec = RunRecord.load(job.out_dir)
+    fig = scenario_figures(rec, rec.proximity(threshold_m=1.0))
+    world_date = project.world_date(job.task_id).isoformat()  # the date simulate_scenario's world used
+    figures = TaskFigures(
+        task_id=job.task_id, label=job.label, world_date=world_date, installed=fig.installed,
+        elements=fig.elements, sim_time_s=float(rec.metrics.get("totals", {}).get("sim_time_s", 0.0)),
+        per_element_min=fig.per_element_min, min_separation_m=fig.min_separation_m,
+        below_threshold_s=fig.below_threshold_s, worker_stops=fig.worker_stops, run_dir=job.rel_dir)
+    return figures, (run if job.main else None), time.perf_counter() - t0
+
+
+def robotized_tasks(project: ProjectData) -> list[tuple[str, str, datetime | None]]:
+    """(task id, label, start) of every robotized task, in schedule order."""
+    out = []
+    for row in project.query("tasks_and_elements").rows:
+        _task, task_id, label, start, _finish, robotized = row[:6]
+        if not robotized or str(robotized).lower() in ("false", "0"):
+            continue
+        when = start.toPython() if hasattr(start, "toPython") else start
+        out.append((str(task_id), str(label or task_id),
+                    when.replace(tzinfo=None) if isinstance(when, datetime) else None))
+    return out
+
+
+def simulate_tasks(
+    project_dir: Path,
+    scenario: str | None,
+    *,
+    out_dir: Path,
+    tasks: Sequence[str] | None = None,
+    seed: int | None = None,
+    workers: int = 1,
+    main_dir: Path | None = None,
+    keyframes: bool = False,
+    progress: Say | None = None,
+    project: ProjectData | None = None,
+    max_elements: int | None = None,
+) -> TaskRunsResult:
+    """Simulate every robotized task (or ``tasks``) of a scenario; see the module docstring.
+
+    Each task's run directory is ``out_dir/<task id>``; the ``[simulation] task`` goes to ``main_dir``
+    instead when given (the pipeline's ``simulation`` directory, with key frames when ``keyframes``).
+    Writes ``tasks.csv``, ``tasks.json`` and ``tasks_timings.json`` into ``out_dir``. ``max_elements``
+    simulates the first elements of each task only.
+
+    Raises:
+        KbplannerError: an unknown task id, fewer than one worker.
+    """
+    say = progress or (lambda _m: None)
+    if workers < 1:
+        raise KbplannerError(f"workers must be at least 1, got {workers}", element="--workers",
+                             fix="give --workers 1 or more (the number of cores is a good choice)")
+    project = project or ProjectData.load(project_dir, scenario=scenario)
+    main_task = str(project.manifest.simulation.get("task") or "")
+    known = robotized_tasks(project)
+    if tasks is not None:
+        wanted = list(tasks)
+        ids = {k for k, _l, _s in known}
+        unknown = [t for t in wanted if t not in ids]
+        if unknown:
+            raise KbplannerError(f"not a robotized task of the schedule: {', '.join(unknown)}",
+                                 file=project.manifest.path, element=unknown[0],
+                                 fix=f"use one of {', '.join(sorted(ids)) or '(none)'}")
+        known = [k for k in known if k[0] in wanted]
+    if not main_task and known:
+        main_task = known[0][0]
+    jobs = []
+    for task_id, label, _start in known:
+        is_main = task_id == main_task
+        where = main_dir if (is_main and main_dir is not None) else out_dir / task_id
+        rel = Path(os.path.relpath(where.resolve(), out_dir.resolve())).as_posix()
+        jobs.append(_Job(project_dir, scenario, task_id, label, seed, where, rel,
+                         keyframes and is_main, is_main, max_elements))
+    _LOADED[(str(project_dir.resolve()), scenario)] = project
+    result = TaskRunsResult(scenario=scenario, out_dir=out_dir, workers=workers)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    done: dict[str, tuple[TaskFigures, ScenarioRun | None, float]] = {}
+
+    def tell(job: _Job, res: tuple[TaskFigures, ScenarioRun | None, float]) -> None:
+        done[job.task_id] = res
+        f = res[0]
+        say(f"{scenario or 'bare'}: tasks {len(done)}/{len(jobs)} ({f.task_id}: {f.installed}/{f.elements} "
+            f"installed, {f.sim_time_s / 60.0:.1f} min simulated in {res[2]:.0f} s)")
+
+    if workers == 1 or len(jobs) <= 1:
+        for job in jobs:
+            tell(job, _run(job))
+    else:
+        ctx = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=ctx) as pool:
+            futures: list[tuple[_Job, Future[tuple[TaskFigures, ScenarioRun | None, float]]]] = [
+                (job, pool.submit(_run, job)) for job in jobs]
+            for job, fut in futures:
+                tell(job, fut.result())
+    result.wall_s = time.perf_counter() - t0
+    for job in jobs:
+        fig, run, wall = done[job.task_id]
+        result.tasks.append(fig)
+        result.task_wall_s[job.task_id] = wall
+        if run is not None:
+            result.main = run
+    result.write(out_dir)
+    log.info("%d tasks of %s: %d/%d installed, %.0f s simulated in %.0f s wall", len(jobs), scenario,
+             result.installed, result.elements, result.sim_time_s, result.wall_s)
+    return result

@@ -1,0 +1,87 @@
+"""B5 run record: trajectories at a fixed rate, events, and the files of a run directory.
+
+Takes the running :class:`~kbplanner.simulation.sim_env.SimEnv` and the executor's state (current step, held
+element, carry mode); keeps
+
+- ``trajectories.csv``: one row every ``1 / record_hz`` simulated seconds: ``t_s``, robot ``x``, ``y``,
+  ``yaw``, arm joints ``q1`` .. ``q6``, ``carried`` (GlobalId of the held element), ``carry_mode``
+  (``lifted``, ``normal``, ``narrow``, ``placing`` or empty), ``step`` (plan step number), then ``x``
+  and ``y`` of every worker as ``<worker slug>_x``, ``<worker slug>_y``;
+- ``events.jsonl``: one JSON object per line: ``t_s``, ``kind``, ``step``, ``element`` (GlobalId),
+  ``action``, ``details``.
+
+Numbers are written with fixed decimals (mm, mrad, 10 ms) and keys sorted, so the same run gives
+the same bytes.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from typing import Any
+
+from kbplanner.simulation.sim_env import SimEnv
+
+
+def _f(v: float, nd: int) -> str:
+    text = f"{v:.{nd}f}"
+    return "0." + "0" * nd if text.lstrip("-").strip("0.") == "" else text
+
+
+def clean(value: Any) -> Any:
+    """JSON-ready value with floats rounded to 6 decimals (no -0.0)."""
+    if isinstance(value, float):
+        return round(value, 6) + 0.0
+    if isinstance(value, dict):
+        return {str(k): clean(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [clean(v) for v in value]
+    return value
+
+
+class Recorder:
+    """Collects trajectory rows and events of one run (see module docstring)."""
+
+    def __init__(self, env: SimEnv, record_hz: float) -> None:
+        self.env = env
+        self.every = max(1, round(env.control_hz / record_hz))
+        n = len(env.robot.arm_joints)
+        joints = [f"q{i + 1}" for i in range(n)]
+        self.header = ["t_s", "x", "y", "yaw", *joints, "carried", "carry_mode", "step"]
+        for w in env.workers:
+            self.header += [f"{w.slug}_x", f"{w.slug}_y"]
+        self.rows: list[str] = [",".join(self.header)]
+        self.events: list[dict[str, Any]] = []
+        self._last_tick = -1
+
+    def sample(self, *, step: int | None, carried: str, carry_mode: str, force: bool = False) -> None:
+        """Record a row now if the clock is on the record grid (or ``force``), once per tick."""
+        env = self.env
+        if env.tick == self._last_tick or (not force and env.tick % self.every):
+            return
+        self._last_tick = env.tick
+        x, y, yaw = env.base_pose()
+        q = env.robot.arm_positions()
+        cells = [_f(env.t, 2), _f(x, 4), _f(y, 4), _f(yaw, 4), *(_f(v, 4) for v in q), carried, carry_mode,
+                 "" if step is None else str(step)]
+        for _slug, wx, wy in env.worker_positions():
+            cells += [_f(wx, 3), _f(wy, 3)]
+        self.rows.append(",".join(cells))
+
+    def event(self, kind: str, *, step: int | None, element: str, action: str,
+              details: dict[str, Any]) -> None:
+        """Record an event at the current simulated time."""
+        self.events.append({"t_s": round(self.env.t, 3), "kind": kind, "step": step, "element": element,
+                            "action": action, "details": clean(details)})
+
+    def trajectories_csv(self) -> str:
+        """The trajectory table as CSV text."""
+        return "\n".join(self.rows) + "\n"
+
+    def events_jsonl(self) -> str:
+        """The events as JSON lines."""
+        return "".join(json.dumps(e, sort_keys=True, ensure_ascii=False) + "\n" for e in self.events)
+
+    def kinds(self) -> Sequence[str]:
+        """Event kinds in order."""
+        return [e["kind"] for e in self.events]

@@ -1,0 +1,379 @@
+"""B5 simulation environment: the world at a date, the robot and the workers in one PyBullet client.
+
+Takes a :class:`~kbplanner.world.build.World` (A6), the robot's name in the robot table, worker motions
+(:func:`kbplanner.simulation.workers.plan_workers`) and the storey's occupancy grid; gives a Gymnasium-style
+environment: :meth:`SimEnv.reset` (connect, load, place the robot at its start), :meth:`SimEnv.step`
+(advance the simulated clock by one control period: workers move along their motions, a held
+element follows the tool), an idempotent :meth:`SimEnv.close`. Skills
+(:mod:`kbplanner.simulation.skills`) move
+the robot kinematically between steps: base pose set directly, arm joints reset, no motor models;
+physics is not stepped except by :meth:`SimEnv.settle` where it matters.
+
+- The client is ``p.DIRECT``; ``gui=True`` uses ``p.GUI`` when a display exists (``DISPLAY`` set),
+  else it logs a warning and stays headless.
+- The world: :func:`kbplanner.simulation.sim_world.load_world` (static elements merged, task elements as
+  bodies at their storage, solid site objects), visual shapes only when images are wanted.
+- Workers: kinematic capsules (radius 0.25 m, 1.7 m tall, mass 0) moved to ``motion.position(t)``.
+- Holding: :meth:`SimEnv.attach` ties the element to the tool link with a ``p.JOINT_FIXED``
+  constraint at the grasp and filters collisions between the element and every robot link off; as
+  the robot moves kinematically, :meth:`SimEnv.step` also puts the element where the constraint
+  holds it (tool frame times the inverse grasp). :meth:`SimEnv.detach` removes the constraint and
+  :meth:`SimEnv.fix` makes the element static where it is (it is fixed to the structure).
+- The navigation grid: the storey's occupancy grid plus every element installed so far.
+
+Example:
+    >>> env = SimEnv(world, "husky_ur16e", grid=grid)  # doctest: +SKIP
+    >>> env.reset(seed=7)  # doctest: +SKIP
+    >>> env.step(); env.t  # doctest: +SKIP
+    0.1
+    >>> env.close()  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import math
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from kbplanner.core.errors import KbplannerError
+from kbplanner.core.iris import slug
+from kbplanner.planning.carry import Matrix, from_pos_quat, quat_of
+from kbplanner.planning.manipulation import element_polygon, mark_polygon
+from kbplanner.robot.robot_model import RobotModel
+from kbplanner.simulation.sim_world import SimWorld, element_frame, load_world
+from kbplanner.simulation.workers import WORKER_RADIUS_M, WorkerMotion
+from kbplanner.world.build import World, WorldElement
+from kbplanner.world.occupancy import OccupancyGrid
+
+log = logging.getLogger(__name__)
+
+WORKER_HEIGHT_M = 1.7
+_RGBA_WORKER = (0.1, 0.6, 0.2, 1.0)
+
+
+@dataclass
+class Held:
+    """The element in the gripper: its body, the constraint and the tool frame in its frame."""
+
+    element: WorldElement
+    body: int
+    constraint: int
+    tool_in_element: Matrix
+
+
+@dataclass(frozen=True)
+class WorkerBody:
+    """A worker's capsule body and the column slug used in the trajectories."""
+
+    motion: WorkerMotion
+    body: int
+    slug: str
+    label: str
+
+
+class SimEnv:
+    """The simulation environment (see module docstring)."""
+
+    def __init__(
+        self,
+        world: World,
+        robot: str,
+        *,
+        grid: OccupancyGrid,
+        workers: Sequence[WorkerMotion] = (),
+        control_hz: float = 10.0,
+        gui: bool = False,
+        visuals: bool = False,
+    ) -> None:
+        if control_hz <= 0:
+            raise KbplannerError(f"control rate must be positive, got {control_hz}", element="control_hz",
+                                 fix="give the control rate in Hz, e.g. 10")
+        self.world = world
+        self.robot_name = robot
+        self.base_grid = grid
+        self.grid = grid
+        self.worker_motions = tuple(workers)
+        self.control_hz = float(control_hz)
+        self.gui = gui
+        self.visuals = visuals
+        self.client = -1
+        self.sim: SimWorld | None = None
+        self._robot: RobotModel | None = None
+        self.workers: tuple[WorkerBody, ...] = ()
+        self.tick = 0
+        self.held: Held | None = None
+        self.installed: list[str] = []
+        self.seed = 0
+
+    # ---- Gymnasium-style lifecycle --------------------------------------------------------------
+    def reset(self, *, seed: int) -> None:
+        """(Re)connect and load the world, the robot at its start and the workers; the clock is 0."""
+        import pybullet as p
+
+        self.close()
+        self.seed = int(seed)
+        mode = p.DIRECT
+        if self.gui:
+            if os.environ.get("DISPLAY"):
+                mode = p.GUI
+            else:
+                log.warning("--gui: no display (DISPLAY is not set); running headless")
+        self.client = int(p.connect(mode))
+        if mode == p.GUI:
+            p.configureDebugVisualizer(p.COV_ENABLE_GUI, 0, physicsClientId=self.client)
+        self.sim = load_world(self.world, self.client, visuals=self.visuals or mode == p.GUI)
+        self._robot = RobotModel.load(self.robot_name, client=self.client)
+        self._robot.floor_z = self.robot_floor_z
+        start = self.world.robot_start
+        self._robot.set_base_pose(start.x if start else 0.0, start.y if start else 0.0,
+                                  start.yaw if start else 0.0)
+        self.workers = self._make_workers()
+        self.tick = 0
+        self.held = None
+        self.installed = []
+        self.grid = self.base_grid
+        self._move_workers()
+
+    def step(self) -> float:
+        """Advance the clock by one control period; move workers and the held element. Returns t (s)."""
+        self.tick += 1
+        self._move_workers()
+        self.follow()
+        return self.t
+
+    def close(self) -> None:
+        """Disconnect (idempotent)."""
+        import pybullet as p
+
+        if self.client >= 0:
+            with contextlib.suppress(p.error):
+                p.disconnect(self.client)
+        self.client = -1
+        self.sim = None
+        self._robot = None
+
+    # ---- state ----------------------------------------------------------------------------------
+    @property
+    def t(self) -> float:
+        """Simulated time (s)."""
+        return self.tick / self.control_hz
+
+    @property
+    def dt(self) -> float:
+        """Control period (s)."""
+        return 1.0 / self.control_hz
+
+    @property
+    def robot(self) -> RobotModel:
+        """The robot (after :meth:`reset`)."""
+        if self._robot is None:
+            raise KbplannerError("the environment is not reset", element="SimEnv", fix="call reset(seed=...)")
+        return self._robot
+
+    @property
+    def world_bodies(self) -> SimWorld:
+        """The loaded world's bodies (after :meth:`reset`)."""
+        if self.sim is None:
+            raise KbplannerError("the environment is not reset", element="SimEnv", fix="call reset(seed=...)")
+        return self.sim
+
+    def base_pose(self) -> tuple[float, float, float]:
+        """(x, y, yaw) of the robot base."""
+        return self.robot.base_pose()
+
+    @property
+    def robot_floor_z(self) -> float:
+        """Elevation of the floor the robot works on: the task storey's, else the site's ground."""
+        storey = self.world.storey(self.world.task_storey)
+        return float(storey.elevation_m) if storey is not None else float(self.world.ground_z)
+
+    def set_base_pose(self, x: float, y: float, yaw: float) -> None:
+        """Place the robot base (kinematically) on its floor."""
+        self.robot.set_base_pose(x, y, yaw)
+
+    def set_arm(self, q: Sequence[float]) -> None:
+        """Set the arm joints (kinematically)."""
+        self.robot.set_arm(q)
+
+    def tool_frame(self) -> Matrix:
+        """The tool frame (site) now."""
+        pos, orn = self.robot.tool_pose()
+        return from_pos_quat(pos, orn)
+
+    def element(self, iri: str) -> WorldElement:
+        """A task element of the world."""
+        for e in self.world.task_elements:
+            if e.iri == iri:
+                return e
+        raise KbplannerError("not a task element of the world", element=iri,
+                             fix="use an element of the plan's task that is at a storage")
+
+    def element_frame(self, iri: str) -> Matrix:
+        """Where a task element's own frame is now (site)."""
+        return np.asarray(element_frame(self.world_bodies, self.element(iri)), dtype=np.float64)
+
+    def set_element_frame(self, iri: str, frame: Matrix) -> None:
+        """Put a task element's own frame at ``frame`` (site), kinematically."""
+        import pybullet as p
+
+        e = self.element(iri)
+        assert e.local_bounds is not None
+        com = frame @ _translation(e.local_bounds.center)
+        body = self.world_bodies.task_bodies[iri]
+        p.resetBasePositionAndOrientation(body, com[:3, 3].tolist(), quat_of(com),
+                                          physicsClientId=self.client)
+
+    def worker_positions(self) -> list[tuple[str, float, float]]:
+        """(slug, x, y) of every worker now."""
+        out = []
+        for w in self.workers:
+            x, y, _ = w.motion.position(self.t)
+            out.append((w.slug, x, y))
+        return out
+
+    # ---- holding ----------------------------------------------------------------------------------
+    def attach(self, iri: str) -> Held:
+        """Grasp: tie the element to the tool where both are now (``p.JOINT_FIXED``, no collisions)."""
+        import pybullet as p
+
+        if self.held is not None:
+            raise KbplannerError("the gripper already holds an element", element=self.held.element.iri,
+                                 fix="release it first")
+        e = self.element(iri)
+        assert e.local_bounds is not None
+        body = self.world_bodies.task_bodies[iri]
+        robot = self.robot
+        assert robot.tool_link is not None
+        tool = self.tool_frame()
+        tie = np.linalg.inv(self.element_frame(iri)) @ tool
+        # constraint frames: the tool link's frame (parent) and the body's centre of mass frame (child)
+        com_in_tool = np.linalg.inv(tool) @ self.element_frame(iri) @ _translation(e.local_bounds.center)
+        cid = p.createConstraint(robot.body, robot.tool_link, body, -1, p.JOINT_FIXED, [0.0, 0.0, 0.0],
+                                 parentFramePosition=com_in_tool[:3, 3].tolist(),
+                                 childFramePosition=[0.0, 0.0, 0.0],
+                                 parentFrameOrientation=quat_of(com_in_tool),
+                                 physicsClientId=self.client)
+        p.changeConstraint(cid, maxForce=10_000.0, physicsClientId=self.client)
+        for link in [-1, *range(p.getNumJoints(robot.body, physicsClientId=self.client))]:
+            p.setCollisionFilterPair(robot.body, body, link, -1, 0, physicsClientId=self.client)
+        self.held = Held(e, body, int(cid), np.asarray(tie, dtype=np.float64))
+        return self.held
+
+    def follow(self) -> None:
+        """Put the held element where the grasp holds it (after a kinematic robot motion)."""
+        if self.held is not None:
+            frame = self.tool_frame() @ np.linalg.inv(self.held.tool_in_element)
+            self.set_element_frame(self.held.element.iri, frame)
+
+    def detach(self) -> WorldElement:
+        """Release: remove the constraint (collisions with the robot stay filtered until fixed)."""
+        import pybullet as p
+
+        if self.held is None:
+            raise KbplannerError("the gripper holds nothing", element="SimEnv.detach", fix="grasp first")
+        held = self.held
+        p.removeConstraint(held.constraint, physicsClientId=self.client)
+        self.held = None
+        return held.element
+
+    def fix(self, iri: str) -> None:
+        """Fix a released element where it is: a static body, part of the structure; the grid marks it."""
+        import pybullet as p
+
+        body = self.world_bodies.task_bodies[iri]
+        p.changeDynamics(body, -1, mass=0.0, physicsClientId=self.client)
+        p.resetBaseVelocity(body, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], physicsClientId=self.client)
+        e = self.element(iri)
+        assert e.local_bounds is not None
+        self.grid = mark_polygon(self.grid, element_polygon(e.local_bounds, self.element_frame(iri)))
+        self.installed.append(iri)
+
+    def put_back(self, iri: str) -> None:
+        """Return an element to its storage pose (after a failed step; not simulated)."""
+        import pybullet as p
+
+        if self.held is not None and self.held.element.iri == iri:
+            self.detach()
+        e = self.element(iri)
+        assert e.pose is not None
+        frame = _pose_frame(e)
+        self.set_element_frame(iri, frame)
+        body = self.world_bodies.task_bodies[iri]
+        robot = self.robot
+        for link in [-1, *range(p.getNumJoints(robot.body, physicsClientId=self.client))]:
+            p.setCollisionFilterPair(robot.body, body, link, -1, 1, physicsClientId=self.client)
+
+    def settle(self, seconds: float, time_step_s: float = 1.0 / 240.0) -> float:
+        """Step physics for ``seconds`` (the clock does not move); largest displacement (m) of a task body."""
+        import pybullet as p
+
+        bodies = self.world_bodies.task_bodies
+        before = {i: np.array(p.getBasePositionAndOrientation(b, physicsClientId=self.client)[0])
+                  for i, b in bodies.items()}
+        p.setTimeStep(time_step_s, physicsClientId=self.client)
+        for _ in range(max(1, round(seconds / time_step_s))):
+            p.stepSimulation(physicsClientId=self.client)
+        moved = 0.0
+        for i, b in bodies.items():
+            now = np.array(p.getBasePositionAndOrientation(b, physicsClientId=self.client)[0])
+            moved = max(moved, float(np.linalg.norm(now - before[i])))
+        return moved
+
+    # ---- workers ---------------------------------------------------------------------------------
+    def _make_workers(self) -> tuple[WorkerBody, ...]:
+        import pybullet as p
+
+        out = []
+        used: set[str] = set()
+        cyl = WORKER_HEIGHT_M - 2 * WORKER_RADIUS_M
+        shape = p.createCollisionShape(p.GEOM_CAPSULE, radius=WORKER_RADIUS_M, height=cyl,
+                                       physicsClientId=self.client)
+        visual = p.createVisualShape(p.GEOM_CAPSULE, radius=WORKER_RADIUS_M, length=cyl,
+                                     rgbaColor=_RGBA_WORKER,
+                                     physicsClientId=self.client)
+        for m in self.worker_motions:
+            name = slug(m.spec.label) or "worker"
+            base, n = name, 2
+            while name in used:
+                name = f"{base}-{n}"
+                n += 1
+            used.add(name)
+            body = p.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=shape, baseVisualShapeIndex=visual,
+                                     basePosition=[0.0, 0.0, -20.0], physicsClientId=self.client)
+            out.append(WorkerBody(m, int(body), name, m.spec.label))
+        return tuple(out)
+
+    def _move_workers(self) -> None:
+        import pybullet as p
+
+        z = self.world.ground_z + WORKER_HEIGHT_M / 2
+        for w in self.workers:
+            x, y, heading = w.motion.position(self.t)
+            orn = p.getQuaternionFromEuler([0.0, 0.0, heading])
+            p.resetBasePositionAndOrientation(w.body, [x, y, z], orn,
+                                              physicsClientId=self.client)
+
+
+def _translation(v: Sequence[float]) -> Matrix:
+    m = np.eye(4)
+    m[:3, 3] = list(v)
+    return m
+
+
+def _pose_frame(e: WorldElement) -> Matrix:
+    from kbplanner.planning.carry import transform
+
+    assert e.pose is not None
+    return transform(e.pose.x, e.pose.y, e.pose.z, e.pose.roll, e.pose.pitch, e.pose.yaw)
+
+
+def angle_between(a: Matrix, b: Matrix) -> float:
+    """Angle (rad) of the rotation between two frames."""
+    rel = a[:3, :3].T @ b[:3, :3]
+    c = (float(np.trace(rel)) - 1.0) / 2.0
+    return math.acos(max(-1.0, min(1.0, c)))

@@ -1,0 +1,269 @@
+"""Footprints and configuration space (B3 fit checks, B5 navigation): what a robot and its load cover.
+
+A :class:`Footprint` is a union of oriented rectangles in the robot frame (x forward, y left): the
+base, plus the carried object in its current carry pose. :class:`ConfigurationSpace` turns an
+occupancy grid and a footprint into one free/blocked map per yaw bin (72 by default), built by FFT
+correlation of the grid with the footprint rasterised over the whole bin, so that checking a pose
+(x, y, yaw) is a single array look-up. The check is conservative: a cell is blocked when any pose in
+that cell (any position within the cell, any yaw within the bin) could touch an occupied cell.
+
+Example:
+    >>> import numpy as np
+    >>> from kbplanner.world.occupancy import OccupancyGrid
+    >>> occ = np.zeros((40, 40), dtype=bool); occ[:, 30] = True        # a wall at x = 1.5 m
+    >>> grid = OccupancyGrid(occ, origin=(0.0, 0.0), resolution=0.05)
+    >>> cs = ConfigurationSpace.build(grid, Footprint((Rect(0, 0, 0.99, 0.67),)))
+    >>> cs.is_free(0.9, 1.0, 0.0), cs.is_free(1.1, 1.0, 0.0)
+    (True, False)
+"""
+
+from __future__ import annotations
+
+import functools
+import logging
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+import shapely
+from scipy import fft as sp_fft
+
+from kbplanner.core.errors import KbplannerError
+from kbplanner.world.occupancy import OccupancyGrid
+
+log = logging.getLogger(__name__)
+
+BoolArray = npt.NDArray[np.bool_]
+_SUB_ANGLE_RAD = math.radians(0.5)  # sweep step when covering a yaw bin
+
+
+@dataclass(frozen=True)
+class Rect:
+    """A rectangle in the robot frame: centre (cx, cy), ``length`` along its x, ``width`` along its y."""
+
+    cx: float
+    cy: float
+    length: float
+    width: float
+    yaw: float = 0.0
+
+    def corners(self, yaw: float = 0.0) -> npt.NDArray[np.float64]:
+        """The 4 corners (4, 2) in the robot frame, turned with the robot by ``yaw``."""
+        hl, hw = self.length / 2, self.width / 2
+        local = np.array([[hl, hw], [-hl, hw], [-hl, -hw], [hl, -hw]])
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        pts = local @ np.array([[c, s], [-s, c]]) + np.array([self.cx, self.cy])
+        c, s = math.cos(yaw), math.sin(yaw)
+        return np.asarray(pts @ np.array([[c, s], [-s, c]]), dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class Footprint:
+    """A union of oriented rectangles in the robot frame (base, carried load, ...)."""
+
+    rects: tuple[Rect, ...]
+    name: str = "footprint"
+
+    def __post_init__(self) -> None:
+        if not self.rects:
+            raise KbplannerError("a footprint needs at least one rectangle", element=self.name,
+                                 fix="give the base rectangle, e.g. Rect(0, 0, 0.99, 0.67)")
+        for r in self.rects:
+            if not (r.length > 0 and r.width > 0):
+                raise KbplannerError(f"rectangle with non-positive size {r}", element=self.name,
+                                     fix="give length and width in metres, both > 0")
+
+    def with_rect(self, rect: Rect, name: str | None = None) -> Footprint:
+        """This footprint plus one more rectangle (e.g. the carried load)."""
+        return Footprint((*self.rects, rect), name=name or self.name)
+
+    @property
+    def radius_m(self) -> float:
+        """Largest distance of any corner from the robot origin."""
+        return float(max(np.hypot(*r.corners().T).max() for r in self.rects))
+
+    def polygon(self, x: float = 0.0, y: float = 0.0, yaw: float = 0.0) -> shapely.Geometry:
+        """The footprint placed at (x, y, yaw) in the site frame, as a shapely geometry."""
+        polys = [shapely.Polygon(r.corners(yaw) + np.array([x, y])) for r in self.rects]
+        return shapely.union_all(polys)
+
+    def bounds_m(self) -> tuple[float, float, float, float]:
+        """(xmin, ymin, xmax, ymax) of the footprint in the robot frame."""
+        pts = np.concatenate([r.corners() for r in self.rects])
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        return (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
+
+    def kernel(self, resolution: float, yaw_lo: float, yaw_hi: float, margin_m: float = 0.0) -> BoolArray:
+        """Offsets (dx, dy) in cells from the robot's cell to obstacle cells it may touch, as a mask.
+
+        The mask has shape (2h+1, 2h+1) with the robot's cell at [h, h]; entry [h+dy, h+dx] is True
+        when an obstacle cell at that offset can overlap the footprint for some yaw in
+        [yaw_lo, yaw_hi] and some robot position within its cell: the footprint, grown by
+        ``margin_m``, is swept over the yaw interval and Minkowski-summed with a square of half-side
+        one cell (half a cell for the robot's position, half a cell for the obstacle cell).
+        """
+        return _kernel(self.rects, float(resolution), float(yaw_lo), float(yaw_hi), float(margin_m)).copy()
+
+
+@functools.lru_cache(maxsize=4096)
+def _kernel(rects: tuple[Rect, ...], resolution: float, yaw_lo: float, yaw_hi: float,
+            margin_m: float) -> BoolArray:
+    """:meth:`Footprint.kernel`, memoised: a navigation rebuilds configuration spaces for the same
+    footprints (robot, robot + load in each carry mode) on many windows of the map, and rasterising the
+    swept footprint is the costly part of a build."""
+    fp = Footprint(rects)
+    grow = resolution + margin_m
+    n_sub = max(2, math.ceil((yaw_hi - yaw_lo) / _SUB_ANGLE_RAD) + 1)
+    h = math.ceil((fp.radius_m + grow) / resolution) + 1
+    offs = np.arange(-h, h + 1) * resolution
+    xx, yy = np.meshgrid(offs, offs)
+    out = np.zeros(xx.shape, dtype=bool)
+    eps = 1e-9
+    # A rectangle grown by an axis-aligned square (Minkowski sum of two centrally symmetric convex
+    # polygons) is exactly the intersection of four slabs: along the rectangle's two axes and along
+    # x and y, each as wide as the two shapes' support functions added.
+    for yaw in np.linspace(yaw_lo, yaw_hi, n_sub):
+        c, s = math.cos(float(yaw)), math.sin(float(yaw))
+        for r in rects:
+            cx, cy = c * r.cx - s * r.cy, s * r.cx + c * r.cy
+            a = float(yaw) + r.yaw
+            ux, uy = math.cos(a), math.sin(a)
+            hl, hw = r.length / 2, r.width / 2
+            dx, dy = xx - cx, yy - cy
+            inside = np.abs(dx * ux + dy * uy) <= hl + grow * (abs(ux) + abs(uy)) + eps
+            inside &= np.abs(-dx * uy + dy * ux) <= hw + grow * (abs(uy) + abs(ux)) + eps
+            inside &= np.abs(dx) <= hl * abs(ux) + hw * abs(uy) + grow + eps
+            inside &= np.abs(dy) <= hl * abs(uy) + hw * abs(ux) + grow + eps
+            out |= inside
+    out.setflags(write=False)
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class ConfigurationSpace:
+    """Free/blocked maps of a footprint on a grid, one per yaw bin: ``free[bin, iy, ix]``.
+
+    Bin ``k`` covers yaw in [k*w - w/2, k*w + w/2) with w = 2*pi / n_bins.
+    """
+
+    grid: OccupancyGrid
+    footprint: Footprint
+    free: BoolArray
+    margin_m: float = 0.0
+
+    @property
+    def n_bins(self) -> int:
+        """Number of yaw bins."""
+        return int(self.free.shape[0])
+
+    @property
+    def bin_width(self) -> float:
+        """Width of a yaw bin in radians."""
+        return 2 * math.pi / self.n_bins
+
+    @classmethod
+    def build(
+        cls, grid: OccupancyGrid, footprint: Footprint, n_yaw_bins: int = 72, margin_m: float = 0.0
+    ) -> ConfigurationSpace:
+        """Precompute the free maps; cells off the grid count as occupied."""
+        if n_yaw_bins < 4:
+            raise KbplannerError(f"n_yaw_bins must be at least 4, got {n_yaw_bins}", element="n_yaw_bins",
+                                 fix="use e.g. 72 (5 degree bins)")
+        res = grid.resolution
+        width = 2 * math.pi / n_yaw_bins
+        kernels = [footprint.kernel(res, k * width - width / 2, k * width + width / 2, margin_m)
+                   for k in range(n_yaw_bins)]
+        h = max(k.shape[0] for k in kernels) // 2
+        padded = np.pad(grid.occupied, h, constant_values=True).astype(np.float32)
+        free = np.empty((n_yaw_bins, *grid.shape), dtype=bool)
+        # Correlation by FFT with the grid's transform computed once for all bins (the kernels are
+        # padded to one size); hits < 0.5 means no occupied cell under the swept footprint.
+        size = 2 * h + 1
+        shape = tuple(sp_fft.next_fast_len(n + size - 1, real=True) for n in padded.shape)
+        grid_f = sp_fft.rfft2(padded, shape)
+        ny, nx = grid.shape
+        for k, kern in enumerate(kernels):
+            hk = kern.shape[0] // 2
+            full = np.zeros((size, size), dtype=np.float32)
+            full[h - hk : h + hk + 1, h - hk : h + hk + 1] = kern
+            conv = sp_fft.irfft2(grid_f * sp_fft.rfft2(full[::-1, ::-1], shape), shape)
+            free[k] = conv[size - 1 : size - 1 + ny, size - 1 : size - 1 + nx] < 0.5
+        log.debug("configuration space %s: %d bins, %.1f %% free at yaw 0", footprint.name, n_yaw_bins,
+                  100.0 * free[0].mean())
+        return cls(grid=grid, footprint=footprint, free=free, margin_m=margin_m)
+
+    def yaw_bin(self, yaw: float) -> int:
+        """The bin index of a yaw angle (radians, any range)."""
+        w = self.bin_width
+        return math.floor((yaw + w / 2) / w) % self.n_bins
+
+    def is_free(self, x: float, y: float, yaw: float) -> bool:
+        """Whether the footprint at (x, y, yaw) is clear of every occupied cell (conservatively)."""
+        g = self.grid
+        ix = math.floor((x - g.origin[0]) / g.resolution)
+        iy = math.floor((y - g.origin[1]) / g.resolution)
+        ny, nx = g.shape
+        if not (0 <= ix < nx and 0 <= iy < ny):
+            return False
+        return bool(self.free[self.yaw_bin(yaw), iy, ix])
+
+    def is_free_many(
+        self, poses: Sequence[tuple[float, float, float]] | npt.NDArray[np.float64]
+    ) -> BoolArray:
+        """Vectorised :meth:`is_free` for an (N, 3) array of poses."""
+        p = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
+        g = self.grid
+        ix = np.floor((p[:, 0] - g.origin[0]) / g.resolution).astype(np.int64)
+        iy = np.floor((p[:, 1] - g.origin[1]) / g.resolution).astype(np.int64)
+        w = self.bin_width
+        k = np.floor((p[:, 2] + w / 2) / w).astype(np.int64) % self.n_bins
+        ny, nx = g.shape
+        ok = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny)
+        out = np.zeros(len(p), dtype=bool)
+        out[ok] = self.free[k[ok], iy[ok], ix[ok]]
+        return out
+
+    def components(self, *, diagonal: bool = False) -> npt.NDArray[np.int64]:
+        """Connected components of the free cells (bin, iy, ix), the yaw axis closed into a ring.
+
+        ``diagonal=False``: face-adjacent cells only - every pose in a free cell is free, so cells of
+        one component are certainly joined by a collision-free motion. ``diagonal=True``: 26-connected
+        (across the wrap too), which over-connects, so different components are certainly apart.
+        0 is blocked; labels are joined across the wrap (bin n-1 next to bin 0).
+        """
+        from scipy import ndimage
+
+        structure = np.ones((3, 3, 3), dtype=bool) if diagonal else ndimage.generate_binary_structure(3, 1)
+        labels, n = ndimage.label(self.free, structure=structure)
+        parent = np.arange(n + 1)
+
+        def find(a: int) -> int:
+            while parent[a] != a:
+                a = int(parent[a])
+            return a
+
+        first, last = labels[0], labels[-1]
+        shifts = [(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1)] if diagonal else [(0, 0)]
+        for dy, dx in shifts:
+            b = np.roll(np.roll(last, dy, axis=0), dx, axis=1)
+            both = (first > 0) & (b > 0)
+            for a_lab, b_lab in sorted(set(zip(first[both].tolist(), b[both].tolist(), strict=True))):
+                ra, rb = find(a_lab), find(b_lab)
+                if ra != rb:
+                    parent[max(ra, rb)] = min(ra, rb)
+        roots = np.array([find(i) for i in range(n + 1)], dtype=np.int64)
+        return np.asarray(roots[labels], dtype=np.int64)
+
+    def component_of(self, labels: npt.NDArray[np.int64], x: float, y: float, yaw: float) -> int:
+        """The component (of :meth:`components`) of a pose; 0 when blocked or off the grid."""
+        ix, iy = self.grid.cell_of(x, y)
+        ny, nx = self.grid.shape
+        if not (0 <= ix < nx and 0 <= iy < ny):
+            return 0
+        return int(labels[self.yaw_bin(yaw), iy, ix])
+
+    def free_any_yaw(self) -> BoolArray:
+        """Cells where at least one yaw bin is free (where the robot's centre can be at all)."""
+        return np.asarray(self.free.any(axis=0))
