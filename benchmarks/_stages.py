@@ -39,7 +39,8 @@ from _common import Timer, peak_rss_mb
 from kbplanner.core.named_queries import catalogue, run_text
 from kbplanner.core.stores import result_json
 from kbplanner.project import Project, import_cached, read_manifest
-from kbplanner.scale.building_generator import SCENARIO, generate_building
+from kbplanner.scale.building_generator import generate_building
+from kbplanner.scale.building_plan import SCENARIO
 
 log = logging.getLogger(__name__)
 

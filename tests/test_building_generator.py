@@ -18,13 +18,8 @@ from kbplanner.cli import main
 from kbplanner.planning.element_order import RULE_SEQUENCE
 from kbplanner.planning.planner import plan_task
 from kbplanner.project import Project
-from kbplanner.scale.building_generator import (
-    MAX_PANEL_LENGTH,
-    SCENARIO,
-    GeneratedBuilding,
-    GeneratorError,
-    generate_building,
-)
+from kbplanner.scale.building_generator import GeneratedBuilding, generate_building
+from kbplanner.scale.building_plan import MAX_PANEL_LENGTH, SCENARIO, GeneratorError
 
 
 def _files(directory: Path) -> dict[str, bytes]:

@@ -20,7 +20,8 @@ from kbplanner.knowledge.task_specs import robotized_tasks
 from kbplanner.model.schedule_model import query_text
 from kbplanner.planning.planner import PlanningError, plan_task, plan_tasks
 from kbplanner.project import Project
-from kbplanner.scale.building_generator import SCENARIO, generate_building
+from kbplanner.scale.building_generator import generate_building
+from kbplanner.scale.building_plan import SCENARIO
 from kbplanner.world.build import BUILT, NOT_STARTED, World, WorldError, build_world, world_tables
 
 # The index as it was written before (a property path from an unbound storey): the reference.

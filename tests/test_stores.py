@@ -29,7 +29,8 @@ from kbplanner.core.stores import (
 )
 from kbplanner.planning.planner import plan_task
 from kbplanner.project import Project
-from kbplanner.scale.building_generator import SCENARIO, generate_building
+from kbplanner.scale.building_generator import generate_building
+from kbplanner.scale.building_plan import SCENARIO
 
 SERVER_START_TIMEOUT_S = 15.0
 

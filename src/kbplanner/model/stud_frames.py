@@ -2,7 +2,7 @@
 of mass of a prefabricated timber stud-frame panel.
 
 Used wherever the project writes frame panels into an IFC model: the building generator
-(:mod:`kbplanner.scale.building_generator`) and the case study's tool that adds the 11 frames to the
+(:mod:`kbplanner.scale.building_geometry`) and the case study's tool that adds the 11 frames to the
 Duplex (``data/case_study/tools/build_frames.py``). One function, so both kinds of model have the
 same panels.
 
