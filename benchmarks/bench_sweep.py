@@ -18,7 +18,8 @@ from pathlib import Path
 from _common import REPO, RESULTS_DIR, Timer, cpu_seconds, write_json
 
 from kbplanner.core.outputs import versions
-from kbplanner.scale.sweep import SweepSpec, parse_vary, run_sweep
+from kbplanner.scale.sweep import SweepSpec, run_sweep
+from kbplanner.scale.sweep_axes import parse_vary
 
 CANDIDATES = "storage-outside;storage-inside;15.0,-16.0;18.5,-13.0"
 

@@ -12,23 +12,15 @@ import pytest
 from kbplanner.cli import main
 from kbplanner.core.errors import KbplannerError
 from kbplanner.project import Project
-from kbplanner.scale.sweep import (
-    FAILED,
-    OK,
-    REJECTED,
-    SweepError,
-    SweepSpec,
-    VariantResult,
+from kbplanner.scale.sweep import SweepSpec, build_variants, prepare_base, run_sweep
+from kbplanner.scale.sweep_axes import SweepError, parse_vary
+from kbplanner.scale.sweep_backends import execute
+from kbplanner.scale.sweep_pareto import pareto_front
+from kbplanner.scale.sweep_simulate import FAILED, OK, REJECTED, VariantResult, shifted_workers
+from kbplanner.scale.sweep_storage import (
     apply_overlay,
-    build_variants,
-    execute,
     find_storage,
     grid_candidates,
-    pareto_front,
-    parse_vary,
-    prepare_base,
-    run_sweep,
-    shifted_workers,
     site_check,
     storage_overlay,
 )

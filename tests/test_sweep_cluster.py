@@ -20,7 +20,9 @@ from pathlib import Path
 
 import pytest
 
-from kbplanner.scale.sweep import SweepResult, SweepSpec, parse_vary, run_sweep
+from kbplanner.scale.sweep import SweepSpec, run_sweep
+from kbplanner.scale.sweep_axes import parse_vary
+from kbplanner.scale.sweep_pareto import SweepResult
 from sim_project_factory import make_sim_project
 
 RAY_START_TIMEOUT_S = 180.0

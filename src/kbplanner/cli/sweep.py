@@ -45,7 +45,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from kbplanner.scale.sweep import SweepError, SweepSpec, parse_vary, run_sweep
+    from kbplanner.scale.sweep import SweepSpec, run_sweep
+    from kbplanner.scale.sweep_axes import SweepError, parse_vary
 
     if args.max_elements is not None and args.max_elements < 1:
         raise SweepError(f"--max-elements {args.max_elements} is not positive", element="--max-elements",
