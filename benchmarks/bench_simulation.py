@@ -26,8 +26,9 @@ from typing import Any
 
 from _common import REPO, RESULTS_DIR, machine_info, peak_rss_mb, write_json
 
+from kbplanner.planning.base_poses import element_polygon, mark_polygon
 from kbplanner.planning.carry import transform
-from kbplanner.planning.manipulation import element_polygon, mark_polygon, refine_plan
+from kbplanner.planning.manipulation import refine_plan
 from kbplanner.planning.planner import plan_task
 from kbplanner.project import Project
 from kbplanner.simulation.executor import simulate

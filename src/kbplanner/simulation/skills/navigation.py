@@ -34,15 +34,11 @@ from dataclasses import dataclass
 
 import shapely
 
+from kbplanner.planning.base_poses import PoseChecker, mark_polygon
 from kbplanner.planning.carry import NARROW, NORMAL, CarryGeometry, geometry_from_joints
-from kbplanner.planning.manipulation import (
-    KIND_NAVIGATION,
-    KIND_NAVIGATION_WITH_OBJECT,
-    PoseChecker,
-    _as_pose6_list,
-    mark_polygon,
-)
+from kbplanner.planning.manipulation import KIND_NAVIGATION, KIND_NAVIGATION_WITH_OBJECT
 from kbplanner.planning.plan_model import Pose2
+from kbplanner.planning.pose_frames import as_pose6_list
 from kbplanner.robot.lidar import LidarSpec, lidar_spec, scan
 from kbplanner.simulation.navigation import (
     CarryPlan,
@@ -137,7 +133,7 @@ class NavigationSkill(Skill):
         call = self.step
         goal = call.base_pose
         if goal is None:
-            dest = _as_pose6_list(call.inputs.get("destination"))
+            dest = as_pose6_list(call.inputs.get("destination"))
             if dest is not None:
                 goal = Pose2(dest[0], dest[1], dest[5])
         if goal is None:
