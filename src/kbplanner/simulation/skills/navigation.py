@@ -40,13 +40,10 @@ from kbplanner.planning.manipulation import KIND_NAVIGATION, KIND_NAVIGATION_WIT
 from kbplanner.planning.plan_model import Pose2
 from kbplanner.planning.pose_frames import as_pose6_list
 from kbplanner.robot.lidar import LidarSpec, lidar_spec, scan
-from kbplanner.simulation.navigation import (
-    CarryPlan,
-    NavSettings,
-    plan_path,
-    plan_with_carry_modes,
-    time_parameterize,
-)
+from kbplanner.simulation.base_trajectory import time_parameterize
+from kbplanner.simulation.carry_paths import CarryPlan, plan_with_carry_modes
+from kbplanner.simulation.nav_path import NavSettings
+from kbplanner.simulation.navigation import plan_path
 from kbplanner.simulation.skills.base import JointPath, Skill, Status
 from kbplanner.simulation.workers import WORKER_RADIUS_M
 from kbplanner.world.footprint import Footprint
