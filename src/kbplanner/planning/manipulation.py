@@ -275,7 +275,7 @@ def robot_name(plan: Plan) -> str:
         >>> robot_name(p)
         'husky_ur5'
     """
-    from kbplanner.robot.robot_model import load_robot_specs
+    from kbplanner.robot.robot_table import load_robot_specs
 
     specs = load_robot_specs()
     by_urdf = {s.urdf_name: name for name, s in specs.items()}

@@ -81,7 +81,6 @@ class PoseSearch:
         assert robot.spec.arm is not None
         self.arm = robot.spec.arm
 
-
     # ---- arm poses ---------------------------------------------------------------------------
     def nav_pose(self, wanted: tuple[float, ...] | None) -> tuple[tuple[float, ...], str]:
         """The navigation arm pose: the skill's when it keeps the sensors clear, else the robot's stow."""

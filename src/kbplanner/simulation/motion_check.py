@@ -117,6 +117,7 @@ def path_is_free(cs: ConfigurationSpace, poses: Sequence[Sequence[float]]) -> bo
     """Exact check of a path (straight SE(2) motions between waypoints) in a configuration space."""
     return ExactMotion(cs).path_free(poses)
 
+
 def turn_drive_turn(
     cs: ConfigurationSpace,
     poses: Sequence[Pose2D],

@@ -98,6 +98,7 @@ def _set_seed(seed: int) -> None:
     ou.RNG.setSeed(max(1, int(seed)))
     ou.setLogLevel(level)
 
+
 class _OmplMotionValidator(ob.MotionValidator):
     def __init__(self, si: ob.SpaceInformation, exact: ExactMotion) -> None:
         super().__init__(si)
