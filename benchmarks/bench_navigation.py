@@ -22,12 +22,10 @@ import numpy as np
 import trimesh
 from _common import REPO, RESULTS_DIR, Timer, machine_info, write_json
 
-from kbplanner.simulation.navigation import (
-    NavSettings,
-    grid_shortest_path_length,
-    plan_path,
-    plan_with_carry_modes,
-)
+from kbplanner.simulation.carry_paths import plan_with_carry_modes
+from kbplanner.simulation.grid_yardstick import grid_shortest_path_length
+from kbplanner.simulation.nav_path import NavSettings
+from kbplanner.simulation.navigation import plan_path
 from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect
 from kbplanner.world.occupancy import Box, OccupancyGrid, occupancy_from_meshes
 

@@ -3,8 +3,8 @@
 For each scenario: load the project, build the world and map, plan (B1-B3), refine (B4) and simulate
 (B5, key frames off so only the simulation is timed); reports simulated time / wall time of B5, the
 OMPL planning time of each navigation (from the run's timing.json), each navigation's path length
-against the grid yardstick (:func:`kbplanner.simulation.navigation.grid_shortest_path_length`: 8-connected
-Dijkstra over cells where the footprint fits at some yaw, then line-of-sight shortcuts, on the map
+against the grid yardstick (:func:`kbplanner.simulation.grid_yardstick.grid_shortest_path_length`:
+8-connected Dijkstra over cells where the footprint fits at some yaw, then line-of-sight shortcuts, on the map
 with the elements installed before that step; the robot's footprint for NV-1, the narrow carry for
 NV-2, on a 10 m window around start and goal), the time spent planning worker motions, and the
 process's peak memory.
@@ -26,12 +26,13 @@ from typing import Any
 
 from _common import REPO, RESULTS_DIR, machine_info, peak_rss_mb, write_json
 
+from kbplanner.planning.base_poses import element_polygon, mark_polygon
 from kbplanner.planning.carry import transform
-from kbplanner.planning.manipulation import element_polygon, mark_polygon, refine_plan
+from kbplanner.planning.manipulation import refine_plan
 from kbplanner.planning.planner import plan_task
 from kbplanner.project import Project
 from kbplanner.simulation.executor import simulate
-from kbplanner.simulation.navigation import grid_shortest_path_length
+from kbplanner.simulation.grid_yardstick import grid_shortest_path_length
 from kbplanner.simulation.skills import ExecSettings
 from kbplanner.simulation.skills.navigation import window
 from kbplanner.simulation.workers import plan_workers

@@ -23,7 +23,9 @@ from kbplanner.robot.arm_analytic_ik import (
     wrap_to_limits,
 )
 from kbplanner.robot.arm_ik import _near_seed, analytic_arm, solve_ik
-from kbplanner.robot.robot_model import RobotModel, load_robot_specs, urdf_text
+from kbplanner.robot.robot_model import RobotModel
+from kbplanner.robot.robot_table import load_robot_specs
+from kbplanner.robot.urdf_generation import urdf_text
 
 ROBOTS = ("husky_ur5", "husky_ur16e")
 HALF = math.pi / 2

@@ -15,8 +15,9 @@ import pytest
 
 from kbplanner.core.vocab import KBP
 from kbplanner.planning.carry import transform
-from kbplanner.planning.manipulation import refine_plan, target_variants
+from kbplanner.planning.manipulation import refine_plan
 from kbplanner.planning.plan_model import Plan
+from kbplanner.planning.pose_frames import target_variants
 from kbplanner.simulation.executor import INSTALLED, SimulationResult, simulate
 from kbplanner.simulation.sim_env import angle_between
 from kbplanner.simulation.workers import RouteStop, WorkerMotion, WorkerSpec

@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 
 from kbplanner.planning.carry import transform
-from kbplanner.planning.manipulation import refine_plan, target_variants
+from kbplanner.planning.manipulation import refine_plan
 from kbplanner.planning.planner import plan_task
+from kbplanner.planning.pose_frames import target_variants
 from kbplanner.project import Project
 from kbplanner.simulation.executor import INSTALLED, simulate
 from kbplanner.simulation.sim_env import angle_between

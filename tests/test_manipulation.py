@@ -10,20 +10,18 @@ from collections.abc import Iterator
 import numpy as np
 import pytest
 
+from kbplanner.planning.base_poses import PoseChecker, escapes
 from kbplanner.planning.carry import NARROW, NORMAL, geometry_from_joints, transform
 from kbplanner.planning.manipulation import (
     KIND_GRASP,
     KIND_NAVIGATION,
     KIND_NAVIGATION_WITH_OBJECT,
     KIND_RELEASE,
-    PoseChecker,
-    escapes,
     refine_plan,
     robot_name,
-    target_variants,
-    tool_frame,
 )
 from kbplanner.planning.plan_model import Plan, Pose2, SkillCall
+from kbplanner.planning.pose_frames import target_variants, tool_frame
 from kbplanner.robot.robot_model import RobotModel
 from kbplanner.simulation.sim_env import angle_between
 from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect

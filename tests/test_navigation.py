@@ -8,14 +8,12 @@ import numpy as np
 import pytest
 import trimesh
 
-from kbplanner.simulation.navigation import (
-    NavSettings,
-    grid_shortest_path_length,
-    path_is_free,
-    plan_path,
-    plan_with_carry_modes,
-    time_parameterize,
-)
+from kbplanner.simulation.base_trajectory import time_parameterize
+from kbplanner.simulation.carry_paths import plan_with_carry_modes
+from kbplanner.simulation.grid_yardstick import grid_shortest_path_length
+from kbplanner.simulation.motion_check import path_is_free
+from kbplanner.simulation.nav_path import NavSettings
+from kbplanner.simulation.navigation import plan_path
 from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect
 from kbplanner.world.occupancy import Box, OccupancyGrid, occupancy_from_meshes
 
@@ -51,9 +49,9 @@ def door_09() -> OccupancyGrid:
 
 def _dense_free(cs: ConfigurationSpace, poses: tuple[tuple[float, float, float], ...], step: float = 0.01
                 ) -> bool:
-    from kbplanner.simulation.navigation import _densify
+    from kbplanner.simulation.nav_path import densify
 
-    return bool(cs.is_free_many(_densify(poses, step, math.radians(1.0))).all())
+    return bool(cs.is_free_many(densify(poses, step, math.radians(1.0))).all())
 
 
 def test_the_wide_load_is_carried_narrow_only_through_the_door(door_09: OccupancyGrid) -> None:

@@ -11,15 +11,9 @@ import pybullet as p
 import pytest
 
 from kbplanner.core.errors import InputFileError
-from kbplanner.robot.robot_model import (
-    ARM_JOINT_NAMES,
-    RobotModel,
-    load_robot_specs,
-    robot_spec,
-    robots_toml,
-    urdf_text,
-    write_urdfs,
-)
+from kbplanner.robot.robot_model import RobotModel, write_urdfs
+from kbplanner.robot.robot_table import load_robot_specs, robot_spec, robots_toml
+from kbplanner.robot.urdf_generation import ARM_JOINT_NAMES, urdf_text
 
 ROBOTS = ("husky_ur5", "husky_ur16e", "jackal")
 

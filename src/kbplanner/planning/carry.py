@@ -5,7 +5,7 @@ its own frame (``local_bounds`` of :class:`~kbplanner.world.build.WorldElement`)
 :class:`Grasp` candidates (the tool frame in the element's frame) and the two carry modes of the
 paper (section 4.4.3, Figure 14) as :class:`CarryGeometry`: the carry arm poses and, from forward
 kinematics, the element's footprint in the robot frame as :class:`~kbplanner.world.footprint.Footprint`
-objects for :func:`kbplanner.simulation.navigation.plan_with_carry_modes`.
+objects for :func:`kbplanner.simulation.carry_paths.plan_with_carry_modes`.
 
 Geometry (robot frame: x forward, y left, z up; element axes sorted by their extent: long, middle,
 thin):

@@ -42,8 +42,8 @@ import numpy as np
 
 from kbplanner.core.errors import KbplannerError
 from kbplanner.core.iris import slug
+from kbplanner.planning.base_poses import element_polygon, mark_polygon
 from kbplanner.planning.carry import Matrix, from_pos_quat, quat_of
-from kbplanner.planning.manipulation import element_polygon, mark_polygon
 from kbplanner.robot.robot_model import RobotModel
 from kbplanner.simulation.sim_world import SimWorld, element_frame, load_world
 from kbplanner.simulation.workers import WORKER_RADIUS_M, WorkerMotion

@@ -14,7 +14,8 @@ import math
 
 import numpy as np
 
-from kbplanner.planning.manipulation import KIND_GRASP, _as_pose6_list
+from kbplanner.planning.manipulation import KIND_GRASP
+from kbplanner.planning.pose_frames import as_pose6_list
 from kbplanner.simulation.skills.base import JointPath, Skill, Status
 
 ORDER = ("approach", "pre_grasp", "grasp")
@@ -59,7 +60,7 @@ class GraspSkill(Skill):
                     return Status.RUNNING
             # at the grasp pose: check the tool is at the grasp point, then link the element
             frame = env.element_frame(call.element)
-            gp = _as_pose6_list(call.inputs.get("grasp point"))
+            gp = as_pose6_list(call.inputs.get("grasp point"))
             e = env.element(call.element)
             assert e.local_bounds is not None
             local = np.array([*(gp[:3] if gp is not None else e.local_bounds.center), 1.0])

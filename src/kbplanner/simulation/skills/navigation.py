@@ -34,23 +34,16 @@ from dataclasses import dataclass
 
 import shapely
 
+from kbplanner.planning.base_poses import PoseChecker, mark_polygon
 from kbplanner.planning.carry import NARROW, NORMAL, CarryGeometry, geometry_from_joints
-from kbplanner.planning.manipulation import (
-    KIND_NAVIGATION,
-    KIND_NAVIGATION_WITH_OBJECT,
-    PoseChecker,
-    _as_pose6_list,
-    mark_polygon,
-)
+from kbplanner.planning.manipulation import KIND_NAVIGATION, KIND_NAVIGATION_WITH_OBJECT
 from kbplanner.planning.plan_model import Pose2
+from kbplanner.planning.pose_frames import as_pose6_list
 from kbplanner.robot.lidar import LidarSpec, lidar_spec, scan
-from kbplanner.simulation.navigation import (
-    CarryPlan,
-    NavSettings,
-    plan_path,
-    plan_with_carry_modes,
-    time_parameterize,
-)
+from kbplanner.simulation.base_trajectory import time_parameterize
+from kbplanner.simulation.carry_paths import CarryPlan, plan_with_carry_modes
+from kbplanner.simulation.nav_path import NavSettings
+from kbplanner.simulation.navigation import plan_path
 from kbplanner.simulation.skills.base import JointPath, Skill, Status
 from kbplanner.simulation.workers import WORKER_RADIUS_M
 from kbplanner.world.footprint import Footprint
@@ -137,7 +130,7 @@ class NavigationSkill(Skill):
         call = self.step
         goal = call.base_pose
         if goal is None:
-            dest = _as_pose6_list(call.inputs.get("destination"))
+            dest = as_pose6_list(call.inputs.get("destination"))
             if dest is not None:
                 goal = Pose2(dest[0], dest[1], dest[5])
         if goal is None:

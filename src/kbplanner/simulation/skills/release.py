@@ -17,7 +17,8 @@ import math
 
 import numpy as np
 
-from kbplanner.planning.manipulation import KIND_RELEASE, _as_pose6_list, pose6_matrix, target_variants
+from kbplanner.planning.manipulation import KIND_RELEASE
+from kbplanner.planning.pose_frames import as_pose6_list, pose6_matrix, target_variants
 from kbplanner.simulation.sim_env import angle_between
 from kbplanner.simulation.skills.base import JointPath, Skill, Status
 
@@ -46,7 +47,7 @@ class ReleaseSkill(Skill):
             if off > self.c.settings.pose_tol_m:
                 self.fail(f"the robot stands {off:.3f} m from the install base pose")
                 return
-        target = _as_pose6_list(call.inputs.get("target pose"))
+        target = as_pose6_list(call.inputs.get("target pose"))
         e = env.element(call.element)
         if target is None and e.installed_pose is not None:
             p = e.installed_pose

@@ -1,0 +1,143 @@
+"""B4, where the robot can stand: exact look-ups of the navigation's configuration space, one pose at a time.
+
+Takes an occupancy grid of the task storey (:class:`~kbplanner.world.occupancy.OccupancyGrid`) and a
+footprint (:class:`~kbplanner.world.footprint.Footprint`: the base, or the base with its carried
+element); gives :class:`PoseChecker` (is the footprint free at a pose, with the navigation's
+conservative test, so a pose found free is a valid start or goal for the planner), :func:`escapes`
+(is a robot at a pose not shut in), and :func:`element_polygon` / :func:`mark_polygon` (an element's
+floor projection marked occupied, for installed elements). Used by the base-pose search of
+:mod:`kbplanner.planning.pose_search` and by the executor (B5).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import numpy.typing as npt
+import shapely
+
+from kbplanner.planning.carry import Matrix
+from kbplanner.planning.plan_model import Pose2
+from kbplanner.world.build import Bounds
+from kbplanner.world.footprint import Footprint
+from kbplanner.world.occupancy import OccupancyGrid
+
+N_YAW_BINS = 72
+
+
+def element_polygon(bounds: Bounds, frame: Matrix) -> shapely.Geometry:
+    """The floor projection (convex hull) of an element's box at ``frame`` (site)."""
+    corners = np.c_[bounds.corners(), np.ones(8)] @ frame.T
+    return shapely.MultiPoint(corners[:, :2]).convex_hull
+
+
+def mark_polygon(grid: OccupancyGrid, polygon: shapely.Geometry) -> OccupancyGrid:
+    """A copy of ``grid`` with every cell that ``polygon`` overlaps marked occupied."""
+    occ = grid.occupied.copy()
+    ny, nx = occ.shape
+    res = grid.resolution
+    x0, y0, x1, y1 = polygon.bounds
+    ix0 = max(0, math.floor((x0 - grid.origin[0]) / res))
+    iy0 = max(0, math.floor((y0 - grid.origin[1]) / res))
+    ix1 = min(nx - 1, math.floor((x1 - grid.origin[0]) / res))
+    iy1 = min(ny - 1, math.floor((y1 - grid.origin[1]) / res))
+    if ix1 >= ix0 and iy1 >= iy0:
+        xs = grid.origin[0] + np.arange(ix0, ix1 + 1) * res
+        ys = grid.origin[1] + np.arange(iy0, iy1 + 1) * res
+        gx, gy = np.meshgrid(xs, ys)
+        boxes = shapely.box(gx, gy, gx + res, gy + res)
+        hit = shapely.intersects(boxes, polygon) & ~shapely.touches(boxes, polygon)
+        occ[iy0:iy1 + 1, ix0:ix1 + 1] |= hit
+    return OccupancyGrid(occupied=occ, origin=grid.origin, resolution=grid.resolution, band=grid.band)
+
+
+class PoseChecker:
+    """Is a footprint at (x, y, yaw) free on a grid? The navigation's conservative test, one pose at a time.
+
+    The look-up is the same as :class:`~kbplanner.world.footprint.ConfigurationSpace` (the footprint swept
+    over the pose's yaw bin, grown by a cell), so a pose found free here is a valid start or goal for
+    the planner; kernels are cached per footprint and bin.
+    """
+
+    def __init__(self, grid: OccupancyGrid, n_bins: int = N_YAW_BINS) -> None:
+        self.grid = grid
+        self.n_bins = n_bins
+        self._kernels: dict[tuple[Footprint, int], npt.NDArray[np.bool_]] = {}
+
+    def with_grid(self, grid: OccupancyGrid) -> PoseChecker:
+        """The same checker (and kernel cache) on another grid of the same shape."""
+        other = PoseChecker(grid, self.n_bins)
+        other._kernels = self._kernels
+        return other
+
+    def free(self, footprint: Footprint, x: float, y: float, yaw: float) -> bool:
+        """Whether the footprint at the pose touches no occupied cell (cells off the grid are occupied)."""
+        g = self.grid
+        w = 2 * math.pi / self.n_bins
+        k = math.floor((yaw + w / 2) / w) % self.n_bins
+        kern = self._kernels.get((footprint, k))
+        if kern is None:
+            kern = footprint.kernel(g.resolution, k * w - w / 2, k * w + w / 2)
+            self._kernels[(footprint, k)] = kern
+        h = kern.shape[0] // 2
+        ix = math.floor((x - g.origin[0]) / g.resolution)
+        iy = math.floor((y - g.origin[1]) / g.resolution)
+        ny, nx = g.shape
+        if not (0 <= ix < nx and 0 <= iy < ny):
+            return False
+        lo_y, hi_y, lo_x, hi_x = iy - h, iy + h + 1, ix - h, ix + h + 1
+        if lo_y < 0 or lo_x < 0 or hi_y > ny or hi_x > nx:  # the kernel reaches off the map
+            window = np.ones(kern.shape, dtype=bool)
+            sy0, sx0 = max(lo_y, 0), max(lo_x, 0)
+            sy1, sx1 = min(hi_y, ny), min(hi_x, nx)
+            window[sy0 - lo_y:sy1 - lo_y, sx0 - lo_x:sx1 - lo_x] = g.occupied[sy0:sy1, sx0:sx1]
+        else:
+            window = g.occupied[lo_y:hi_y, lo_x:hi_x]
+        return not bool((window & kern).any())
+
+
+def escapes(grid: OccupancyGrid, footprint: Footprint, pose: Pose2, *, radius_m: float = 3.0,
+            n_bins: int = N_YAW_BINS) -> bool:
+    """Whether a robot at ``pose`` is not shut in: its free configurations reach ``radius_m`` away.
+
+    The configuration space of ``footprint`` is built on the grid around the pose; free
+    (x, y, yaw-bin) cells are labelled with face connectivity only (6 neighbours, the yaw axis closed
+    into a ring), which under-connects, so "reaches the window border" means the robot can get out
+    of the neighbourhood (a 26-connected labelling would let it squeeze through diagonal gaps).
+
+    Example:
+        >>> occ = np.zeros((80, 80), dtype=bool); occ[20:60, [20, 59]] = True; occ[[20, 59], 20:60] = True
+        >>> g = OccupancyGrid(occ, origin=(0.0, 0.0), resolution=0.05)
+        >>> from kbplanner.world.footprint import Rect
+        >>> escapes(g, Footprint((Rect(0, 0, 0.5, 0.3),)), Pose2(2.0, 2.0, 0.0), radius_m=1.5)
+        False
+    """
+    from kbplanner.world.footprint import ConfigurationSpace
+
+    res = grid.resolution
+    ny, nx = grid.shape
+    ix0 = max(0, math.floor((pose.x - radius_m - grid.origin[0]) / res))
+    iy0 = max(0, math.floor((pose.y - radius_m - grid.origin[1]) / res))
+    ix1 = min(nx, math.ceil((pose.x + radius_m - grid.origin[0]) / res))
+    iy1 = min(ny, math.ceil((pose.y + radius_m - grid.origin[1]) / res))
+    sub = OccupancyGrid(occupied=grid.occupied[iy0:iy1, ix0:ix1], origin=(grid.origin[0] + ix0 * res,
+                        grid.origin[1] + iy0 * res), resolution=res, band=grid.band)
+    cs = ConfigurationSpace.build(sub, footprint, n_bins)
+    labels = cs.components()
+    root = cs.component_of(labels, pose.x, pose.y, pose.yaw)
+    if root == 0:
+        return False
+    # Off the window counts as occupied, so free cells stop a footprint radius short of its border:
+    # the band of that width (plus two cells) along the border is "away". The map's own edges are not.
+    band = math.ceil((footprint.radius_m + 2 * res) / res)
+    border = np.zeros(labels.shape[1:], dtype=bool)
+    if ix0 > 0:
+        border[:, :band] = True
+    if ix1 < nx:
+        border[:, -band:] = True
+    if iy0 > 0:
+        border[:band, :] = True
+    if iy1 < ny:
+        border[-band:, :] = True
+    return bool((labels[:, border] == root).any())

@@ -1,0 +1,185 @@
+"""Navigation (B5, NV-2), carry modes: the doorway behaviour of the paper (Figure 14).
+
+Takes an occupancy grid, start and goal poses and two footprints (the base with the load carried normal,
+wide, and narrow, on its side); :func:`plan_with_carry_modes` plans with the normal footprint (OMPL,
+:func:`kbplanner.simulation.navigation.plan_path`); where that fails, it plans with the narrow one and
+marks the stretches of the path where the wide load does not fit, with "rotate to narrow" before and
+"rotate back" after each (extended by a margin). Returns a :class:`CarryPlan`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+from kbplanner.simulation.nav_path import (
+    OK,
+    NavPath,
+    NavSettings,
+    Pose2D,
+    densify,
+    failed_path,
+    path_length,
+    wrap,
+)
+from kbplanner.simulation.navigation import plan_path
+from kbplanner.world.footprint import ConfigurationSpace, Footprint
+from kbplanner.world.occupancy import OccupancyGrid
+
+
+@dataclass(frozen=True)
+class CarrySegment:
+    """A stretch of the path to be driven with the load in the narrow carry mode."""
+
+    start_index: int  # waypoint where the load is turned to narrow
+    end_index: int  # waypoint where it is turned back
+    start_s_m: float  # arc length along the path
+    end_s_m: float
+
+
+@dataclass(frozen=True)
+class CarryEvent:
+    """A load rotation to record: ``kind`` is ``"rotate_to_narrow"`` or ``"rotate_back"``."""
+
+    kind: str
+    index: int
+    s_m: float
+    pose: Pose2D
+
+
+@dataclass(frozen=True)
+class CarryPlan:
+    """A path for a robot carrying a load, with where to carry it narrow."""
+
+    path: NavPath
+    mode: str  # "normal" (never narrow), "narrow" (narrow somewhere) or "" when failed
+    segments: tuple[CarrySegment, ...] = ()
+    events: tuple[CarryEvent, ...] = ()
+    normal_attempt: NavPath | None = None
+    extra: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        """Whether a path was found."""
+        return self.path.ok
+
+    @property
+    def status(self) -> str:
+        """``"ok"`` or ``"failed"``."""
+        return self.path.status
+
+    @property
+    def reason(self) -> str:
+        """Why it failed, or how it was found."""
+        return self.path.reason
+
+
+def _arc_lengths(poses: Sequence[Pose2D]) -> npt.NDArray[np.float64]:
+    p = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
+    seg = np.hypot(np.diff(p[:, 0]), np.diff(p[:, 1]))
+    return np.concatenate([[0.0], np.cumsum(seg)])
+
+
+def narrow_intervals(
+    poses: Sequence[Pose2D], normal: ConfigurationSpace, margin_m: float, step_m: float
+) -> list[tuple[float, float]]:
+    """Arc-length intervals of a path where the normal footprint is blocked, grown by ``margin_m``.
+
+    The path is sampled every ``step_m``; overlapping grown intervals are merged.
+    """
+    dense = densify(poses, step_m, normal.bin_width / 4)
+    s = _arc_lengths(dense)
+    ok = normal.is_free_many(dense)
+    total = float(s[-1]) if len(s) else 0.0
+    intervals: list[tuple[float, float]] = []
+    i = 0
+    while i < len(ok):
+        if ok[i]:
+            i += 1
+            continue
+        j = i
+        while j + 1 < len(ok) and not ok[j + 1]:
+            j += 1
+        lo, hi = max(0.0, float(s[i]) - margin_m), min(total, float(s[j]) + margin_m)
+        if intervals and lo <= intervals[-1][1]:
+            intervals[-1] = (intervals[-1][0], max(hi, intervals[-1][1]))
+        else:
+            intervals.append((lo, hi))
+        i = j + 1
+    return intervals
+
+
+def _floats3(p: Sequence[float]) -> Pose2D:
+    return (float(p[0]), float(p[1]), float(p[2]))
+
+
+def _insert_at(poses: list[Pose2D], s_target: float) -> int:
+    """Insert a waypoint at arc length ``s_target`` (or reuse one within 1 mm); return its index."""
+    s = _arc_lengths(poses)
+    for i, si in enumerate(s):
+        if abs(si - s_target) < 1e-3:
+            return i
+    i = int(np.searchsorted(s, s_target))  # s[i-1] < s_target < s[i]
+    (x0, y0, t0), (x1, y1, t1) = poses[i - 1], poses[i]
+    u = float((s_target - s[i - 1]) / (s[i] - s[i - 1]))
+    poses.insert(i, (x0 + u * (x1 - x0), y0 + u * (y1 - y0), wrap(t0 + u * wrap(t1 - t0))))
+    return i
+
+
+def plan_with_carry_modes(
+    grid: OccupancyGrid,
+    start: Pose2D,
+    goal: Pose2D,
+    normal: Footprint,
+    narrow: Footprint,
+    settings: NavSettings | None = None,
+    margin_m: float = 0.5,
+) -> CarryPlan:
+    """Plan with the normal carry footprint; where it cannot pass, carry the load narrow.
+
+    If the normal footprint finds a path, that is the plan (mode ``"normal"``). Otherwise the path is
+    planned with the narrow footprint, and each stretch where the normal footprint is blocked,
+    grown by ``margin_m`` on both sides, becomes a :class:`CarrySegment` with a
+    ``rotate_to_narrow`` event at its start and a ``rotate_back`` event at its end (new waypoints
+    are inserted there). If even the narrow footprint fails, the plan fails with both reasons.
+    """
+    settings = settings or NavSettings()
+    cs_normal = ConfigurationSpace.build(grid, normal, settings.n_yaw_bins, settings.margin_m)
+    first = plan_path(cs_normal, start, goal, settings=settings)
+    if first.ok:
+        return CarryPlan(path=first, mode="normal", normal_attempt=first)
+    cs_narrow = ConfigurationSpace.build(grid, narrow, settings.n_yaw_bins, settings.margin_m)
+    second = plan_path(cs_narrow, start, goal, settings=settings)
+    if not second.ok:
+        failed = failed_path(f"{second.reason} even with the narrow carry mode ({narrow.name}); "
+                         f"normal mode ({normal.name}): {first.reason}",
+                         settings.planner, narrow.name,
+                         first.planning_time_s + second.planning_time_s)
+        return CarryPlan(path=failed, mode="", normal_attempt=first)
+    step = settings.check_step_m or grid.resolution / 4
+    intervals = narrow_intervals(second.poses, cs_normal, margin_m, step)
+    poses = list(second.poses)
+    bounds = []
+    for lo, hi in intervals:
+        bounds.append((_insert_at(poses, lo), _insert_at(poses, hi)))
+    # Inserting shifts later indices; recompute them from the final list.
+    s_all = _arc_lengths(poses)
+    segments, events = [], []
+    for lo, hi in intervals:
+        i0 = int(np.argmin(np.abs(s_all - lo)))
+        i1 = int(np.argmin(np.abs(s_all - hi)))
+        segments.append(CarrySegment(i0, i1, float(s_all[i0]), float(s_all[i1])))
+        events.append(CarryEvent("rotate_to_narrow", i0, float(s_all[i0]), _floats3(poses[i0])))
+        events.append(CarryEvent("rotate_back", i1, float(s_all[i1]), _floats3(poses[i1])))
+    del bounds
+    path = NavPath(poses=tuple(_floats3(q) for q in poses), length_m=path_length(poses),
+                   planning_time_s=first.planning_time_s + second.planning_time_s,
+                   planner=second.planner, status=OK,
+                   reason=f"{second.reason} with the narrow carry mode; normal mode: {first.reason}",
+                   footprint=narrow.name)
+    narrow_len = sum(seg.end_s_m - seg.start_s_m for seg in segments)
+    return CarryPlan(path=path, mode="narrow", segments=tuple(segments), events=tuple(events),
+                     normal_attempt=first, extra={"narrow_length_m": narrow_len})

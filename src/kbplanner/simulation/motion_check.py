@@ -1,0 +1,178 @@
+"""Navigation (B5), exact motion checks in a configuration space, and the path rewrites that rely on
+them: greedy string pulling and the skid-steer turn-drive-turn.
+
+Takes a :class:`~kbplanner.world.footprint.ConfigurationSpace` (one free map per yaw bin) and SE(2)
+poses; :class:`ExactMotion` answers whether a straight SE(2) motion is free (cut at yaw-bin borders,
+every cell of the centre's supercover checked), which the OMPL query uses as its motion validator
+(:mod:`kbplanner.simulation.navigation`) and the cell path as its check
+(:mod:`kbplanner.simulation.cell_path`). :func:`turn_drive_turn` rewrites a path for a skid-steer base.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Sequence
+
+from kbplanner.simulation.nav_path import Pose2D, densify, path_length, wrap
+from kbplanner.world.footprint import ConfigurationSpace
+
+
+class ExactMotion:
+    """Exact motion checks in a configuration space for SE(2) straight-line motions.
+
+    A motion (x, y, yaw linear, yaw the short way round) is cut where the yaw crosses a bin border;
+    within each piece the bin is fixed and the centre moves along a straight segment, so the piece
+    is free exactly when every cell that segment touches (its supercover) is free in that bin.
+    Sampled checks can miss a cell that a segment only clips at a corner; this cannot.
+    """
+
+    def __init__(self, cs: ConfigurationSpace) -> None:
+        self.free = cs.free.tobytes()
+        self.ny, self.nx = cs.grid.shape
+        self.ox, self.oy = cs.grid.origin
+        self.inv_res = 1.0 / cs.grid.resolution
+        self.n_bins = cs.n_bins
+        self.w = cs.bin_width
+        self.plane = self.ny * self.nx
+
+    def pose_free(self, x: float, y: float, yaw: float) -> bool:
+        ix = math.floor((x - self.ox) * self.inv_res)
+        iy = math.floor((y - self.oy) * self.inv_res)
+        if not (0 <= ix < self.nx and 0 <= iy < self.ny):
+            return False
+        k = math.floor(yaw / self.w + 0.5) % self.n_bins
+        return self.free[k * self.plane + iy * self.nx + ix] == 1
+
+    def _segment_free(self, k: int, x0: float, y0: float, x1: float, y1: float) -> bool:
+        """Every cell the segment touches is free in bin ``k`` (cell units)."""
+        if x0 > x1:
+            x0, y0, x1, y1 = x1, y1, x0, y0
+        nx, ny = self.nx, self.ny
+        base = k * self.plane
+        ixa, ixb = math.floor(x0), math.floor(x1)
+        if ixa < 0 or ixb >= nx:
+            return False
+        slope = (y1 - y0) / (x1 - x0) if x1 > x0 else 0.0
+        for ix in range(ixa, ixb + 1):
+            if x1 > x0:
+                ya = y0 + (max(x0, ix) - x0) * slope
+                yb = y0 + (min(x1, ix + 1) - x0) * slope
+            else:
+                ya, yb = y0, y1
+            lo, hi = math.floor(min(ya, yb)), math.floor(max(ya, yb))
+            if lo < 0 or hi >= ny:
+                return False
+            if 0 in self.free[base + lo * nx + ix : base + hi * nx + ix + 1 : nx]:
+                return False
+        return True
+
+    def motion_free(self, a: Sequence[float], b: Sequence[float]) -> bool:
+        """Whether the straight SE(2) motion from ``a`` to ``b`` is free (both ends included)."""
+        t0 = float(a[2])
+        d = wrap(float(b[2]) - t0)
+        # Cheap rejection first: most motions a planner tries run into a wall somewhere.
+        n = max(2, math.ceil(max(abs(b[0] - a[0]), abs(b[1] - a[1])) * self.inv_res / 2))
+        for i in (n // 2, n, *range(1, n)):
+            u = i / n
+            if not self.pose_free(a[0] + u * (b[0] - a[0]), a[1] + u * (b[1] - a[1]), t0 + u * d):
+                return False
+        cuts = [0.0]
+        if d != 0.0:
+            k0 = math.floor(t0 / self.w + 0.5)
+            k1 = math.floor((t0 + d) / self.w + 0.5)
+            borders = range(k0, k1) if d > 0 else range(k0 - 1, k1 - 1, -1)
+            cuts += [((k + 0.5) * self.w - t0) / d for k in borders]
+        cuts.append(1.0)
+        ax, ay = (a[0] - self.ox) * self.inv_res, (a[1] - self.oy) * self.inv_res
+        dx, dy = (b[0] - self.ox) * self.inv_res - ax, (b[1] - self.oy) * self.inv_res - ay
+        for ua, ub in itertools.pairwise(cuts):
+            k = math.floor((t0 + 0.5 * (ua + ub) * d) / self.w + 0.5) % self.n_bins
+            if not self._segment_free(k, ax + ua * dx, ay + ua * dy, ax + ub * dx, ay + ub * dy):
+                return False
+        return True
+
+    def path_free(self, poses: Sequence[Sequence[float]]) -> bool:
+        """Whether every motion between consecutive poses is free."""
+        if len(poses) == 1:
+            return self.pose_free(*poses[0][:3])
+        return all(self.motion_free(p, q) for p, q in itertools.pairwise(poses))
+
+
+def shortcut(motion: ExactMotion, poses: Sequence[Pose2D], step_m: float) -> list[Pose2D]:
+    """Greedy string pulling: from each kept pose, jump to the farthest free pose of the densified path."""
+    dense = densify(poses, step_m, math.pi)
+    out = [dense[0]]
+    i, n = 0, len(dense)
+    while i < n - 1:
+        j = n - 1
+        while j > i + 1 and not motion.motion_free(dense[i], dense[j]):
+            j -= 1
+        out.append(dense[j])
+        i = j
+    return out if path_length(out) <= path_length(poses) else list(poses)
+
+
+def path_is_free(cs: ConfigurationSpace, poses: Sequence[Sequence[float]]) -> bool:
+    """Exact check of a path (straight SE(2) motions between waypoints) in a configuration space."""
+    return ExactMotion(cs).path_free(poses)
+
+
+def turn_drive_turn(
+    cs: ConfigurationSpace,
+    poses: Sequence[Pose2D],
+    *,
+    allow_reverse: bool = True,
+) -> tuple[list[Pose2D], int]:
+    """Rewrite an SE(2) path for a skid-steer base: turn in place, drive straight, turn at the goal.
+
+    Each segment becomes a rotation on the spot to face along it (or away from it, driving backwards,
+    when that turns less and ``allow_reverse``) and a straight drive; the goal yaw is reached by a
+    final turn. Where such a turn is blocked (next to a door jamb, say), the shortest leading part of
+    the segment (1/8, 1/4, ... of it) is driven as in SE(2), turning while moving, and the rest turn-
+    drive-turn. Every motion is checked densely. Returns the waypoints and how many segments needed
+    such an SE(2) part; if one cannot be rejoined at all, the SE(2) path itself is returned.
+    """
+    if len(poses) < 2:
+        return list(poses), 0
+    exact = ExactMotion(cs)
+
+    def free(seq: Sequence[Pose2D]) -> bool:
+        return exact.path_free(seq)
+
+    def tdt(frm: Pose2D, b: Pose2D, last: bool) -> list[Pose2D]:
+        x, y, cur = frm
+        moves: list[Pose2D] = []
+        if math.hypot(b[0] - x, b[1] - y) > 1e-9:
+            heading = math.atan2(b[1] - y, b[0] - x)
+            back = wrap(heading + math.pi)
+            if allow_reverse and abs(wrap(back - cur)) < abs(wrap(heading - cur)):
+                heading = back
+            moves = [(x, y, heading), (b[0], b[1], heading)]
+        if last:
+            moves.append(b)
+        return [m for i, m in enumerate(moves) if m != ([frm, *moves][i])]
+
+    out: list[Pose2D] = [poses[0]]
+    mixed = 0
+    n = len(poses) - 1
+    for i, (a, b) in enumerate(itertools.pairwise(poses)):
+        last = i == n - 1
+        moves = tdt(out[-1], b, last)
+        if free([out[-1], *moves]):
+            out.extend(moves)
+            continue
+        for u in (0.125, 0.25, 0.5, 0.75, 1.0):
+            m = (a[0] + u * (b[0] - a[0]), a[1] + u * (b[1] - a[1]), wrap(a[2] + u * wrap(b[2] - a[2])))
+            rest = tdt(m, b, last) if u < 1.0 else []
+            if free([out[-1], m]) and free([m, *rest]):
+                out.append(m)
+                out.extend(rest)
+                mixed += 1
+                break
+        else:
+            if not (free([out[-1], a]) and free([a, b])):
+                return list(poses), n
+            out.extend(p for p in (a, b) if p != out[-1])
+            mixed += 1
+    return out, mixed
