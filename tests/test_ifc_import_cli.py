@@ -36,7 +36,8 @@ def test_import_ifc_writes_model_meshes_and_a_starter_project_toml(tmp_path: Pat
     assert (storey, RDF.type, BOT.Storey) in g
     text = done.stdout
     assert "kbp:Wall" in text and "Level 2" in text and "3.000" in text
-    assert f"Skipped or without geometry (1; 0 of classes tasks use):\n  {b.broken} IfcBuildingElementProxy" in text
+    heading = "Skipped or without geometry (1; 0 of classes tasks use):"
+    assert f"{heading}\n  {b.broken} IfcBuildingElementProxy" in text
     assert "length unit metre = 1 m, mass unit kilogram = 1 kg" in text
     assert "project.toml: written" in text
 

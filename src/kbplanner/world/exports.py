@@ -151,14 +151,21 @@ def _within(lo: float, hi: float, band: tuple[float, float]) -> bool:
 
 
 def map_extent(world: World, meshes: Sequence[trimesh.Trimesh]) -> Box:
-    """The grid's extent: the site extent, or the obstacles' box plus a margin."""
+    """The grid's extent: the site extent, else the obstacles' box, else the building's box, plus a margin."""
     if world.site_extent is not None:
         e = world.site_extent
         return Box(e.xmin, e.ymin, e.xmax, e.ymax)
-    if not meshes:
-        raise KbplannerError("nothing to map: no site extent and no obstacles", element=world.project,
+    if meshes:
+        return Box.around(meshes, margin_m=EXTENT_MARGIN_M)
+    # Nothing in this storey's band (a storey without walls, spaces or furniture): the building's box.
+    boxes = [e.bounds for e in world.static if e.bounds is not None]
+    if not boxes:
+        raise KbplannerError("nothing to map: no site extent and no element with a position",
+                             element=world.project,
                              fix="add a kbp:SiteLayout with kbp:siteExtent to the site layout Turtle")
-    return Box.around(meshes, margin_m=EXTENT_MARGIN_M)
+    m = EXTENT_MARGIN_M
+    return Box(min(b.xmin for b in boxes) - m, min(b.ymin for b in boxes) - m,
+               max(b.xmax for b in boxes) + m, max(b.ymax for b in boxes) + m)
 
 
 def storey_map(world: World, storey: str | None = None, settings: MapSettings | None = None) -> StoreyMap:
