@@ -76,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
     if export.map is not None:
         out.append(f"  map: {map_summary(export.map)}")
         out += [f"    {region.text()}" for region in export.map.levels[:MAP_LINES]]
-        out += [f"    not used fully: {note}" for note in export.map.notes[:MAP_LINES]]
+        out += [f"    note: {note}" for note in export.map.notes[:MAP_LINES]]
         more = max(0, len(export.map.levels) - MAP_LINES) + max(0, len(export.map.notes) - MAP_LINES)
         if more:
             out.append(f"    ... and {more} more in world.json (map.levels, map.notes)")

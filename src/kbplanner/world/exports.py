@@ -121,7 +121,7 @@ class StoreyMap:
 
     @property
     def notes(self) -> tuple[str, ...]:
-        """Meshes the grid could not use fully, and what was done instead."""
+        """Meshes the grid could not use fully (and what was done instead); a storey without any floor."""
         return self.grid.notes
 
     def to_dict(self) -> dict[str, Any]:
@@ -208,8 +208,13 @@ def storey_map(world: World, storey: str | None = None, settings: MapSettings | 
                               if e.bounds is not None and _within(e.bounds.zmin, e.bounds.zmax, support_band))
                   if m is not None and len(m.faces)]
         support = occupancy_from_meshes(floors, support_band, extent, settings.resolution_m)
-        grid = OccupancyGrid(occupied=grid.occupied | ~support.occupied, origin=grid.origin,
-                             resolution=grid.resolution, band=band, notes=grid.notes + support.notes)
+        occupied = grid.occupied | ~support.occupied
+        notes = grid.notes + support.notes
+        if occupied.all():
+            notes += (f"no floor: every cell is occupied; no floor (a slab's top within {SUPPORT_DEPTH_M:g} "
+                      f"m below this storey's level, {floor:+.2f} m) is free of obstacles",)
+        grid = OccupancyGrid(occupied=occupied, origin=grid.origin, resolution=grid.resolution, band=band,
+                             notes=notes)
     seconds = time.perf_counter() - started
     log.info("map of %s: %d x %d cells, %.1f %% occupied, %.2f s", chosen.label, grid.shape[1],
              grid.shape[0], 100.0 * (1.0 - grid.free_fraction), seconds)
@@ -492,5 +497,5 @@ def map_summary(m: StoreyMap) -> str:
     if m.levels:
         text += f"; at other heights than the floor: {levels_summary(m.levels)}"
     if m.notes:
-        text += f"; {len(m.notes)} mesh(es) not used fully (see world.json map.notes)"
+        text += f"; {len(m.notes)} map note(s) (world.json map.notes)"
     return text

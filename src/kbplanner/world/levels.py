@@ -1,9 +1,10 @@
 """Occupancy maps, levels (helper of ``exports``, A6 world): slabs and stairs at other heights than the floor.
 
 Takes the static elements of a world, a storey's floor elevation and the map's height band, and
-lists the floor-like elements that do not lie at the storey's floor: a split-level slab whose top
-lies above the floor's step height but within the robot's band (a raised floor region: an obstacle
-on this storey's map, the robot cannot climb it), a slab hanging into the band from above (an
+lists the floor-like elements that do not lie at the storey's floor: a split-level slab of this storey
+whose top lies above the floor's step height but within the robot's band (a raised floor region: an
+obstacle on this storey's map, the robot cannot climb it), the same for a slab of another storey (a
+foundation level sees the ground floor's slabs so), a slab hanging into the band from above (an
 overhead obstacle), a slab of this storey whose top lies more than the support depth below the
 floor (a sunken region: no floor under the robot there on an upper storey), and stairs or ramps
 within the band (obstacles). Nothing is changed on the map here: these are the reasons the map
@@ -27,6 +28,7 @@ STAIR_KINDS = ("Stair", "Ramp")
 SUPPORT_DEPTH_M = 0.3  # a floor's top within this depth below the storey level carries the robot
 
 RAISED = "raised floor"
+OTHER_STOREY = "another storey's floor"
 OVERHEAD = "overhead slab"
 SUNKEN = "sunken floor"
 STAIR = "stair"
@@ -39,7 +41,7 @@ class LevelRegion:
     iri: str
     label: str
     kind: str
-    role: str  # RAISED, OVERHEAD, SUNKEN or STAIR
+    role: str  # RAISED, OTHER_STOREY, OVERHEAD, SUNKEN or STAIR
     bottom_m: float  # relative to the storey's floor
     top_m: float
     area_m2: float  # of its box in plan
@@ -66,7 +68,7 @@ def classify(zmin: float, zmax: float, *, floor: float, band: tuple[float, float
     if kind not in FLOOR_KINDS:
         return None
     if lo < top <= hi:
-        return RAISED
+        return RAISED if own_storey else OTHER_STOREY
     if top > hi and lo < bottom < hi:
         return OVERHEAD
     if own_storey and -hi <= top < -SUPPORT_DEPTH_M:
