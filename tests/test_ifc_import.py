@@ -463,7 +463,7 @@ def test_an_element_whose_optional_data_cannot_be_read_is_kept_with_a_note(
     assert r.counts["kbp:Wall"] == len(b.walls)
 
 
-def test_an_element_whose_placement_cannot_be_read_is_dropped_and_reported(
+def test_an_element_whose_placement_cannot_be_read_is_kept_without_a_pose(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     from kbplanner.model import ifc_geometry
@@ -479,8 +479,31 @@ def test_an_element_whose_placement_cannot_be_read_is_dropped_and_reported(
 
     monkeypatch.setattr(ifc_geometry, "placement_matrix", failing)
     r = import_ifc_graph(b.path, base=BASE)
+    assert r.skipped == ()
+    assert [(n.global_id, n.message.split(";")[0]) for n in r.notes if n.kind == "unreadable"] == [
+        (bad, "placement not imported (ValueError: malformed placement)")]
+    g = r.graph
+    assert (el(bad), KBP.installedPose, None) not in g and (el(bad), KBP.bounds, None) in g
+
+
+def test_an_element_whose_data_cannot_be_read_at_all_is_dropped_and_reported(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from kbplanner.model import ifc_semantics
+
+    b = write_test_building(tmp_path / "m.ifc")
+    bad = next(gid for gid, w in b.walls.items() if not w.is_external)
+    real = ifc_semantics.kbp_class
+
+    def failing(product: Any) -> Any:
+        if getattr(product, "GlobalId", None) == bad:
+            raise ValueError("unknown entity")
+        return real(product)
+
+    monkeypatch.setattr(ifc_semantics, "kbp_class", failing)
+    r = import_ifc_graph(b.path, base=BASE)
     assert [(s.global_id, s.reason, s.in_graph, s.task_class) for s in r.skipped] == [
-        (bad, "could not read its data (ValueError: malformed placement)", False, True)]
+        (bad, "could not read its data (ValueError: unknown entity)", False, True)]
     assert [s.global_id for s in r.blocking] == [bad]
     g = r.graph
     assert not list(g.triples((el(bad), None, None))) and not list(g.triples((None, None, el(bad))))

@@ -160,7 +160,14 @@ class GraphBuilder:
         return node
 
     def site_frame(self, product: Any) -> np.ndarray | None:
-        m = geo.placement_matrix(product, self.units.length_m)
+        """The product's placement in the site frame; None (with a note) when it cannot be read."""
+        try:
+            m = geo.placement_matrix(product, self.units.length_m)
+        except Exception as exc:  # e.g. an IfcGridPlacement or a broken placement chain
+            text = (f"placement not imported ({type(exc).__name__}: {exc}); the element has no pose, "
+                    "its bounds come from its geometry")
+            self.notes.append(note_of(product, "unreadable", text))
+            return None
         return None if m is None else self.site_inv @ m
 
     def add_pose(self, node: URIRef, matrix: np.ndarray) -> None:
