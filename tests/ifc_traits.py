@@ -12,7 +12,7 @@ Example:
     >>> import tempfile
     >>> t = write_traits(Path(tempfile.mkdtemp()) / "t.ifc")
     >>> sorted(t.extra)[:3]
-    ['door_no_host', 'empty_storey', 'no_geometry_proxy']
+    ['door_no_host', 'empty_storey', 'empty_storey_slab']
 """
 
 from __future__ import annotations
