@@ -154,6 +154,9 @@ def import_ifc_graph(
     seconds = time.perf_counter() - started
     log.info("imported %d triples, %d meshes, %d skipped in %.1f s", len(b.g), len(meshes),
              len(b.skipped), seconds)
+    if b.notes:
+        log.warning("%s: %d element(s) imported with a note (unreadable optional data, implausible mass, "
+                    "no host); they are listed in %s", source.name, len(b.notes), SKIPPED_CSV)
     return ImportResult(
         graph=b.g,
         counts=b.counts(),
