@@ -45,7 +45,6 @@ def _lost(ifc: Path, result: ImportResult) -> dict[str, int]:
     return lost
 
 
-@pytest.mark.slow
 def test_the_duplex_import_keeps_every_element() -> None:
     if not DUPLEX.is_file():  # pragma: no cover - the case study ships it
         pytest.skip("Duplex IFC not present")
