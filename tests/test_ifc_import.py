@@ -9,6 +9,7 @@ import subprocess
 import sys
 import zipfile
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -365,7 +366,7 @@ def test_output_is_byte_identical_across_runs_hash_seeds_and_process_counts(tmp_
                        check=True, env=env, timeout=120)
         digests.append(tree_digest(out))
     assert digests[0] == digests[1]
-    assert "model.ttl" in digests[0] and len(digests[0]) == 1 + 19 + 4
+    assert "model.ttl" in digests[0] and len(digests[0]) == 1 + 19 + 4 + 2  # + skipped.json, skipped.csv
 
 
 def test_reimport_replaces_old_meshes_and_leaves_no_temporary_files(tmp_path: Path) -> None:
@@ -375,7 +376,8 @@ def test_reimport_replaces_old_meshes_and_leaves_no_temporary_files(tmp_path: Pa
     (out / "meshes" / "stale.glb").write_bytes(b"old")
     (out / "project.toml").write_text("[project]\nname = 'kept'\n")
     import_ifc(b.path, out, base=BASE)
-    assert sorted(p.name for p in out.iterdir()) == ["meshes", "model.ttl", "project.toml"]
+    assert sorted(p.name for p in out.iterdir()) == ["meshes", "model.ttl", "project.toml", "skipped.csv",
+                                                    "skipped.json"]
     assert not (out / "meshes" / "stale.glb").exists()
     assert Graph().parse(out / "model.ttl", format="turtle").isomorphic(
         import_ifc_graph(b.path, base=BASE).graph)
@@ -435,7 +437,7 @@ def test_matrix_to_pose_recovers_roll_pitch_yaw() -> None:
     assert (pose.roll, pose.pitch, pose.yaw) == pytest.approx(angles, abs=1e-9)
 
 
-def test_an_element_whose_data_cannot_be_read_is_dropped_and_reported(
+def test_an_element_whose_optional_data_cannot_be_read_is_kept_with_a_note(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     from kbplanner.model import ifc_semantics
@@ -451,8 +453,58 @@ def test_an_element_whose_data_cannot_be_read_is_dropped_and_reported(
 
     monkeypatch.setattr(ifc_semantics, "material_names", failing)
     r = import_ifc_graph(b.path, base=BASE)
-    assert [(s.global_id, s.reason) for s in r.skipped] == [
-        (bad, "could not read its data (ValueError: malformed material association)")]
+    assert r.skipped == ()
+    assert [(n.global_id, n.kind, n.message) for n in r.notes if n.kind == "unreadable"] == [
+        (bad, "unreadable", "mass not imported: ValueError: malformed material association"),
+        (bad, "unreadable", "materials not imported: ValueError: malformed material association")]
+    g = r.graph
+    assert (el(bad), RDF.type, KBP.Wall) in g and (el(bad), KBP.installedPose, None) in g
+    assert (el(bad), KBP.material, None) not in g
+    assert r.counts["kbp:Wall"] == len(b.walls)
+
+
+def test_an_element_whose_placement_cannot_be_read_is_kept_without_a_pose(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from kbplanner.model import ifc_geometry
+
+    b = write_test_building(tmp_path / "m.ifc")
+    bad = next(gid for gid, w in b.walls.items() if not w.is_external)
+    real = ifc_geometry.placement_matrix
+
+    def failing(product: Any, scale: float) -> Any:
+        if getattr(product, "GlobalId", None) == bad:
+            raise ValueError("malformed placement")
+        return real(product, scale)
+
+    monkeypatch.setattr(ifc_geometry, "placement_matrix", failing)
+    r = import_ifc_graph(b.path, base=BASE)
+    assert r.skipped == ()
+    assert [(n.global_id, n.message.split(";")[0]) for n in r.notes if n.kind == "unreadable"] == [
+        (bad, "placement not imported (ValueError: malformed placement)")]
+    g = r.graph
+    assert (el(bad), KBP.installedPose, None) not in g and (el(bad), KBP.bounds, None) in g
+
+
+def test_an_element_whose_data_cannot_be_read_at_all_is_dropped_and_reported(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from kbplanner.model import ifc_semantics
+
+    b = write_test_building(tmp_path / "m.ifc")
+    bad = next(gid for gid, w in b.walls.items() if not w.is_external)
+    real = ifc_semantics.kbp_class
+
+    def failing(product: Any) -> Any:
+        if getattr(product, "GlobalId", None) == bad:
+            raise ValueError("unknown entity")
+        return real(product)
+
+    monkeypatch.setattr(ifc_semantics, "kbp_class", failing)
+    r = import_ifc_graph(b.path, base=BASE)
+    assert [(s.global_id, s.reason, s.in_graph, s.task_class) for s in r.skipped] == [
+        (bad, "could not read its data (ValueError: unknown entity)", False, True)]
+    assert [s.global_id for s in r.blocking] == [bad]
     g = r.graph
     assert not list(g.triples((el(bad), None, None))) and not list(g.triples((None, None, el(bad))))
     assert r.counts["kbp:Wall"] == len(b.walls) - 1

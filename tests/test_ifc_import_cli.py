@@ -26,7 +26,8 @@ def test_import_ifc_writes_model_meshes_and_a_starter_project_toml(tmp_path: Pat
     out = tmp_path / "project"
     done = kbplanner("import-ifc", str(b.path), "--out", str(out), "--name", "Test House")
     assert done.returncode == 0, done.stderr
-    assert sorted(p.name for p in out.iterdir()) == ["meshes", "model.ttl", "project.toml"]
+    assert sorted(p.name for p in out.iterdir()) == ["meshes", "model.ttl", "project.toml", "skipped.csv",
+                                                     "skipped.json"]
     manifest = tomllib.loads((out / "project.toml").read_text())
     assert manifest == {"project": {"name": "Test House"}, "model": {"ifc": "../in/house.ifc"}}
     assert (out / manifest["model"]["ifc"]).resolve() == b.path.resolve()
@@ -35,7 +36,9 @@ def test_import_ifc_writes_model_meshes_and_a_starter_project_toml(tmp_path: Pat
     assert (storey, RDF.type, BOT.Storey) in g
     text = done.stdout
     assert "kbp:Wall" in text and "Level 2" in text and "3.000" in text
-    assert f"Skipped (1):\n  {b.broken} IfcBuildingElementProxy" in text
+    heading = "Skipped or without geometry (1; 0 of classes tasks use):"
+    assert f"{heading}\n  {b.broken} IfcBuildingElementProxy" in text
+    assert "length unit metre = 1 m, mass unit kilogram = 1 kg" in text
     assert "project.toml: written" in text
 
 

@@ -1,9 +1,15 @@
 """``kbplanner import-ifc MODEL.ifc --out PROJECT_DIR [--name NAME]``: import an IFC model into a project.
 
-Writes ``PROJECT_DIR/model.ttl`` and ``PROJECT_DIR/meshes/`` (nothing else is copied), and a starter
-``project.toml`` naming the IFC when the directory has none. An existing ``project.toml`` is kept and
-its project name (or ``base_iri``) decides the IRIs, so the import matches what the project loader
-builds. Prints counts per class, storeys with elevations, and skipped elements. Exit 2 on bad input.
+Writes ``PROJECT_DIR/model.ttl``, ``PROJECT_DIR/meshes/`` and ``skipped.json`` + ``skipped.csv`` (every
+element left out or without geometry, and every note: unreadable optional data, implausible masses,
+doors without a host), and a starter ``project.toml`` naming the IFC when the directory has none. An
+existing ``project.toml`` is kept and its project name (or ``base_iri``) decides the IRIs, so the
+import matches what the project loader builds. Prints counts per class, storeys with elevations, the
+units, skipped elements and notes.
+
+Exit 2 on bad input; exit 1 (a negative result, the import is still written) when an element of a
+class tasks use (walls, doors, windows, slabs, spaces, stairs, members, ...; see
+``kbplanner.model.ifc_report.TASK_IFC_CLASSES``) was skipped or has no geometry; else 0.
 """
 
 from __future__ import annotations
@@ -20,8 +26,10 @@ from rich.progress import Progress
 from kbplanner.core.errors import IfcError, ProjectError
 from kbplanner.core.iris import base_iri
 from kbplanner.model.ifc_import import MESH_DIR, MODEL_FILE, ImportResult, import_ifc
+from kbplanner.model.ifc_report import SKIPPED_CSV
 
 MANIFEST = "project.toml"
+NOTES_SHOWN = 20
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -102,14 +110,16 @@ def run(args: argparse.Namespace) -> int:
         manifest.write_text(starter_manifest(name, relative), encoding="utf-8")
         wrote_manifest = True
     sys.stdout.write(summary(result, out, name, wrote_manifest))
-    return 0
+    return 1 if result.blocking else 0
 
 
 def summary(result: ImportResult, out: Path, name: str, wrote_manifest: bool) -> str:
     """The text the command prints after an import."""
+    units = result.units
+    unit_text = (f"length unit {units.length_name} = {units.length_m:g} m, mass unit {units.mass_name} = "
+                 f"{units.mass_kg:g} kg" if units is not None else f"length unit {result.length_unit_m:g} m")
     lines = [
-        f"Imported {result.source.name} ({result.schema}, length unit {result.length_unit_m:g} m) "
-        f"into {out} in {result.seconds:.1f} s",
+        f"Imported {result.source.name} ({result.schema}, {unit_text}) into {out} in {result.seconds:.1f} s",
         f"  {MODEL_FILE}: {len(result.graph)} triples; {MESH_DIR}/: {len(result.meshes)} meshes",
         "Counts per class:",
     ]
@@ -118,9 +128,20 @@ def summary(result: ImportResult, out: Path, name: str, wrote_manifest: bool) ->
     lines.append("Storeys (elevation, m):")
     lines += [f"  {s.name or s.global_id:<20} {s.elevation_m:>8.3f}" for s in result.storeys]
     if result.skipped:
-        lines.append(f"Skipped ({len(result.skipped)}):")
-        lines += [f"  {s.global_id} {s.ifc_class} {s.name!r}: {s.reason}" for s in result.skipped]
+        lines.append(f"Skipped or without geometry ({len(result.skipped)}; {len(result.blocking)} of classes "
+                     "tasks use):")
+        lines += [f"  {s.global_id} {s.ifc_class} {s.name!r}"
+                  f"{' (in the graph)' if s.in_graph else ' (left out)'}: {s.reason}" for s in result.skipped]
     else:
         lines.append("Skipped: none")
+    if result.notes:
+        lines.append(f"Notes ({len(result.notes)}; all in {SKIPPED_CSV}):")
+        shown = result.notes[:NOTES_SHOWN]
+        lines += [f"  {n.global_id} {n.ifc_class} {n.name!r} [{n.kind}]: {n.message}" for n in shown]
+        if len(result.notes) > NOTES_SHOWN:
+            lines.append(f"  ... and {len(result.notes) - NOTES_SHOWN} more")
+    if result.blocking:
+        lines.append(f"Negative result: {len(result.blocking)} element(s) of classes tasks use were skipped "
+                     f"(see {SKIPPED_CSV}); fix them in the authoring tool and export again")
     lines.append(f"project.toml: {'written (project ' + repr(name) + ')' if wrote_manifest else 'kept'}")
     return "\n".join(lines) + "\n"

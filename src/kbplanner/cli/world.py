@@ -19,6 +19,8 @@ from kbplanner.project import Project
 from kbplanner.world.build import WorldError, build_world, parse_date
 from kbplanner.world.exports import MapSettings, export_world, map_summary
 
+MAP_LINES = 10  # level regions and map notes printed (all are in world.json)
+
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
@@ -73,6 +75,11 @@ def run(args: argparse.Namespace) -> int:
                f"workers: {counts['workers']}")
     if export.map is not None:
         out.append(f"  map: {map_summary(export.map)}")
+        out += [f"    {region.text()}" for region in export.map.levels[:MAP_LINES]]
+        out += [f"    note: {note}" for note in export.map.notes[:MAP_LINES]]
+        more = max(0, len(export.map.levels) - MAP_LINES) + max(0, len(export.map.notes) - MAP_LINES)
+        if more:
+            out.append(f"    ... and {more} more in world.json (map.levels, map.notes)")
     out.append(f"  wrote {len(export.files)} files to {args.out}")
     sys.stdout.write("\n".join(out) + "\n")
     return 0

@@ -58,6 +58,62 @@ def is_imported_element(product: Any) -> bool:
 
 
 # ---------------------------------------------------------------------------------------------
+# Property and quantity sets
+
+
+@dataclass(frozen=True)
+class PropertySets:
+    """A product's property and quantity sets by name (its type's first, then its own), and problems.
+
+    A set without a Name (valid in IFC2X3, written by ArchiCAD among others) is kept under
+    ``"(unnamed #<step id>)"``, so two unnamed sets never merge and names stay strings; a set whose
+    contents cannot be read is left out and named in ``problems``.
+    """
+
+    sets: dict[str, dict[str, Any]]
+    problems: tuple[str, ...]
+
+
+def _set_name(definition: Any) -> str:
+    name = getattr(definition, "Name", None)
+    return str(name) if name else f"(unnamed #{definition.id()})"
+
+
+def _definitions(product: Any) -> list[Any]:
+    found: list[Any] = []
+    element_type = ifcopenshell.util.element.get_type(product) if not product.is_a("IfcTypeObject") else None
+    if element_type is not None:
+        found.extend(getattr(element_type, "HasPropertySets", None) or ())
+    for rel in getattr(product, "IsDefinedBy", None) or ():
+        if not rel.is_a("IfcRelDefinesByProperties"):
+            continue
+        definition = rel.RelatingPropertyDefinition
+        if definition is None:
+            continue
+        if definition.is_a("IfcPropertySetDefinitionSet"):  # IFC4: a list of sets
+            found.extend(definition.wrappedValue)
+        else:
+            found.append(definition)
+    return found
+
+
+def property_sets(product: Any) -> PropertySets:
+    """Property and quantity sets of a product (occurrence values override its type's)."""
+    sets: dict[str, dict[str, Any]] = {}
+    problems: list[str] = []
+    for definition in _definitions(product):
+        name = _set_name(definition)
+        try:
+            values = ifcopenshell.util.element.get_property_definition(definition)
+        except Exception as exc:  # a malformed set (missing values, unknown entity) must not stop the import
+            problems.append(f"{definition.is_a()} {name} unreadable ({type(exc).__name__}: {exc})")
+            continue
+        if isinstance(values, dict):
+            sets.setdefault(name, {}).update({str(k): v for k, v in values.items() if k is not None})
+    return PropertySets(sets, tuple(problems))
+
+
+# ---------------------------------------------------------------------------------------------
 # Is a wall external?
 
 _EXTERNAL_WORDS = re.compile(r"\b(exterior|external|facade|façade|outer|outside|aussen|außen|ext\.)",
@@ -97,7 +153,7 @@ def _type_name(product: Any) -> str:
 
 def _naming_text(product: Any) -> str:
     parts = [product.Name or "", getattr(product, "ObjectType", None) or "", _type_name(product)]
-    return " ".join(p for p in parts if p)
+    return " ".join(str(p) for p in parts if p)
 
 
 def decide_wall_external(
@@ -143,7 +199,8 @@ def common_pset_external(product: Any, psets: Mapping[str, Mapping[str, Any]]) -
     part of a roof may carry both Pset_SlabCommon and Pset_RoofCommon.
     """
     own = [f"Pset_{name[3:]}Common" for name in class_chain(product)]
-    others = sorted(n for n in psets if n.startswith("Pset_") and n.endswith("Common") and n not in own)
+    others = sorted(n for n in map(str, psets)
+                    if n.startswith("Pset_") and n.endswith("Common") and n not in own)
     for name in (*own, *others):
         value = psets.get(name, {}).get("IsExternal")
         if isinstance(value, bool):
@@ -210,7 +267,7 @@ def material_names(product: Any) -> list[str]:
     """Names of the product's materials (own or inherited from its type), in set order, deduplicated."""
     names: list[str] = []
     for material in ifcopenshell.util.element.get_materials(product):
-        name = material.Name
+        name = getattr(material, "Name", None)
         if name and name not in names:
             names.append(str(name))
     return names
@@ -248,7 +305,7 @@ def assumed_density(product: Any, length_scale: float) -> DensityAssumption | No
             thickness = float(layer.LayerThickness or 0.0) * length_scale
             if thickness <= 0.0:
                 continue
-            name = layer.Material.Name if layer.Material is not None else None
+            name = getattr(layer.Material, "Name", None) if layer.Material is not None else None
             found = density_of(name) if name else None
             if found is None:
                 return None
@@ -273,9 +330,9 @@ def assumed_density(product: Any, length_scale: float) -> DensityAssumption | No
 
 
 def _quantities(psets: Mapping[str, Mapping[str, Any]], names: Iterable[str]) -> tuple[float, str] | None:
-    for qto in sorted(psets):
+    for qto in sorted(psets, key=str):
         for quantity in names:
-            value = psets[qto].get(quantity)
+            value = (psets[qto] or {}).get(quantity)
             if isinstance(value, int | float) and not isinstance(value, bool) and value > 0:
                 return float(value), f"{qto}.{quantity}"
     return None

@@ -34,11 +34,11 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-import shapely
 from scipy import ndimage
 
 from kbplanner.core.errors import InputFileError, KbplannerError
 from kbplanner.core.outputs import atomic_write_bytes, atomic_write_text
+from kbplanner.world.raster import clip, fill_section, rasterise
 
 log = logging.getLogger(__name__)
 
@@ -52,8 +52,6 @@ OCCUPIED_THRESH = 0.65
 FREE_THRESH = 0.196
 
 _FACE_SHIFT_M = 1e-6  # moves each face into its solid before rasterising (see module docstring)
-_CELL_TOL = 1e-9  # in cells: touching a cell border is not overlapping it
-_PAIRS_PER_CHUNK = 2_000_000
 
 
 @dataclass(frozen=True)
@@ -95,6 +93,7 @@ class OccupancyGrid:
     origin: tuple[float, float]
     resolution: float
     band: tuple[float, float] | None = None
+    notes: tuple[str, ...] = ()  # meshes whose section or triangles could not be used, and how
     _cache: dict[str, FloatArray] = field(default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -260,126 +259,12 @@ def _parse_pgm(raw: bytes, path: Path) -> npt.NDArray[np.uint8]:
     return data.reshape(ny, nx)
 
 
-# --------------------------------------------------------------------------------------------
-# Rasterising triangles within a height band
-# --------------------------------------------------------------------------------------------
-
-
-def _clip(polys: FloatArray, counts: npt.NDArray[np.int64], value: float, keep_above: bool
-          ) -> tuple[FloatArray, npt.NDArray[np.int64]]:
-    """Clip convex polygons (N, K, 3), ``counts`` vertices each, to z >= value (or z <= value)."""
-    n, k, _ = polys.shape
-    rows = np.arange(n)
-    out = np.zeros((n, k + 1, 3))
-    m = np.zeros(n, dtype=np.int64)
-    sign = 1.0 if keep_above else -1.0
-    for i in range(k):
-        valid = i < counts
-        cur = polys[:, i]
-        prev_idx = np.where(i == 0, counts - 1, i - 1)
-        prev = polys[rows, np.maximum(prev_idx, 0)]
-        cur_in = sign * (cur[:, 2] - value) >= 0
-        prev_in = sign * (prev[:, 2] - value) >= 0
-        cross = valid & (cur_in != prev_in)
-        dz = cur[:, 2] - prev[:, 2]
-        t = (value - prev[:, 2]) / np.where(dz == 0, 1.0, dz)
-        hit = prev + t[:, None] * (cur - prev)
-        hit[:, 2] = value
-        idx = rows[cross]
-        out[idx, m[idx]] = hit[cross]
-        m[idx] += 1
-        emit = valid & cur_in
-        idx = rows[emit]
-        out[idx, m[idx]] = cur[emit]
-        m[idx] += 1
-    keep = m > 0
-    out, m = out[keep], m[keep]
-    # Pad with the last vertex so every polygon has k + 1 entries (degenerate edges are harmless).
-    last = out[np.arange(len(m)), m - 1]
-    pad = np.arange(k + 1)[None, :] >= m[:, None]
-    out[pad] = np.repeat(last, k + 1, axis=0).reshape(len(m), k + 1, 3)[pad]
-    return out, m
-
-
-def _rasterise(polys: FloatArray, grid: BoolArray, origin: tuple[float, float], res: float) -> None:
-    """Mark every cell of ``grid`` overlapped by a convex xy polygon (N, K, 2), padded by repetition."""
-    if len(polys) == 0:
-        return
-    ny, nx = grid.shape
-    u = (polys[:, :, 0] - origin[0]) / res  # polygon coordinates in cell units
-    v = (polys[:, :, 1] - origin[1]) / res
-    ix0 = np.floor(u.min(axis=1) + _CELL_TOL).astype(np.int64)
-    ix1 = np.maximum(np.ceil(u.max(axis=1) - _CELL_TOL).astype(np.int64) - 1, ix0)
-    iy0 = np.floor(v.min(axis=1) + _CELL_TOL).astype(np.int64)
-    iy1 = np.maximum(np.ceil(v.max(axis=1) - _CELL_TOL).astype(np.int64) - 1, iy0)
-    ix0, iy0 = np.maximum(ix0, 0), np.maximum(iy0, 0)
-    ix1, iy1 = np.minimum(ix1, nx - 1), np.minimum(iy1, ny - 1)
-    inside = (ix1 >= ix0) & (iy1 >= iy0)
-    u, v, ix0, ix1, iy0, iy1 = u[inside], v[inside], ix0[inside], ix1[inside], iy0[inside], iy1[inside]
-    # Edge normals (orientation made counter-clockwise) for the separating axis test.
-    du = np.roll(u, -1, axis=1) - u
-    dv = np.roll(v, -1, axis=1) - v
-    area2 = (u * np.roll(v, -1, axis=1) - np.roll(u, -1, axis=1) * v).sum(axis=1)
-    orient = np.where(area2 < 0, -1.0, 1.0)[:, None]
-    nu, nv = dv * orient, -du * orient  # outward for CCW polygons
-    offset = nu * u + nv * v
-    offset[(nu == 0) & (nv == 0)] = 1.0  # zero-length (padding) edges separate nothing
-    slack = 0.5 * (np.abs(nu) + np.abs(nv))
-    wx = ix1 - ix0 + 1
-    counts = wx * (iy1 - iy0 + 1)
-    start = 0
-    while start < len(counts):
-        stop = start + max(1, int(np.searchsorted(np.cumsum(counts[start:]), _PAIRS_PER_CHUNK)))
-        sl = slice(start, stop)
-        c = counts[sl]
-        pid = np.repeat(np.arange(start, stop), c)
-        local = np.arange(int(c.sum())) - np.repeat(np.cumsum(c) - c, c)
-        cx = ix0[pid] + local % wx[pid]
-        cy = iy0[pid] + local // wx[pid]
-        cu, cv = cx + 0.5, cy + 0.5
-        # A cell is off the polygon when, for some edge, all its corners are strictly outside.
-        sep = nu[pid] * cu[:, None] + nv[pid] * cv[:, None] - offset[pid]
-        hit = np.all(sep <= slack[pid] - _CELL_TOL, axis=1)
-        grid[cy[hit], cx[hit]] = True
-        start = stop
-
-
-def _fill_section(mesh: Any, z: float, grid: BoolArray, origin: tuple[float, float], res: float) -> None:
-    """Mark cells whose centre lies inside the mesh's horizontal section at height ``z``.
-
-    The faces within the band already mark every cell where a vertical line through the band
-    crosses the surface; the cells left are those where the line stays inside the solid over the
-    whole band, and one section at any height of the band finds exactly those.
-    """
-    lo, hi = np.asarray(mesh.bounds)[:, 2]
-    if not lo < z < hi:
-        return
-    path = mesh.section(plane_origin=(0.0, 0.0, z), plane_normal=(0.0, 0.0, 1.0))
-    if path is None:
-        return
-    planar, to_3d = path.to_2D()
-    ny, nx = grid.shape
-    for poly in planar.polygons_full:
-        poly3 = shapely.transform(poly, lambda uv, m=to_3d: (np.c_[uv, np.zeros(len(uv)), np.ones(len(uv))]
-                                                             @ np.asarray(m).T)[:, :2])
-        x0, y0, x1, y1 = poly3.bounds
-        ix0 = max(0, math.floor((x0 - origin[0]) / res))
-        iy0 = max(0, math.floor((y0 - origin[1]) / res))
-        ix1 = min(nx - 1, math.floor((x1 - origin[0]) / res))
-        iy1 = min(ny - 1, math.floor((y1 - origin[1]) / res))
-        if ix1 < ix0 or iy1 < iy0:
-            continue
-        cx = origin[0] + (np.arange(ix0, ix1 + 1) + 0.5) * res
-        cy = origin[1] + (np.arange(iy0, iy1 + 1) + 0.5) * res
-        xx, yy = np.meshgrid(cx, cy)
-        grid[iy0 : iy1 + 1, ix0 : ix1 + 1] |= shapely.contains_xy(poly3, xx, yy)
-
-
 def occupancy_from_meshes(
     meshes: Sequence[Any],
     band: tuple[float, float],
     extent: Box,
     resolution: float = 0.05,
+    names: Sequence[str] | None = None,
 ) -> OccupancyGrid:
     """Rasterise every triangle of ``meshes`` that lies (partly) within ``band`` onto a grid over ``extent``.
 
@@ -388,6 +273,10 @@ def occupancy_from_meshes(
         band: (zmin, zmax) in metres, e.g. (floor + 0.05, floor + robot height with its load).
         extent: the area to cover; cells number ceil(width / resolution) by ceil(depth / resolution).
         resolution: cell size in metres.
+        names: what each mesh is (for the grid's ``notes``); default "mesh <index>".
+
+    A mesh whose geometry cannot be used (non-finite coordinates, a section that cannot be made
+    into polygons) never stops the map: it is named in the grid's ``notes`` with what was done.
 
     Raises:
         KbplannerError: an empty band or a non-positive resolution.
@@ -404,10 +293,16 @@ def occupancy_from_meshes(
     grid = np.zeros((ny, nx), dtype=bool)
     origin = (extent.xmin, extent.ymin)
     n_tri = 0
-    for mesh in meshes:
+    notes: list[str] = []
+    for index, mesh in enumerate(meshes):
+        name = names[index] if names is not None and index < len(names) else f"mesh {index}"
         tris = np.asarray(mesh.triangles, dtype=np.float64)
         if len(tris) == 0:
             continue
+        finite = np.isfinite(tris).all(axis=(1, 2))
+        if not finite.all():
+            notes.append(f"{name}: {int((~finite).sum())} triangles with non-finite coordinates left out")
+            tris = tris[finite]
         z = tris[:, :, 2]
         near = (z.max(axis=1) >= zmin) & (z.min(axis=1) <= zmax)
         near &= (tris[:, :, 0].max(axis=1) >= extent.xmin) & (tris[:, :, 0].min(axis=1) <= extent.xmax)
@@ -415,19 +310,25 @@ def occupancy_from_meshes(
         if not near.any():
             continue
         tris = tris[near]
-        normals = np.asarray(mesh.face_normals, dtype=np.float64)[near]
+        normals = np.nan_to_num(np.asarray(mesh.face_normals, dtype=np.float64)[finite][near])
         n_tri += len(tris)
         # Into the solid by a micrometre, so a face on a cell border marks the solid side only.
         tris = tris - _FACE_SHIFT_M * np.concatenate(
             [normals[:, None, :2], np.zeros((len(tris), 1, 1))], axis=2)
         counts = np.full(len(tris), 3, dtype=np.int64)
-        polys, counts = _clip(tris, counts, zmin, keep_above=True)
-        polys, counts = _clip(polys, counts, zmax, keep_above=False)
-        _rasterise(polys[:, :, :2], grid, origin, resolution)
-        _fill_section(mesh, 0.5 * (zmin + zmax), grid, origin, resolution)
+        polys, counts = clip(tris, counts, zmin, keep_above=True)
+        polys, counts = clip(polys, counts, zmax, keep_above=False)
+        rasterise(polys[:, :, :2], grid, origin, resolution)
+        if finite.all():
+            problem = fill_section(mesh, 0.5 * (zmin + zmax), grid, origin, resolution)
+            if problem is not None:
+                notes.append(f"{name}: {problem}")
+    for note in notes:
+        log.warning("occupancy: %s", note)
     log.info("occupancy: %d triangles in band %.2f-%.2f m, %d x %d cells, %.1f %% occupied",
              n_tri, zmin, zmax, nx, ny, 100.0 * grid.mean())
-    return OccupancyGrid(occupied=grid, origin=origin, resolution=float(resolution), band=(zmin, zmax))
+    return OccupancyGrid(occupied=grid, origin=origin, resolution=float(resolution), band=(zmin, zmax),
+                         notes=tuple(notes))
 
 
 def storey_occupancy(
