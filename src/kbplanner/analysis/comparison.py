@@ -20,6 +20,7 @@ from typing import Any
 
 from rdflib import URIRef
 
+from kbplanner.analysis.bcf_export import run_issue_date, write_run_bcf
 from kbplanner.analysis.plots import LayoutObject
 from kbplanner.analysis.report import COMPARISON_COLUMNS, ScenarioFigures, build_report, scenario_figures
 from kbplanner.analysis.run_record import RunRecord
@@ -250,6 +251,11 @@ def write_outputs(
         reference=project.manifest.reference,
         task_tables=task_tables,
     )
+    bcf = write_run_bcf(runs, out_dir, ifc_path=project.manifest.ifc, project_name=project.name,
+                        created=run_issue_date(project, runs))
+    if bcf is not None:
+        doc.note(f"{bcf.topics} element(s) not installed: one BCF topic each in {bcf.path.name}, for the "
+                 "BIM authoring tool (a viewpoint at the element, its GlobalId selected).")
     doc.write(out_dir)
     return comp
 
