@@ -44,11 +44,13 @@ def test_validate_writes_one_topic_per_non_conforming_frame(version: str, tmp_pa
 @pytest.mark.skipif(not (CASE / "project.toml").is_file(), reason="case study not present")
 def test_the_same_report_gives_the_same_bytes_and_a_conforming_model_no_topics(tmp_path: Path) -> None:
     project = Project.load(CASE)
-    issues, elsewhere = validation_issues(validate_model(project.model, project.kb).report_graph, project.model)
+    report = validate_model(project.model, project.kb).report_graph
+    issues, elsewhere = validation_issues(report, project.model)
     assert len(issues) == 11 and elsewhere == []
     when = project.world_date()
-    a = write_bcf(issues, tmp_path / "a.bcfzip", ifc_path=project.manifest.ifc, project_name="p", created=when)
-    b = write_bcf(issues, tmp_path / "b.bcfzip", ifc_path=project.manifest.ifc, project_name="p", created=when)
+    ifc = project.manifest.ifc
+    a = write_bcf(issues, tmp_path / "a.bcfzip", ifc_path=ifc, project_name="p", created=when)
+    b = write_bcf(issues, tmp_path / "b.bcfzip", ifc_path=ifc, project_name="p", created=when)
     assert a.not_in_ifc == () and a.path.read_bytes() == b.path.read_bytes()
     ok = Project.load(CASE, scenario="storage-inside")
     assert validation_issues(validate_model(ok.model, ok.kb).report_graph, ok.model) == ([], [])
@@ -57,12 +59,14 @@ def test_the_same_report_gives_the_same_bytes_and_a_conforming_model_no_topics(t
 def test_the_report_writes_a_topic_for_the_panel_the_robot_could_not_install(tmp_path: Path) -> None:
     sp = make_sim_project(tmp_path / "proj")  # P3 hangs 1.8 m up, out of the arm's reach
     run = tmp_path / "run"
-    sim = kbplanner("simulate", str(sp.directory), "--scenario", "stored", "--out", str(run), "--no-keyframes")
+    sim = kbplanner("simulate", str(sp.directory), "--scenario", "stored", "--out", str(run),
+                    "--no-keyframes")
     assert sim.returncode == 1, sim.stderr[-2000:]  # P3 not installed
     rep = kbplanner("report", str(run), "--out", str(tmp_path / "rep"))
     assert rep.returncode == 0, rep.stderr[-2000:]
     topics = read_bcf_topics(tmp_path / "rep" / "not_installed.bcfzip")
-    assert [(t[0], t[2]) for t in topics] == [("Robot could not install Panel P3 (stored)", [sp.panels["P3"]])]
+    assert [(t[0], t[2]) for t in topics] == [
+        ("Robot could not install Panel P3 (stored)", [sp.panels["P3"]])]
     ifc = ifcopenshell.open(str(sp.directory / "model.ifc"))
     assert ifc.by_guid(sp.panels["P3"]).Name == "Panel P3"
     assert "not_installed.bcfzip" in (tmp_path / "rep" / "report.html").read_text(encoding="utf-8")

@@ -61,8 +61,8 @@ def test_the_ids_is_valid_ids_1_0_and_says_what_it_cannot_express(files: tuple[P
 def test_the_bare_ifc_fails_on_exactly_the_shacl_elements_and_the_augmented_one_passes(
         files: tuple[Path, Path]) -> None:
     project = Project.load(CASE)
-    shacl = {f"{r.task_id} action {r.action_order} '{r.action_label}': {r.skill_id} {r.input_name}": {e.global_id for e in r.elements}
-             for r in project.requirements().requirements}
+    shacl = {f"{r.task_id} action {r.action_order} '{r.action_label}': {r.skill_id} {r.input_name}":
+             {e.global_id for e in r.elements} for r in project.requirements().requirements}
     doc = ids.open(str(files[0]))
     assert failing(doc, project.manifest.ifc) == shacl
     assert all(len(v) == 11 for v in shacl.values())
@@ -71,7 +71,8 @@ def test_the_bare_ifc_fails_on_exactly_the_shacl_elements_and_the_augmented_one_
     # the values are the scenario's: F01's grasp point is 1.2 m up, all frames in the outside storage
     f = ifcopenshell.open(str(files[1]))
     pset = ifcopenshell.util.element.get_pset(f.by_guid("1DTPPSXlnHtAyhZMSpYMVU"), PSET)
-    assert pset["GraspPointZ"] == pytest.approx(1.2) and pset["StoredIn"] == "Frame material storage (outside)"
+    assert pset["GraspPointZ"] == pytest.approx(1.2)
+    assert pset["StoredIn"] == "Frame material storage (outside)"
 
 
 def test_a_met_model_gives_an_ids_without_specifications_and_augmenting_needs_a_scenario(

@@ -13,7 +13,7 @@ the same inputs give the same file.
 
 from __future__ import annotations
 
-import os
+import io
 import tempfile
 import uuid
 import zipfile
@@ -39,6 +39,7 @@ from xsdata.models.datatype import XmlDateTime
 
 from kbplanner.analysis.run_record import RunRecord
 from kbplanner.core.errors import IfcError, InputFileError, KbplannerError
+from kbplanner.core.outputs import atomic_write_bytes
 from kbplanner.core.vocab import KBP
 from kbplanner.knowledge.knowledge_base import SH
 from kbplanner.model.project_data import ProjectData
@@ -84,7 +85,8 @@ def _element_of(model: Graph, node: Node) -> Node | None:
     """The IFC element a report focus node is, or belongs to (a pose or box of one element)."""
     if model.value(node, KBP.globalId) is not None:
         return node
-    owners = sorted({s for s in model.subjects(None, node) if model.value(s, KBP.globalId) is not None}, key=str)
+    owners = sorted({s for s in model.subjects(None, node) if model.value(s, KBP.globalId) is not None},
+                    key=str)
     return owners[0] if len(owners) == 1 else None
 
 
@@ -110,7 +112,8 @@ def validation_issues(report: Graph, model: Graph) -> tuple[list[BcfIssue], list
         who = f"{name or gid}" + (f" ({cls})" if cls is not None else "")
         issues.append(BcfIssue(
             global_id=gid, title=f"Does not conform: {who}",
-            description="kbplanner validation (SHACL) found:\n" + "\n".join(f"- {m}" for m in sorted(set(msgs))),
+            description="kbplanner validation (SHACL) found:\n"
+            + "\n".join(f"- {m}" for m in sorted(set(msgs))),
             topic_type="Error", position=_centre(model, element)))
     issues.sort(key=lambda i: i.global_id)
     return issues, sorted(elsewhere)
@@ -125,8 +128,8 @@ def run_issues(rec: RunRecord, scenario: str | None = None) -> list[BcfIssue]:
             continue
         issues.append(BcfIssue(
             global_id=e.global_id, title=f"Robot could not install {e.element} ({name})",
-            description=(f"kbplanner simulation, scenario {name}, task {rec.manifest.get('task', '?')}, robot "
-                         f"{rec.manifest.get('robot', '?')}, seed {rec.manifest.get('seed', '?')}: "
+            description=(f"kbplanner simulation, scenario {name}, task {rec.manifest.get('task', '?')}, "
+                         f"robot {rec.manifest.get('robot', '?')}, seed {rec.manifest.get('seed', '?')}: "
                          f"{e.outcome}. Reason: {e.reason or 'not given'}"),
             topic_type="Issue"))
     return issues
@@ -176,34 +179,23 @@ def write_bcf(issues: Sequence[BcfIssue], out: Path, *, ifc_path: Path | None, p
         info.guid = str(uuid.uuid5(_NS, f"viewpoint|{key}"))
         handler.add_visinfo_handler(v.visinfo.VisualizationInfoHandler(visualization_info=info))
         doc.topics[guid] = handler
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=out.parent, prefix=f".{out.name}.", suffix=".tmp")
-    os.close(fd)
-    try:
-        doc.save(Path(tmp))
+    with tempfile.TemporaryDirectory() as tmp:
+        doc.save(Path(tmp) / "topics.bcfzip")
         doc.close()
-        _repack(Path(tmp), out)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+        atomic_write_bytes(out, _repack(Path(tmp) / "topics.bcfzip"))
     return BcfWritten(path=out, topics=len(issues), not_in_ifc=tuple(missing))
 
 
-def _repack(src: Path, out: Path) -> None:
-    """Copy a zip with sorted entries and fixed timestamps, atomically."""
-    fd, tmp = tempfile.mkstemp(dir=out.parent, prefix=f".{out.name}.", suffix=".zip")
-    os.close(fd)
-    try:
-        with zipfile.ZipFile(src) as zin, zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zout:
-            for name in sorted(zin.namelist()):
-                info = zipfile.ZipInfo(name, date_time=_ZIP_TIME)
-                info.compress_type = zipfile.ZIP_DEFLATED
-                info.external_attr = (0o40755 << 16) if name.endswith("/") else (0o644 << 16)
-                zout.writestr(info, zin.read(name))
-        os.replace(tmp, out)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+def _repack(src: Path) -> bytes:
+    """The zip's bytes with sorted entries and fixed timestamps."""
+    buf = io.BytesIO()
+    with zipfile.ZipFile(src) as zin, zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as zout:
+        for name in sorted(zin.namelist()):
+            info = zipfile.ZipInfo(name, date_time=_ZIP_TIME)
+            info.compress_type = zipfile.ZIP_DEFLATED
+            info.external_attr = (0o40755 << 16) if name.endswith("/") else (0o644 << 16)
+            zout.writestr(info, zin.read(name))
+    return buf.getvalue()
 
 
 def read_bcf_topics(path: Path) -> list[tuple[str, str, list[str]]]:

@@ -29,9 +29,10 @@ def write_validation_bcf(project: ProjectData, result: ValidationResult, out: Pa
     issues, elsewhere = validation_issues(result.report_graph, project.model)
     written = write_bcf(issues, out, ifc_path=project.manifest.ifc, project_name=project.name,
                         created=issue_date(project), version=version)
-    sys.stderr.write(f"wrote BCF {version} {out}: {written.topics} topic(s), one per non-conforming IFC element\n")
+    sys.stderr.write(f"wrote BCF {version} {out}: {written.topics} topic(s), "
+                     "one per non-conforming IFC element\n")
     if elsewhere:
-        sys.stderr.write(f"  {len(elsewhere)} violation(s) not about an IFC element (tasks, site objects) are "
-                         "not in the BCF; see the text or --report\n")
+        sys.stderr.write(f"  {len(elsewhere)} violation(s) not about an IFC element (tasks, site objects) "
+                         "are not in the BCF; see the text or --report\n")
     for gid in written.not_in_ifc:
         sys.stderr.write(f"  {gid} is not in the IFC file: its viewpoint looks at its model position\n")

@@ -2,8 +2,9 @@
 
 Prints one row per requirement (``--format table``), one line per element (``csv``), the full
 result (``json``) or RDF (``ttl``). ``--template FILE`` also writes a Turtle skeleton of exactly what is
-missing; ``--ids FILE`` writes them as buildingSMART IDS and ``--augmented-ifc FILE`` (with ``--scenario``)
-an IFC with the values (:mod:`kbplanner.cli.ids_files`). Exit code 0 whether or not requirements remain (they are a result); 2 on bad input.
+missing; ``--ids FILE`` writes them as buildingSMART IDS and ``--augmented-ifc FILE`` (with
+``--scenario``) an IFC with the values (:mod:`kbplanner.cli.ids_files`). Exit code 0 whether or not
+requirements remain (they are a result); 2 on bad input.
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--ids", metavar="FILE", type=Path,
                    help="write the requirements of the bare model as a buildingSMART IDS 1.0 file")
     p.add_argument("--augmented-ifc", metavar="FILE", type=Path,
-                   help="with --scenario: write a copy of the IFC with the IDS properties set from the scenario")
+                   help="with --scenario: a copy of the IFC with the IDS properties set from the scenario")
     p.set_defaults(func=run)
 
 

@@ -270,7 +270,8 @@ def ids_export(result: RequirementsResult) -> IdsExport:
         a = bt.action
         out.specs.append(IdsSpec(
             identifier=f"{bt.task.task_id}/{a.order}/{a.skill.skill_id}/{bt.binding.input.name}",
-            name=f"{bt.task.task_id} action {a.order} '{a.label}': {a.skill.skill_id} {bt.binding.input.name}",
+            name=(f"{bt.task.task_id} action {a.order} '{a.label}': "
+                  f"{a.skill.skill_id} {bt.binding.input.name}"),
             entities={k: tuple(sorted(v)) for k, v in entities.items()},
             properties=tuple(props),
             description=f"{req[0].missing}." + (f" Not in IDS: {missing}." if missing else ""),

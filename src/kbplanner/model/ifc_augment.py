@@ -10,8 +10,6 @@ names that are missing from the IFC or lack a value in the graph are listed, nev
 
 from __future__ import annotations
 
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -21,6 +19,7 @@ from rdflib import Graph, Literal
 from rdflib.term import Node
 
 from kbplanner.core.errors import IfcError
+from kbplanner.core.outputs import atomic_write_text
 from kbplanner.core.vocab import KBP
 from kbplanner.knowledge.ids_export import PSET, IdsExport
 
@@ -68,15 +67,7 @@ def write_augmented_ifc(ifc_path: Path, out: Path, export: IdsExport, model: Gra
             done.add(gid)
             result.properties += len(props)
     result.elements = len(done)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=out.parent, prefix=f".{out.name}.", suffix=".ifc")
-    os.close(fd)
-    try:
-        f.write(tmp)
-        os.replace(tmp, out)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    atomic_write_text(out, f.to_string())
     return result
 
 
