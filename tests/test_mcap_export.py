@@ -38,7 +38,8 @@ def test_the_message_counts_match_the_run(run: Path) -> None:
     events = [ln for ln in (run / "run" / "events.jsonl").read_text(encoding="utf-8").splitlines() if ln]
     t_end = float(rows[-1]["t_s"])
     counts = read_mcap_counts(run / "run.mcap")
-    assert counts == {"/map": 1, "/tf": len(rows), "/lidar": math.floor(t_end / 0.5) + 1, "/events": len(events)}
+    assert counts == {"/map": 1, "/tf": len(rows), "/lidar": math.floor(t_end / 0.5) + 1,
+                      "/events": len(events)}
 
 
 def test_poses_scans_and_schemas_are_foxglove_ones(run: Path) -> None:
