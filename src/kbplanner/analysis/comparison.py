@@ -21,6 +21,7 @@ from typing import Any
 from rdflib import URIRef
 
 from kbplanner.analysis.bcf_export import run_issue_date, write_run_bcf
+from kbplanner.analysis.playback import add_playbacks
 from kbplanner.analysis.plots import LayoutObject
 from kbplanner.analysis.report import COMPARISON_COLUMNS, ScenarioFigures, build_report, scenario_figures
 from kbplanner.analysis.run_record import RunRecord
@@ -253,6 +254,7 @@ def write_outputs(
     )
     bcf = write_run_bcf(runs, out_dir, ifc_path=project.manifest.ifc, project_name=project.name,
                         created=run_issue_date(project, runs))
+    add_playbacks(doc, runs, project_dir, out_dir, threshold_m=threshold_m)
     if bcf is not None:
         doc.note(f"{bcf.topics} element(s) not installed: one BCF topic each in {bcf.path.name}, for the "
                  "BIM authoring tool (a viewpoint at the element, its GlobalId selected).")
