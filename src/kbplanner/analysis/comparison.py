@@ -6,7 +6,9 @@ execution) into a run directory; ``compare`` does it for each scenario, reads th
 time per frame, total time, minimum separation, time below the 1 m threshold and below the ISO/TS 15066
 protective separation distance, and stops caused by workers. ``write_outputs`` writes
 ``comparison.csv``, ``comparison.json``, the simulated durations written back to the 4D model
-(``results.ttl``, ``schedule_with_results.csv``) and the report.
+(``results.ttl``, ``schedule_with_results.csv``) and the report, with its 4D playback
+(:mod:`kbplanner.analysis.playback`) and a BCF topic per element not installed
+(:mod:`kbplanner.analysis.bcf_export`).
 """
 
 from __future__ import annotations
