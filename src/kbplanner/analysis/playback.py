@@ -6,7 +6,8 @@ elements at the material storage, the site objects), the robot (its footprint as
 mark), the element it carries (its footprint in the carry mode, lifted), the workers and every path,
 animated along the simulated time with a time slider, play/pause and a speed choice; elements move to
 their installed pose when the run installs them; safety stops (red) and near misses (amber: a worker
-closer than the threshold) are marked on the timeline and on the ground. three.js, its GLTFLoader and
+closer than the threshold) are marked on the timeline and on the ground; a section cut 2.2 m above the
+task storey's floor (on by default) keeps the robot visible inside the building. three.js, its GLTFLoader and
 OrbitControls (MIT, bundled in ``analysis/viewer/``) are inlined as one classic script, so the page needs
 no network and no module loading and opens from ``file://``. ``#t=SECONDS`` in the address sets the time;
 the page keeps its state (time, robot pose, carried element, errors) on ``#state`` for tests.
@@ -33,6 +34,7 @@ from kbplanner.world.exports import Y_UP, glb_bytes
 VIEWER = Path(__file__).resolve().parent / "viewer"
 FOLDER = "playback"
 ROBOT_HEIGHT_M = 0.5
+CUT_ABOVE_FLOOR_M = 2.2  # the section cut of the view: above workers (1.75 m), below ceilings
 
 
 def _num(v: float, nd: int) -> float | None:
@@ -77,7 +79,10 @@ def playback_data(rec: RunRecord, world: World, *, threshold_m: float = 1.0) -> 
         extent = [b.xmin, b.ymin, b.xmax, b.ymax]
     else:
         extent = [min(xs) - 5.0, min(ys) - 5.0, max(xs) + 5.0, max(ys) + 5.0]
+    storey = world.storey(world.task_storey)
+    cut_z = round(storey.elevation_m + CUT_ABOVE_FLOOR_M, 3) if storey is not None else None
     return {
+        "cut_z": cut_z,
         "scenario": rec.scenario, "task": rec.manifest.get("task"), "robot_id": rec.manifest.get("robot"),
         "world_date": world.at.isoformat(), "ground_z": round(world.ground_z, 3),
         "extent": [round(v, 3) for v in extent],
@@ -111,7 +116,9 @@ body {{ display: flex; flex-direction: column; }}
 <select id="speed" title="playback speed"><option value="1">1x</option><option value="5">5x</option>
 <option value="20" selected>20x</option><option value="60">60x</option></select>
 <div id="track"><div id="marks"></div><input id="time" type="range" min="0" value="0" aria-label="time"></div>
-<span id="clock"></span></div>
+<span id="clock"></span>
+<label title="hide everything higher than 2.2 m above the task storey's floor"><input id="cut" type="checkbox"
+checked> cut above the storey</label></div>
 <div id="legend">{legend}</div>
 <output id="state" hidden></output>
 <script id="world-glb" type="application/octet-stream">{glb}</script>

@@ -15,6 +15,11 @@
   const canvas = document.getElementById("view");
   const renderer = new THREE.WebGLRenderer({ canvas, antialias: true, preserveDrawingBuffer: false });
   renderer.setPixelRatio(1);
+  // section cut above the task storey, so the robot inside the building stays visible
+  const cut = new THREE.Plane(new THREE.Vector3(0, -1, 0), D.cut_z);
+  const cutBox = document.getElementById("cut");
+  const applyCut = () => { renderer.clippingPlanes = cutBox.checked && D.cut_z !== null ? [cut] : []; };
+  applyCut();
   const scene = new THREE.Scene();
   scene.background = new THREE.Color(0xf4f4f0);
   scene.add(new THREE.HemisphereLight(0xffffff, 0x888888, 2.2));
@@ -160,6 +165,7 @@
     requestAnimationFrame(tick);
   }
   slider.addEventListener("input", () => setTime(Number(slider.value)));
+  cutBox.addEventListener("change", () => { applyCut(); render(); });
   controls.addEventListener("change", render);
   window.addEventListener("resize", render);
 
