@@ -13,6 +13,7 @@ import ifcopenshell.util.element
 import pytest
 from ifctester import ids
 
+from kbplanner.core.errors import KbplannerError
 from kbplanner.knowledge.ids_export import PSET, ids_export
 from kbplanner.model.ifc_augment import write_augmented_ifc
 from kbplanner.project import Project
@@ -80,6 +81,9 @@ def test_a_met_model_gives_an_ids_without_specifications_and_augmenting_needs_a_
     met = Project.load(CASE, scenario="storage-inside")
     export = ids_export(met.requirements())
     assert export.specs == [] and export.already_met
+    with pytest.raises(KbplannerError, match="not valid IDS"):  # IDS 1.0 needs one specification
+        export.write(tmp_path / "empty.ids")
+    assert not (tmp_path / "empty.ids").exists()
     r = run("requirements", str(CASE), "--augmented-ifc", str(tmp_path / "a.ifc"))
     assert r.returncode == 2 and "--augmented-ifc needs --scenario" in r.stderr
     assert not (tmp_path / "a.ifc").exists() and r.stdout == ""

@@ -42,7 +42,10 @@ def write_ids_files(project: Project, result: RequirementsResult, task_id: str |
         base = Project.load(project.path)
         bare = derive_requirements(base.model, base.kb, task_id=task_id)
     export: IdsExport = ids_export(bare)
-    if ids_path is not None:
+    if ids_path is not None and not export.specs:
+        sys.stderr.write(f"no IDS written to {ids_path}: the bare model meets every binding IDS can express "
+                         "(an IDS needs at least one specification)\n")
+    elif ids_path is not None:
         export.write(ids_path, ifc_schema(project.manifest.ifc))
         sys.stderr.write(f"wrote IDS {ids_path} ({len(export.specs)} specification(s))\n")
     if augmented_ifc is not None:

@@ -175,7 +175,10 @@ class IdsExport:
         return text if text.startswith("<?xml") else head + text + "\n"
 
     def write(self, path: Path, ifc_versions: tuple[str, ...] = IFC_VERSIONS) -> None:
-        """Write the IDS file atomically; raises when ifctester finds it invalid (a bug, not bad input)."""
+        """Write the IDS file atomically; raises when it would not be valid IDS 1.0 (none written)."""
+        if not self.specs:
+            raise KbplannerError("nothing to write: not valid IDS without a specification", file=path,
+                                 fix="write an IDS of a model that lacks something (the bare model)")
         text = self.to_string(ifc_versions)
         errors = list(ifc_ids.get_schema().iter_errors(text))
         if errors:
