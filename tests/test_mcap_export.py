@@ -78,3 +78,25 @@ def test_export_mcap_of_the_run_directory_gives_the_same_file(run: Path) -> None
     assert bad.returncode == 2 and "run directory not found" in bad.stderr and not (run / "x.mcap").exists()
     rate = kbplanner("export-mcap", str(run / "run"), "--out", str(run / "x.mcap"), "--scan-hz", "nan")
     assert rate.returncode == 2 and "--scan-hz" in rate.stderr and not (run / "x.mcap").exists()
+
+
+def test_a_scan_in_a_room_sees_the_wall_and_a_worker_at_their_distances() -> None:
+    import numpy as np
+
+    from kbplanner.analysis.mcap_export import grid_scan
+    from kbplanner.robot.lidar import LidarSpec
+    from kbplanner.world.occupancy import OccupancyGrid
+
+    occ = np.zeros((200, 200), dtype=bool)  # 10 x 10 m at 5 cm, walls 10 cm thick on each side
+    occ[:2, :] = occ[-2:, :] = occ[:, :2] = occ[:, -2:] = True
+    grid = OccupancyGrid(occ, (0.0, 0.0), 0.05)
+    spec = LidarSpec(fov_rad=math.radians(270), step_rad=math.radians(0.5), range_min_m=0.1, range_max_m=20.0)
+    ranges = grid_scan(grid, 3.0, 5.0, 0.0, spec, [(3.0, 7.0)])  # facing +x; a worker 2 m to the left
+    angles = spec.angles()
+    ahead = ranges[np.argmin(np.abs(angles))]
+    left = ranges[np.argmin(np.abs(angles - math.pi / 2))]
+    right = ranges[np.argmin(np.abs(angles + math.pi / 2))]
+    assert ahead == pytest.approx(9.9 - 3.0, abs=0.05)  # the east wall's inner face at x = 9.9
+    assert left == pytest.approx(2.0 - 0.25, abs=1e-6)  # the worker's body, before the north wall
+    assert right == pytest.approx(5.0 - 0.1, abs=0.05)  # the south wall's inner face at y = 0.1
+    assert np.isfinite(ranges).all()  # a closed room: every ray returns

@@ -39,6 +39,7 @@ from foxglove_schemas_protobuf.Vector2_pb2 import Vector2
 from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
 from google.protobuf.timestamp_pb2 import Timestamp
 from mcap_protobuf.writer import Writer
+from scipy.ndimage import distance_transform_edt
 
 from kbplanner.analysis.run_record import RunRecord
 from kbplanner.core.errors import KbplannerError
@@ -71,21 +72,40 @@ def _quat(yaw: float) -> Quaternion:
     return Quaternion(x=0.0, y=0.0, z=math.sin(yaw / 2.0), w=math.cos(yaw / 2.0))
 
 
+def clearance(grid: OccupancyGrid) -> np.ndarray[Any, np.dtype[np.float64]]:
+    """Per cell, the distance (m) from its centre to the nearest occupied cell's centre (0 when occupied)."""
+    return np.asarray(distance_transform_edt(~grid.occupied), dtype=np.float64) * grid.resolution
+
+
+FloatArray = np.ndarray[Any, np.dtype[np.float64]]
+
+
 def grid_scan(grid: OccupancyGrid, x: float, y: float, yaw: float, spec: LidarSpec,
-              workers: list[tuple[float, float]]) -> np.ndarray[Any, np.dtype[np.float64]]:
-    """Ranges of one 2D scan from (x, y, yaw) in the occupancy grid and among worker discs (inf: none)."""
+              workers: list[tuple[float, float]], free: FloatArray | None = None) -> FloatArray:
+    """Ranges of one 2D scan from (x, y, yaw) in the occupancy grid and among worker discs (inf: none).
+
+    Rays march by the clearance of the cell they are in (``free``, :func:`clearance`) less one cell, at
+    least half a cell, and stop in the first occupied cell: exact to a cell, a few steps per ray.
+    """
+    free = clearance(grid) if free is None else free
+    res = grid.resolution
     angles = yaw + spec.angles()
-    step = grid.resolution / 2.0
-    r = np.arange(spec.range_min_m, spec.range_max_m + step, step)
-    cos, sin = np.cos(angles)[:, None], np.sin(angles)[:, None]
-    ix = np.floor((x + cos * r - grid.origin[0]) / grid.resolution).astype(np.int64)
-    iy = np.floor((y + sin * r - grid.origin[1]) / grid.resolution).astype(np.int64)
-    ny, nx = grid.shape
-    inside = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny)
-    hit = np.zeros(ix.shape, dtype=bool)
-    hit[inside] = grid.occupied[iy[inside], ix[inside]]
-    ranges = np.where(hit.any(axis=1), r[np.argmax(hit, axis=1)], np.inf)
     ux, uy = np.cos(angles), np.sin(angles)
+    ny, nx = grid.shape
+    ranges = np.full(angles.shape, np.inf)
+    r = np.full(angles.shape, spec.range_min_m)
+    active = np.arange(angles.size)
+    while active.size:
+        ix = np.floor((x + ux[active] * r[active] - grid.origin[0]) / res).astype(np.int64)
+        iy = np.floor((y + uy[active] * r[active] - grid.origin[1]) / res).astype(np.int64)
+        inside = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny) & (r[active] <= spec.range_max_m)
+        d = np.zeros(active.size)
+        d[inside] = free[iy[inside], ix[inside]]
+        hit = inside & (d <= 0.0)
+        ranges[active[hit]] = r[active[hit]]
+        go = inside & ~hit
+        r[active[go]] += np.maximum(d[go] - res, 0.5 * res)
+        active = active[go]
     for wx, wy in workers:
         dx, dy = wx - x, wy - y
         t = dx * ux + dy * uy
@@ -94,7 +114,7 @@ def grid_scan(grid: OccupancyGrid, x: float, y: float, yaw: float, spec: LidarSp
         t_hit = t - np.sqrt(np.clip(WORKER_RADIUS_M ** 2 - perp2, 0.0, None))
         ok = inside_disc & (t_hit >= spec.range_min_m) & (t_hit <= spec.range_max_m)
         ranges = np.where(ok & (t_hit < ranges), t_hit, ranges)
-    return np.asarray(ranges, dtype=np.float64)
+    return ranges
 
 
 def _grid_message(grid: OccupancyGrid, ns: int) -> Grid:
@@ -148,6 +168,7 @@ def export_mcap(rec: RunRecord, out: Path, *, grid: OccupancyGrid | None, start:
         if lidar is None and grid is not None:
             result.notes.append("robot's scanner not in the robot table: no /lidar")
         next_scan = 0.0
+        free = clearance(grid) if grid is not None else None
         for i, t in enumerate(tr.t):
             stamp = ns(t)
             transforms = [FrameTransform(timestamp=_stamp(stamp), parent_frame_id="world",
@@ -164,7 +185,7 @@ def export_mcap(rec: RunRecord, out: Path, *, grid: OccupancyGrid | None, start:
             w.write_message("/tf", FrameTransforms(transforms=transforms), log_time=stamp, publish_time=stamp)
             result.counts["/tf"] += 1
             if grid is not None and lidar is not None and t + 1e-9 >= next_scan:
-                ranges = grid_scan(grid, float(tr.x[i]), float(tr.y[i]), float(tr.yaw[i]), lidar, here)
+                ranges = grid_scan(grid, float(tr.x[i]), float(tr.y[i]), float(tr.yaw[i]), lidar, here, free)
                 w.write_message("/lidar", LaserScan(
                     timestamp=_stamp(stamp), frame_id="base_link", pose=Pose(position=Vector3(),
                                                                              orientation=_quat(0.0)),
