@@ -92,3 +92,31 @@ def test_a_met_model_gives_an_ids_without_specifications_and_augmenting_needs_a_
     write_augmented_ifc(met.manifest.ifc, tmp_path / "b.ifc", ids_export(Project.load(CASE).requirements()),
                         met.model)
     assert met.manifest.ifc.read_bytes() == before and (tmp_path / "b.ifc").stat().st_size > len(before)
+
+
+def test_a_range_the_shacl_shapes_put_on_a_property_becomes_an_ids_value_restriction(tmp_path: Path) -> None:
+    from rdflib import Graph, Literal, URIRef
+
+    from kbplanner.core.vocab import KBP
+    from kbplanner.knowledge.knowledge_base import SH
+
+    shapes = Graph()
+    shape = URIRef("https://example.org/shapes#GraspZ")
+    shapes.add((shape, SH.path, KBP.z))
+    shapes.add((shape, SH.minInclusive, Literal(0.0)))
+    shapes.add((shape, SH.maxExclusive, Literal(3.0)))
+    export = ids_export(Project.load(CASE).requirements(), shapes)
+    grasp = next(s for s in export.specs if "MM-G-1" in s.identifier)
+    bounds = {p.name: p.bounds for p in grasp.properties}
+    assert bounds["GraspPointZ"] == (("maxExclusive", 3.0), ("minInclusive", 0.0))
+    assert bounds["GraspPointX"] == ()
+    export.write(tmp_path / "r.ids")
+    doc = ids.open(str(tmp_path / "r.ids"), validate=True)
+    ifc = ifcopenshell.open(str(Project.load(CASE).manifest.ifc))
+    doc.validate(ifc)  # the bare IFC still fails on the 11 frames, now also for the value range
+    assert [len(s.failed_entities) for s in doc.specifications] == [11, 11]
+    assert '<xs:maxExclusive value="3.0"' in (tmp_path / "r.ids").read_text(encoding="utf-8")
+    aug = write_augmented_ifc(Project.load(CASE).manifest.ifc, tmp_path / "a.ifc", export,
+                              Project.load(CASE, scenario="storage-outside").model)
+    doc.validate(ifcopenshell.open(str(aug.path)))  # grasp points 1.2 m up: within [0, 3)
+    assert [len(s.failed_entities) for s in doc.specifications] == [0, 0]

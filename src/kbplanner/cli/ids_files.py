@@ -15,6 +15,7 @@ from pathlib import Path
 from kbplanner.core.errors import ProjectError
 from kbplanner.knowledge.ids_export import IFC_VERSIONS, IdsExport, ids_export
 from kbplanner.knowledge.requirements import RequirementsResult, derive_requirements
+from kbplanner.knowledge.validation import well_formedness_shapes
 from kbplanner.model.ifc_augment import write_augmented_ifc
 from kbplanner.project import Project
 
@@ -41,7 +42,7 @@ def write_ids_files(project: Project, result: RequirementsResult, task_id: str |
     if project.scenario is not None:
         base = Project.load(project.path)
         bare = derive_requirements(base.model, base.kb, task_id=task_id)
-    export: IdsExport = ids_export(bare)
+    export: IdsExport = ids_export(bare, well_formedness_shapes())
     if ids_path is not None and not export.specs:
         sys.stderr.write(f"no IDS written to {ids_path}: the bare model meets every binding IDS can express "
                          "(an IDS needs at least one specification)\n")

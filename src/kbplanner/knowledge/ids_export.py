@@ -38,7 +38,7 @@ from kbplanner.core.errors import KbplannerError
 from kbplanner.core.outputs import atomic_write_text
 from kbplanner.core.vocab import KBP
 from kbplanner.knowledge.binding_paths import PredicatePath, path_curies, steps_of
-from kbplanner.knowledge.knowledge_base import curie, is_datatype, label
+from kbplanner.knowledge.knowledge_base import SH, curie, is_datatype, label
 from kbplanner.knowledge.requirement_shapes import BindingTarget
 from kbplanner.knowledge.requirements import RequirementsResult
 
@@ -67,6 +67,23 @@ def class_fields(kb: Graph, cls: URIRef) -> list[tuple[URIRef, URIRef]]:
     return sorted(found, key=lambda pr: (rank.get(pr[0], len(rank)), str(pr[0])))
 
 
+_FACETS = {SH.minInclusive: "minInclusive", SH.minExclusive: "minExclusive",
+           SH.maxInclusive: "maxInclusive", SH.maxExclusive: "maxExclusive"}
+
+
+def value_bounds(shapes: Graph | None, predicate: URIRef) -> tuple[tuple[str, float], ...]:
+    """The numeric range facets the SHACL shapes put on ``predicate`` (e.g. ``sh:minInclusive 0``)."""
+    if shapes is None:
+        return ()
+    found: dict[str, float] = {}
+    for shape in sorted(shapes.subjects(SH.path, predicate), key=str):
+        for facet, name in _FACETS.items():
+            v = shapes.value(shape, facet)
+            if isinstance(v, Literal) and isinstance(v.toPython(), int | float) and name not in found:
+                found[name] = float(v.toPython())
+    return tuple(sorted(found.items()))
+
+
 def property_name(*iris: URIRef) -> str:
     """An IFC property name from IRIs' local names: ``graspPoint`` + ``x`` -> ``GraspPointX``."""
     parts = []
@@ -90,6 +107,7 @@ class IdsProperty:
     steps: tuple[URIRef, ...]
     field: URIRef | None
     words: str
+    bounds: tuple[tuple[str, float], ...] = ()  # XSD facets (minInclusive ...) from the SHACL shapes
 
     def value(self, graph: Graph, element: Node) -> Any | None:
         """The property's value for ``element`` in ``graph`` (the first in sorted order), else None."""
@@ -162,8 +180,10 @@ class IdsExport:
                 spec.applicability.append(ifc_ids.Attribute(
                     name="GlobalId", value=ifc_ids.Restriction(options={"enumeration": list(gids)})))
                 for prop in s.properties:
+                    value = (ifc_ids.Restriction(options=dict(prop.bounds), base="double")
+                             if prop.bounds else None)
                     spec.requirements.append(ifc_ids.Property(
-                        propertySet=PSET, baseName=prop.name, dataType=prop.data_type,
+                        propertySet=PSET, baseName=prop.name, value=value, dataType=prop.data_type,
                         cardinality="required", instructions=prop.words))
                 doc.specifications.append(spec)
         return doc
@@ -201,7 +221,7 @@ class IdsExport:
         return out
 
 
-def _properties(kb: Graph, bt: BindingTarget) -> tuple[list[IdsProperty], str]:
+def _properties(kb: Graph, bt: BindingTarget, shapes: Graph | None) -> tuple[list[IdsProperty], str]:
     """The IFC properties of a binding and what of its path IDS cannot express ('' when all of it)."""
     b = bt.binding
     steps = steps_of(b.path)
@@ -214,11 +234,13 @@ def _properties(kb: Graph, bt: BindingTarget) -> tuple[list[IdsProperty], str]:
     vc = b.input.value_class
     if len(steps) == 1:
         if vc is not None and is_datatype(kb, vc):
-            return [IdsProperty(property_name(first), ifc_type(vc), (first,), None, b.words)], ""
+            return [IdsProperty(property_name(first), ifc_type(vc), (first,), None, b.words,
+                                value_bounds(shapes, first))], ""
         fields = class_fields(kb, vc) if vc is not None else []
         if fields:
             return [IdsProperty(property_name(first, f), ifc_type(rng), (first,), f,
-                                f"{label(kb, f)} of the {b.words}") for f, rng in fields], ""
+                                f"{label(kb, f)} of the {b.words}", value_bounds(shapes, f))
+                    for f, rng in fields], ""
         return [IdsProperty(property_name(first), REFERENCE_TYPE, (first,), None,
                             f"name of the {b.words}")], ""
     rest = path_curies(kb, b.path).split(" / ", 1)[-1]
@@ -232,8 +254,11 @@ def _properties(kb: Graph, bt: BindingTarget) -> tuple[list[IdsProperty], str]:
                     "scenario overlay), outside the IFC")
 
 
-def ids_export(result: RequirementsResult) -> IdsExport:
+def ids_export(result: RequirementsResult, shapes: Graph | None = None) -> IdsExport:
     """A3 as IDS: one specification per unmet binding of :func:`derive_requirements`'s result.
+
+    ``shapes`` (e.g. the well-formedness shapes of ``shapes/``) give value constraints: a numeric range
+    a shape puts on a property becomes the IDS property's ``xs:restriction``.
 
     Example:
         >>> from kbplanner.knowledge.knowledge_base import load_kb
@@ -254,7 +279,7 @@ def ids_export(result: RequirementsResult) -> IdsExport:
                                    f"({c.needs})")
     for shape, numbers in by_shape.items():
         bt = result.shapes.targets[shape]
-        props, missing = _properties(kb, bt)
+        props, missing = _properties(kb, bt, shapes)
         if missing:
             out.not_expressed.append(missing)
         if not props:
