@@ -14,13 +14,14 @@ import math
 import sys
 from datetime import datetime
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from kbplanner.analysis.mcap_export import McapWritten, export_mcap
-from kbplanner.analysis.run_record import RunRecord
 from kbplanner.core.errors import KbplannerError
-from kbplanner.robot.lidar import LidarSpec
-from kbplanner.robot.robot_model import load_robot_specs
-from kbplanner.world.occupancy import OccupancyGrid
+
+if TYPE_CHECKING:
+    from kbplanner.analysis.mcap_export import McapWritten
+    from kbplanner.robot.lidar import LidarSpec
+    from kbplanner.world.occupancy import OccupancyGrid
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -35,6 +36,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 def scanner(robot_id: str) -> LidarSpec | None:
     """The 2D scanner of a robot of the robot table (ids with '-' or '_'), else None."""
+    from kbplanner.robot.lidar import LidarSpec
+    from kbplanner.robot.robot_model import load_robot_specs
+
     specs = load_robot_specs()
     spec = specs.get(robot_id) or specs.get(robot_id.replace("-", "_"))
     if spec is None:
@@ -48,6 +52,9 @@ def scanner(robot_id: str) -> LidarSpec | None:
 def write_run_mcap(run_dir: Path, out: Path, *, grid: OccupancyGrid | None = None,
                    start: datetime | None = None, scan_hz: float = 2.0) -> McapWritten:
     """MCAP of a run directory; the map and date come from the project when not given."""
+    from kbplanner.analysis.mcap_export import export_mcap  # mcap, protobuf: only when asked
+    from kbplanner.analysis.run_record import RunRecord
+
     rec = RunRecord.load(run_dir)
     task = str(rec.manifest.get("task") or "") or None
     project_dir = rec.manifest.get("project_dir")

@@ -13,7 +13,6 @@ import argparse
 import sys
 from pathlib import Path
 
-from kbplanner.cli.ids_files import write_ids_files
 from kbplanner.core.stores import add_store_argument
 from kbplanner.core.tables import render
 from kbplanner.knowledge.requirements import RequirementsResult, derive_requirements
@@ -61,6 +60,8 @@ def run(args: argparse.Namespace) -> int:
     project = Project.load(args.project, scenario=args.scenario, store=args.store)
     result = derive_requirements(project.model, project.kb, task_id=args.task)
     if args.ids is not None or args.augmented_ifc is not None:
+        from kbplanner.cli.ids_files import write_ids_files  # ifctester: only when asked
+
         write_ids_files(project, result, args.task, args.ids, args.augmented_ifc)
     sys.stdout.write(format_result(result, args.format))
     if args.template is not None:
