@@ -6,7 +6,9 @@ execution) into a run directory; ``compare`` does it for each scenario, reads th
 time per frame, total time, minimum separation, time below the 1 m threshold and below the ISO/TS 15066
 protective separation distance, and stops caused by workers. ``write_outputs`` writes
 ``comparison.csv``, ``comparison.json``, the simulated durations written back to the 4D model
-(``results.ttl``, ``schedule_with_results.csv``) and the report.
+(``results.ttl``, ``schedule_with_results.csv``) and the report, with its 4D playback
+(:mod:`kbplanner.analysis.playback`) and a BCF topic per element not installed
+(:mod:`kbplanner.analysis.bcf_export`).
 """
 
 from __future__ import annotations
@@ -20,6 +22,8 @@ from typing import Any
 
 from rdflib import URIRef
 
+from kbplanner.analysis.bcf_export import run_issue_date, write_run_bcf
+from kbplanner.analysis.playback import add_playbacks
 from kbplanner.analysis.plots import LayoutObject
 from kbplanner.analysis.report import COMPARISON_COLUMNS, ScenarioFigures, build_report, scenario_figures
 from kbplanner.analysis.run_record import RunRecord
@@ -250,6 +254,12 @@ def write_outputs(
         reference=project.manifest.reference,
         task_tables=task_tables,
     )
+    bcf = write_run_bcf(runs, out_dir, ifc_path=project.manifest.ifc, project_name=project.name,
+                        created=run_issue_date(project, runs))
+    add_playbacks(doc, runs, project_dir, out_dir, threshold_m=threshold_m)
+    if bcf is not None:
+        doc.note(f"{bcf.topics} element(s) not installed: one BCF topic each in {bcf.path.name}, for the "
+                 "BIM authoring tool (a viewpoint at the element, its GlobalId selected).")
     doc.write(out_dir)
     return comp
 

@@ -36,7 +36,7 @@ figcaption { font-size: 0.85em; color: #555; }
 
 @dataclass
 class _Block:
-    kind: str  # "h2", "p", "note", "table", "image"
+    kind: str  # "h2", "p", "note", "table", "image", "frame"
     text: str = ""
     columns: Sequence[str] = ()
     rows: Sequence[Sequence[Any]] = ()
@@ -71,6 +71,10 @@ class ReportDoc:
         """A PNG figure; ``name`` is its file name in the Markdown version."""
         self.blocks.append(_Block("image", caption, png=png, name=name))
 
+    def frame(self, src: str, caption: str, height_px: int = 640) -> None:
+        """An embedded page beside the report (``src`` relative to it), e.g. the 4D playback."""
+        self.blocks.append(_Block("frame", caption, name=src, rows=((height_px,),)))
+
     @property
     def images(self) -> list[tuple[str, bytes]]:
         """(file name, PNG bytes) of every figure."""
@@ -94,6 +98,12 @@ class ReportDoc:
                 data = base64.b64encode(b.png).decode("ascii")
                 out.append(f'<figure><img alt="{html.escape(b.text)}" src="data:image/png;base64,{data}">'
                            f"<figcaption>{html.escape(b.text)}</figcaption></figure>")
+            elif b.kind == "frame":
+                out.append(f'<figure><iframe src="{html.escape(b.name)}" title="{html.escape(b.text)}" '
+                           f'style="width:100%;height:{int(b.rows[0][0])}px;border:1px solid #ccc"></iframe>'
+                           f'<figcaption>{html.escape(b.text)} '
+                           f'(<a href="{html.escape(b.name)}">open alone</a>)'
+                           "</figcaption></figure>")
         out.append("</body></html>")
         return "\n".join(out) + "\n"
 
@@ -116,6 +126,8 @@ class ReportDoc:
                 out.append("")
             elif b.kind == "image":
                 out += [f"![{b.text}]({image_prefix}{b.name})", "", f"*{b.text}*", ""]
+            elif b.kind == "frame":
+                out += [f"[{b.text}]({b.name})", ""]
         return "\n".join(out)
 
     def write(self, directory: Path, stem: str = "report") -> tuple[Path, Path]:

@@ -34,6 +34,7 @@ COMMANDS: tuple[str, ...] = (
     "simulate",
     "compare",
     "report",
+    "export_mcap",
     "run",
     "generate_building",
     "sweep",

@@ -2,7 +2,9 @@
 
 Prints one row per requirement (``--format table``), one line per element (``csv``), the full
 result (``json``) or RDF (``ttl``). ``--template FILE`` also writes a Turtle skeleton of exactly what is
-missing. Exit code 0 whether or not requirements remain (they are a result); 2 on bad input.
+missing; ``--ids FILE`` writes them as buildingSMART IDS and ``--augmented-ifc FILE`` (with
+``--scenario``) an IFC with the values (:mod:`kbplanner.cli.ids_files`). Exit code 0 whether or not
+requirements remain (they are a result); 2 on bad input.
 """
 
 from __future__ import annotations
@@ -29,6 +31,10 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--format", choices=FORMATS, default="table")
     p.add_argument("--template", metavar="FILE", type=Path,
                    help="write a Turtle skeleton of what is missing (fill it in, add it to the project)")
+    p.add_argument("--ids", metavar="FILE", type=Path,
+                   help="write the requirements of the bare model as a buildingSMART IDS 1.0 file")
+    p.add_argument("--augmented-ifc", metavar="FILE", type=Path,
+                   help="with --scenario: a copy of the IFC with the IDS properties set from the scenario")
     p.set_defaults(func=run)
 
 
@@ -53,6 +59,10 @@ def format_result(result: RequirementsResult, fmt: str) -> str:
 def run(args: argparse.Namespace) -> int:
     project = Project.load(args.project, scenario=args.scenario, store=args.store)
     result = derive_requirements(project.model, project.kb, task_id=args.task)
+    if args.ids is not None or args.augmented_ifc is not None:
+        from kbplanner.cli.ids_files import write_ids_files  # ifctester: only when asked
+
+        write_ids_files(project, result, args.task, args.ids, args.augmented_ifc)
     sys.stdout.write(format_result(result, args.format))
     if args.template is not None:
         args.template.write_text(result.template(project.base), encoding="utf-8")

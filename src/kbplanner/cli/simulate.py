@@ -33,6 +33,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--gui", action="store_true", help="show the PyBullet GUI when a display exists")
     p.add_argument("--no-keyframes", action="store_true", help="do not render key frame images")
     p.add_argument("--out", type=Path, required=True, metavar="DIR", help="run directory (replaced)")
+    p.add_argument("--mcap", type=Path, metavar="FILE", help="also write the run as MCAP (see export-mcap)")
     p.set_defaults(func=run)
 
 
@@ -90,4 +91,8 @@ def run(args: argparse.Namespace) -> int:
     out.print(f"installed {totals['installed']} of {totals['elements']}; simulated {result.sim_time_s:.1f} s "
               f"in {result.wall_time_s:.1f} s wall; {totals['stops']} safety stop(s); wrote "
               f"{len(result.files)} files to {args.out}")
+    if args.mcap is not None:
+        from kbplanner.cli.export_mcap import report, write_run_mcap
+
+        report(write_run_mcap(args.out, args.mcap, grid=grid, start=project.world_date(args.task)))
     return 0 if all(e.outcome == INSTALLED for e in result.elements) and result.elements else 1

@@ -3,7 +3,7 @@
 Checks the well-formedness shapes of ``shapes/`` and the requirement shapes generated from the
 knowledge base. Exit code 0 when the model conforms, 1 when it does not (the readable list is
 printed), 2 on bad input. ``--report FILE`` writes the standard SHACL report as Turtle, or the
-readable text when FILE ends in ``.txt``.
+readable text when FILE ends in ``.txt``; ``--bcf FILE`` one BCF topic per non-conforming IFC element.
 """
 
 from __future__ import annotations
@@ -27,6 +27,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                    help="write the SHACL report (Turtle), or the text report if FILE ends in .txt")
     p.add_argument("--well-formedness-only", action="store_true",
                    help="skip the generated requirement shapes (check only shapes/*.ttl)")
+    p.add_argument("--bcf", metavar="FILE", type=Path,
+                   help="write one BCF topic per non-conforming IFC element (a .bcfzip)")
+    p.add_argument("--bcf-version", choices=("2.1", "3.0"), default="3.0", help="BCF version (default 3.0)")
     p.set_defaults(func=run)
 
 
@@ -37,4 +40,8 @@ def run(args: argparse.Namespace) -> int:
     if args.report is not None:
         result.write(args.report)
         sys.stderr.write(f"wrote report {args.report}\n")
+    if args.bcf is not None:
+        from kbplanner.cli.bcf_files import write_validation_bcf  # bcf-client: only when asked
+
+        write_validation_bcf(project, result, args.bcf, args.bcf_version)
     return EXIT_OK if result.conforms else EXIT_NEGATIVE
