@@ -38,7 +38,7 @@ def run(args: argparse.Namespace) -> int:
     if args.format == "json":
         data = asdict(b)
         data["directory"], data["ifc"] = str(b.directory), str(b.ifc)
-        sys.stdout.write(json.dumps(data, indent=2) + "\n")
+        sys.stdout.write(json.dumps(data, indent=2, allow_nan=False) + "\n")
         return 0
     lines = [
         f"{b.directory}: {b.storeys} storeys x {b.units_per_storey} units (seed {b.seed}), "
