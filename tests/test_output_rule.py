@@ -84,7 +84,7 @@ def test_force_writes_among_other_files_and_a_clash_stops_the_run(tmp_path: Path
         _write(stage, {"a.json": "1"})
     assert (out / "notes.txt").read_text() == "mine" and read_marker(out) == {"a.json"}
     (out / "b.json").write_text("mine too")
-    with pytest.raises(OutputError, match="b.json"), run_directory(out) as stage:
+    with pytest.raises(OutputError, match=r"b\.json"), run_directory(out) as stage:
         _write(stage, {"a.json": "2", "b.json": "2"})
     assert (out / "b.json").read_text() == "mine too" and (out / "a.json").read_text() == "1"
     # --force never makes a project folder an output folder

@@ -32,7 +32,8 @@ def tree_digest(root: Path) -> dict[str, str]:
         for f in filenames:
             p = Path(dirpath) / f
             key = (rel / f).as_posix()
-            out[key] = ("link:" + os.readlink(p)) if p.is_symlink() else hashlib.sha256(p.read_bytes()).hexdigest()
+            out[key] = (("link:" + os.readlink(p)) if p.is_symlink()
+                        else hashlib.sha256(p.read_bytes()).hexdigest())
     return out
 
 

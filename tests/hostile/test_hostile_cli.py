@@ -133,9 +133,11 @@ PATH_CASES: dict[str, Case] = {
                                               needle="did not write"),
     "requirements-template-folder": _case("requirements", "proj", "--template", "userdir",
                                           needle="is a folder"),
-    "world-unwritable": _case("world", "proj", *DATE, "--out", "/sys/kbplanner-hostile", needle="cannot write"),
+    "world-unwritable": _case("world", "proj", *DATE, "--out", "/sys/kbplanner-hostile",
+                              needle="cannot write"),
     "import-into-users-file": _case("import-ifc", "proj/model.ifc", "--out", "user.txt", needle="file"),
-    "import-below-a-file": _case("import-ifc", "proj/model.ifc", "--out", "user.txt/p", needle="below a file"),
+    "import-below-a-file": _case("import-ifc", "proj/model.ifc", "--out", "user.txt/p",
+                                 needle="below a file"),
     "import-over-users-model": _case("import-ifc", "proj/model.ifc", "--out", "userdir",
                                      needle="not written by an import",
                                      setup=lambda r: (r / "userdir" / "model.ttl").write_text("# mine\n")),
@@ -151,7 +153,7 @@ PATH_CASES: dict[str, Case] = {
                                         "--store", "oxigraph", needle="not an absolute IRI"),
     "query-sparql-bind-iri-gt": _case("query", "proj", "--sparql", "q.rq", "--bind", "s=<https://a/b>c>",
                                       needle="not an absolute IRI",
-                                      setup=lambda r: (r / "q.rq").write_text("SELECT ?s WHERE { ?s ?p ?o }")),
+                                      setup=lambda r: (r / "q.rq").write_text("SELECT * { ?s ?p ?o }")),
 }
 
 
