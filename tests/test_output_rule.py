@@ -174,3 +174,27 @@ def test_json_is_strict_and_names_where_a_non_finite_number_is(tmp_path: Path, b
         write_json(tmp_path / "m.json", {"totals": {"speed": [1.0, bad]}})
     assert not (tmp_path / "m.json").exists()
     assert json.loads(json_text({"a": 1.5})) == {"a": 1.5}
+
+
+def test_the_cli_rewrites_its_own_folder_keeps_the_users_notes_and_force_keeps_a_users_folder(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    from kbplanner.cli import main
+    from project_factory import make_project
+
+    make_project(tmp_path / "proj")
+    monkeypatch.setenv("KBPLANNER_CACHE_DIR", str(tmp_path / "cache"))
+    world = ["world", str(tmp_path / "proj"), "--date", "2022-04-01", "--out"]
+    out = tmp_path / "w"
+    assert main([*world, str(out)]) == 0
+    assert json.loads((out / MARKER).read_text())["command"].startswith("kbplanner world ")
+    (out / "notes.txt").write_text("mine")
+    assert main([*world, str(out)]) == 0
+    assert (out / "notes.txt").read_text() == "mine" and (out / "world.json").is_file()
+    users = tmp_path / "users"
+    users.mkdir()
+    (users / "a.txt").write_text("mine")
+    assert main([*world, str(users)]) == 2
+    assert "--force" in capsys.readouterr().err and sorted(p.name for p in users.iterdir()) == ["a.txt"]
+    assert main([*world, str(users), "--force"]) == 0
+    assert (users / "a.txt").read_text() == "mine" and (users / "world.json").is_file()
+    json.loads((users / "world.json").read_text(), parse_constant=lambda c: pytest.fail(f"{c} in JSON"))
