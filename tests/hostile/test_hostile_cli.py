@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import FRESH, Workspace, one_message
+from hostile.harness import FRESH, Workspace, one_message
 
 DATE = ["--date", "2022-04-01"]
 # Every command that writes a folder, with the arguments that it needs besides --out.
