@@ -128,7 +128,7 @@ PATH_CASES: dict[str, Case] = {
     "validate-report-below-file": _case("validate", "proj", "--report", "user.txt/r.ttl",
                                         needle="below a file"),
     "validate-report-unwritable": _case("validate", "proj", "--well-formedness-only", "--report",
-                                        "/sys/kbplanner-hostile.ttl", needle="/sys"),
+                                        "/sys/kbplanner-hostile.ttl", needle="cannot write"),
     "requirements-template-users-file": _case("requirements", "proj", "--template", "user.txt",
                                               needle="did not write"),
     "requirements-template-folder": _case("requirements", "proj", "--template", "userdir",
@@ -205,3 +205,18 @@ def test_the_console_script_prints_one_message_without_a_traceback(workspace: Wo
                              cwd=workspace.root, timeout=120)
         assert out.returncode == 2 and "Traceback" not in out.stderr
         one_message(out.stderr)
+
+
+@pytest.mark.parametrize("command", ["world", "plan", "generate-building"])
+def test_an_immutable_output_folder_is_refused_before_any_work(workspace: Workspace, command: str) -> None:
+    """``chattr +i`` (root on ext4 and the like): no file can be created in the folder or below it."""
+    folder = workspace.root / "frozen"
+    folder.mkdir()
+    if subprocess.run(["chattr", "+i", str(folder)], capture_output=True).returncode != 0:
+        pytest.skip("chattr +i is not available here")
+    try:
+        for out in ("frozen", "frozen/x"):
+            code, err = workspace.run([*WRITERS[command], "--out", out])
+            assert code == 2 and "cannot write" in one_message(err)
+    finally:
+        subprocess.run(["chattr", "-i", str(folder)], check=True)

@@ -161,6 +161,7 @@ def check_output_dir(out: Path | str, *, option: str = "--out") -> None:
         raise OutputError(f"{option} is the current folder or holds it", file=out, element=option,
                           fix="give a new folder, e.g. --out runs/NAME")
     if not path.is_dir():
+        _probe(next(p for p in path.parents if p.exists()), out)
         return
     owned = read_marker(path)
     try:
@@ -171,6 +172,8 @@ def check_output_dir(out: Path | str, *, option: str = "--out") -> None:
     if PROJECT_MANIFEST in contents.files and PROJECT_MANIFEST not in (owned or set()):
         raise OutputError(f"{option} is a project folder (it holds project.toml)", file=out, element=option,
                           fix="give a new folder for the results, e.g. --out runs/NAME")
+    _probe(path.parent, out)
+    _probe(path, out)
     if owned is None and (contents.files or contents.dirs) and not _FORCE.get():
         foreign = _foreign(contents, set())
         example = ", ".join(foreign[:3]) + (", ..." if len(foreign) > 3 else "")
@@ -180,6 +183,16 @@ def check_output_dir(out: Path | str, *, option: str = "--out") -> None:
             file=out, element=option,
             fix="give a new folder, or pass --force to write into it (your files are kept; a name clash "
                 "stops the run)")
+
+
+def _probe(folder: Path, out: Path) -> None:
+    """Refuse before any work a folder where nothing can be created (permissions, read-only, immutable)."""
+    try:
+        Path(tempfile.mkdtemp(prefix=".kbplanner-probe-", dir=folder)).rmdir()
+    except OSError as exc:
+        raise OutputError(f"cannot write into {folder} ({exc.strerror or exc})", file=out, element="--out",
+                          fix="give a folder you can write to (check permissions, a read-only or "
+                              "immutable folder)") from None
 
 
 def check_output_file(path: Path | str, *, option: str) -> None:
@@ -198,6 +211,7 @@ def check_output_file(path: Path | str, *, option: str) -> None:
     if full.is_symlink() or (full.exists() and not _signed(full)):
         raise OutputError(f"{option} is an existing file that kbplanner did not write", file=path,
                           element=option, fix="give a new file name; kbplanner never replaces your files")
+    _probe(next(p for p in full.parents if p.exists()), path)
 
 
 def _signed(path: Path) -> bool:
@@ -272,8 +286,17 @@ def _install(stage: Path, path: Path, out: Path, *, replace: bool) -> None:
     if replace and not foreign:  # the folder holds only our files: swap it in whole
         (stage / MARKER).write_text(_marker_text(new), encoding="utf-8")
         old = Path(tempfile.mkdtemp(prefix=f".{path.name}.old-", dir=path.parent))
-        os.replace(path, old / "d")
-        os.replace(stage, path)
+        try:
+            os.replace(path, old / "d")
+        except OSError:
+            old.rmdir()
+            raise
+        try:
+            os.replace(stage, path)
+        except OSError:
+            os.replace(old / "d", path)  # put the earlier run back
+            old.rmdir()
+            raise
         shutil.rmtree(old, ignore_errors=True)
         return
     # Merge: other files stay where they are; ours are replaced file by file.
