@@ -38,7 +38,10 @@ def run(args: argparse.Namespace) -> int:
 
     if args.out is None and len(args.runs) > 1:
         raise InputFileError("several run directories and no --out", fix="give --out DIR for the report")
-    check_out(args.out if args.out is not None else args.runs[0])
+    if args.out is not None:
+        check_out(args.out)
+    else:
+        check_out(args.runs[0], option="RUN_DIR (the report's folder without --out)")
     records = [RunRecord.load(d) for d in args.runs]
     project_dir = records[0].manifest.get("project_dir")
     if not project_dir or not Path(project_dir).is_dir():
