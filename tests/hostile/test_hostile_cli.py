@@ -117,8 +117,10 @@ FLAG_CASES: dict[str, Case] = {
                                  needle="--units-per-storey"),
     "generate-seed-neg": _case("generate-building", "--storeys", "1", "--units-per-storey", "1", "--seed",
                                "-1", *OUT, needle="out of range"),
-    "query-bind-double-nan": _case("query", "proj", "element_state_at", "--bind", "at=2022-01-01",
-                                   "--bind", "nope=nan", needle="parameter"),
+    "query-bind-bad-date": _case("query", "proj", "element_state_at", "--bind", "at=2022-13-45",
+                                 needle="is not a valid xsd:dateTime"),
+    "query-bind-unknown": _case("query", "proj", "element_state_at", "--bind", "at=2022-01-01",
+                                "--bind", "nope=nan", needle="no parameter"),
 }
 
 # Single-file outputs and other paths.
