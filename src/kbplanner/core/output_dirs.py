@@ -172,8 +172,6 @@ def check_output_dir(out: Path | str, *, option: str = "--out") -> None:
     if PROJECT_MANIFEST in contents.files and PROJECT_MANIFEST not in (owned or set()):
         raise OutputError(f"{option} is a project folder (it holds project.toml)", file=out, element=option,
                           fix="give a new folder for the results, e.g. --out runs/NAME")
-    _probe(path.parent, out)
-    _probe(path, out)
     if owned is None and (contents.files or contents.dirs) and not _FORCE.get():
         foreign = _foreign(contents, set())
         example = ", ".join(foreign[:3]) + (", ..." if len(foreign) > 3 else "")
@@ -183,6 +181,8 @@ def check_output_dir(out: Path | str, *, option: str = "--out") -> None:
             file=out, element=option,
             fix="give a new folder, or pass --force to write into it (your files are kept; a name clash "
                 "stops the run)")
+    _probe(path.parent, out)  # the staging folder goes beside it
+    _probe(path, out)
 
 
 def _probe(folder: Path, out: Path) -> None:
