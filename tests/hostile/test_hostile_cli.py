@@ -222,3 +222,33 @@ def test_an_immutable_output_folder_is_refused_before_any_work(workspace: Worksp
             assert code == 2 and "cannot write" in one_message(err)
     finally:
         subprocess.run(["chattr", "-i", str(folder)], check=True)
+
+
+# Every command that reads a project, with the arguments it needs after the project.
+READERS: dict[str, tuple[list[str], list[str]]] = {
+    "info": (["info"], []),
+    "robots": (["robots"], []),
+    "requirements": (["requirements"], []),
+    "validate": (["validate"], []),
+    "query": (["query"], ["storeys"]),
+    "world": (["world"], [*DATE, *OUT]),
+    "plan": (["plan"], []),
+    "simulate": (["simulate"], OUT),
+    "run": (["run"], OUT),
+    "compare": (["compare"], ["--scenarios", "a", *OUT]),
+    "sweep": (["sweep"], ["--vary", "seed=1", *OUT]),
+}
+BAD_PROJECTS = {"a-file": ("user.txt", "project directory not found"),
+                "no-manifest": ("userdir", "no project.toml"),
+                "missing": ("nowhere", "project directory not found")}
+
+
+@pytest.mark.parametrize("command", list(READERS))
+@pytest.mark.parametrize("bad", list(BAD_PROJECTS))
+def test_every_reader_refuses_a_path_that_is_not_a_project(workspace: Workspace, command: str,
+                                                           bad: str) -> None:
+    head, tail = READERS[command]
+    path, needle = BAD_PROJECTS[bad]
+    code, err = workspace.run([*head, path, *tail])
+    assert code == 2 and needle in one_message(err) and path in one_message(err)
+    assert not (workspace.root / FRESH).exists()
