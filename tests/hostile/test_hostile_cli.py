@@ -8,6 +8,9 @@ and site files, site locations) go into ``FILE_CASES``.
 
 from __future__ import annotations
 
+import json
+import os
+import stat
 import subprocess
 import sys
 from collections.abc import Callable
@@ -252,3 +255,27 @@ def test_every_reader_refuses_a_path_that_is_not_a_project(workspace: Workspace,
     code, err = workspace.run([*head, path, *tail])
     assert code == 2 and needle in one_message(err) and path in one_message(err)
     assert not (workspace.root / FRESH).exists()
+
+
+def _strict(text: str) -> object:
+    def refuse(constant: str) -> object:
+        raise AssertionError(f"{constant} in JSON")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+@pytest.mark.parametrize("argv", [["world", "proj", *DATE]], ids=["world"])
+def test_what_a_command_writes_is_strict_json_with_the_umask_mode(workspace: Workspace,
+                                                                 argv: list[str]) -> None:
+    old = os.umask(0o027)
+    try:
+        code, _err = workspace.run([*argv, *OUT])
+    finally:
+        os.umask(old)
+    assert code in (0, 1)
+    files = [p for p in (workspace.root / FRESH).rglob("*") if p.is_file()]
+    assert any(p.suffix == ".json" for p in files)
+    for p in files:
+        if p.suffix == ".json" or p.name == ".kbplanner-run":
+            _strict(p.read_text())
+        assert stat.S_IMODE(p.stat().st_mode) == 0o640, p
