@@ -141,6 +141,8 @@ PATH_CASES: dict[str, Case] = {
     "world-unwritable": _case("world", "proj", *DATE, "--out", "/sys/kbplanner-hostile",
                               needle="cannot write"),
     "import-into-users-file": _case("import-ifc", "proj/model.ifc", "--out", "user.txt", needle="file"),
+    "import-unwritable": _case("import-ifc", "proj/model.ifc", "--out", "/sys/kbplanner-hostile",
+                               needle="cannot write"),
     "import-below-a-file": _case("import-ifc", "proj/model.ifc", "--out", "user.txt/p",
                                  needle="below a file"),
     "import-over-users-model": _case("import-ifc", "proj/model.ifc", "--out", "userdir",

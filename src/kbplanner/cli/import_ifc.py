@@ -21,6 +21,7 @@ from rich.progress import Progress
 from kbplanner.cli.arguments import positive_int
 from kbplanner.core.errors import IfcError, ProjectError
 from kbplanner.core.iris import base_iri
+from kbplanner.core.output_dirs import probe_writable
 from kbplanner.core.outputs import atomic_write_text
 from kbplanner.model import ifc_turtle
 from kbplanner.model.ifc_import import MESH_DIR, MODEL_FILE, ImportResult, import_ifc
@@ -69,6 +70,8 @@ def check_import_target(out: Path) -> None:
                 raise IfcError(f"--out is below a file ({parent})", file=out, element="--out",
                                fix="give a project directory whose parents are folders")
             break
+    probe_writable(out if out.is_dir() else next(p for p in Path(os.path.abspath(out)).parents if p.exists()),
+                   out)
     model = out / MODEL_FILE
     if model.is_symlink() or model.is_dir() or (model.exists() and not _is_import(model)):
         raise IfcError(f"{MODEL_FILE} exists and was not written by an import", file=model, element="--out",

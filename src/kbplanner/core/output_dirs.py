@@ -161,7 +161,7 @@ def check_output_dir(out: Path | str, *, option: str = "--out") -> None:
         raise OutputError(f"{option} is the current folder or holds it", file=out, element=option,
                           fix="give a new folder, e.g. --out runs/NAME")
     if not path.is_dir():
-        _probe(next(p for p in path.parents if p.exists()), out)
+        probe_writable(next(p for p in path.parents if p.exists()), out)
         return
     owned = read_marker(path)
     try:
@@ -181,11 +181,11 @@ def check_output_dir(out: Path | str, *, option: str = "--out") -> None:
             file=out, element=option,
             fix="give a new folder, or pass --force to write into it (your files are kept; a name clash "
                 "stops the run)")
-    _probe(path.parent, out)  # the staging folder goes beside it
-    _probe(path, out)
+    probe_writable(path.parent, out)  # the staging folder goes beside it
+    probe_writable(path, out)
 
 
-def _probe(folder: Path, out: Path) -> None:
+def probe_writable(folder: Path, out: Path | str) -> None:
     """Refuse before any work a folder where nothing can be created (permissions, read-only, immutable)."""
     try:
         Path(tempfile.mkdtemp(prefix=".kbplanner-probe-", dir=folder)).rmdir()
@@ -211,7 +211,7 @@ def check_output_file(path: Path | str, *, option: str) -> None:
     if full.is_symlink() or (full.exists() and not _signed(full)):
         raise OutputError(f"{option} is an existing file that kbplanner did not write", file=path,
                           element=option, fix="give a new file name; kbplanner never replaces your files")
-    _probe(next(p for p in full.parents if p.exists()), path)
+    probe_writable(next(p for p in full.parents if p.exists()), path)
 
 
 def _signed(path: Path) -> bool:
