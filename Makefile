@@ -24,6 +24,8 @@ run: $(STAMP)
 test: check
 	$(BIN)/python -m pytest -n 2 -q
 
+## The tests marked slow (whole case-study runs, multi-process and cluster runs, the notebook);
+## .ci/run runs them after `make test`, so CI runs every test.
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -n 2 -q -m slow
 

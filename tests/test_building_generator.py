@@ -24,7 +24,7 @@ from kbplanner.scale.building_plan import MAX_PANEL_LENGTH, SCENARIO, GeneratorE
 
 def _files(directory: Path) -> dict[str, bytes]:
     return {str(p.relative_to(directory)): p.read_bytes() for p in sorted(directory.rglob("*"))
-            if p.is_file() and ".kbplanner-cache" not in p.parts}
+            if p.is_file() and ".kbplanner-cache" not in p.parts and p.name != ".kbplanner-run"}
 
 
 @pytest.fixture(scope="module")

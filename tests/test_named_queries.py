@@ -59,3 +59,22 @@ def test_unknown_query_and_unknown_parameter_are_clear_errors() -> None:
         run_named(Graph(), "storeys", colour="red")
     with pytest.raises(QueryError, match="not a valid xsd:dateTime"):
         run_named(Graph(), "element_state_at", at="yesterday")
+
+
+@pytest.mark.parametrize("value", ["nan", "inf", "-inf"])
+def test_a_double_binding_must_be_finite(value: str) -> None:
+    from kbplanner.core.errors import QueryError
+    from kbplanner.core.named_queries import to_term
+
+    with pytest.raises(QueryError, match="not a valid xsd:double"):
+        to_term(value, "xsd:double", param="x", query="q")
+
+
+@pytest.mark.parametrize("value", ["https://a/b>c", "https://a/b c", "no-scheme", "https://a/{x}", ""])
+def test_an_iri_binding_must_be_an_absolute_iri_that_sparql_allows(value: str) -> None:
+    from kbplanner.core.errors import QueryError
+    from kbplanner.core.named_queries import iri_term, to_term
+
+    with pytest.raises(QueryError, match="not an absolute IRI"):
+        to_term(value, "iri", param="box", query="plan_box")
+    assert str(iri_term("urn:kbp:a#b")) == "urn:kbp:a#b"

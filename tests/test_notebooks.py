@@ -12,6 +12,7 @@ from nbclient import NotebookClient
 REPO = Path(__file__).resolve().parents[1]
 
 
+@pytest.mark.slow  # about 40 s: `make test-slow` (.ci/run runs it after `make test`)
 @pytest.mark.parametrize("name", ["case_study.ipynb"])
 def test_notebook_runs_without_errors(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("KBPLANNER_NOTEBOOK_FRAMES", "1")

@@ -12,6 +12,8 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
+# The whole main job on the case study (about 70 s): `make test-slow`, which .ci/run runs after `make test`.
+pytestmark = pytest.mark.slow
 
 
 Run = tuple[Path, subprocess.CompletedProcess[str]]

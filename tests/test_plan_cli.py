@@ -30,7 +30,7 @@ def test_plan_writes_json_and_turtle_prints_the_table_and_exits_0_when_every_ste
     assert "robot: Clearpath Husky A200 + UR16e (husky-ur16e, husky_ur16e.urdf)" in r.stdout
     assert "1. husky-ur16e (Clearpath Husky A200 + UR16e): fit, chosen" in r.stdout
     assert "destination (17.50, -16.00, 0.00; yaw 0.00)" in r.stdout
-    assert sorted(p.name for p in out.iterdir()) == ["plan.json", "plan.ttl"]
+    assert sorted(p.name for p in out.iterdir()) == [".kbplanner-run", "plan.json", "plan.ttl"]
     plan = Plan.from_json((out / "plan.json").read_text())
     assert len(plan.steps) == 44 and plan.feasible
     g = Graph().parse(out / "plan.ttl", format="turtle")

@@ -79,6 +79,7 @@ def test_plan_tasks_refuses_an_unknown_task_naming_the_robotized_ones(project: P
         plan_tasks(project, ["T-FRAME-L01", "T-NOPE"])
 
 
+@pytest.mark.slow  # about 27 s: `make test-slow` (.ci/run runs it after `make test`)
 def test_worlds_from_tables_have_the_states_of_element_state_at_at_every_date(project: Project) -> None:
     tables = world_tables(project)
     rows = project.query("tasks_and_elements").rows

@@ -195,6 +195,7 @@ def test_missing_cluster_extras_name_the_pip_extra(monkeypatch: pytest.MonkeyPat
         execute([], cluster="spark://x:1")
 
 
+@pytest.mark.slow  # about 30 s: `make test-slow` (.ci/run runs it after `make test`)
 def test_serial_and_two_process_sweeps_write_byte_identical_tables(project: Path, tmp_path: Path) -> None:
     spec = SweepSpec(project, scenario="stored", max_elements=1,
                      axes=parse_vary(["storage=stored;2.5,-4.5", f"storage={IN_WALL}"]))

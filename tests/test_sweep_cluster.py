@@ -43,6 +43,7 @@ def _assert_same_table(tmp_path: Path, serial: SweepResult, other: SweepResult, 
         assert (tmp_path / "serial" / name).read_bytes() == (tmp_path / other_dir / name).read_bytes()
 
 
+@pytest.mark.slow  # about 22 s (starts a local dask cluster): `make test-slow`, run by .ci/run
 def test_a_sweep_on_a_local_dask_cluster_gives_the_serial_table(tmp_path: Path) -> None:
     distributed = pytest.importorskip("dask.distributed", reason="pip install 'kbplanner[cluster]'")
     spec = _spec(tmp_path)

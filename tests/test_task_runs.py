@@ -23,6 +23,7 @@ def building(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return out
 
 
+@pytest.mark.slow  # about 40 s: `make test-slow` (.ci/run runs it after `make test`)
 def test_every_task_is_simulated_alike_serially_and_on_two_processes(building: Path, tmp_path: Path) -> None:
     serial = simulate_tasks(building, SCENARIO, out_dir=tmp_path / "serial", max_elements=1)
     parallel = simulate_tasks(building, SCENARIO, out_dir=tmp_path / "parallel", max_elements=1, workers=2)
@@ -64,6 +65,7 @@ def test_an_unknown_task_is_a_clear_error(building: Path, tmp_path: Path) -> Non
     assert "T-NOPE" in str(err.value) and "T-FRAME-L01" in str(err.value)
 
 
+@pytest.mark.slow  # about 25 s
 def test_kbplanner_run_tasks_all_writes_the_task_table(building: Path, tmp_path: Path,
                                                       capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "run"

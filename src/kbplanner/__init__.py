@@ -31,7 +31,7 @@ from kbplanner.core.errors import KbplannerError
 if TYPE_CHECKING:
     from kbplanner.project import Project
 
-__version__ = "0.1.0"
+from kbplanner.core.version import __version__
 
 __all__ = ["KbplannerError", "Project", "__version__"]
 

@@ -1,8 +1,9 @@
 """Command line (all steps): ``kbplanner <command> ...``, a thin layer over the Python API.
 
 Exit codes: 0 success (and, for ``validate``, a conforming model); 1 a reported negative result
-(``validate``: the model does not conform); 2 bad input or misuse, printed as one message without
-a traceback. Each command lives in its own module of this package and registers itself through
+(``validate``: the model does not conform); 2 bad input or misuse (a bad path or number, an output
+that the output rule refuses, an unusable file), printed as one message without a traceback
+(docs/errors.md). Each command lives in its own module of this package and registers itself through
 ``register(subparsers)``; ``COMMANDS`` lists them in help order.
 """
 
@@ -11,11 +12,14 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import shlex
 import sys
+import typing
 from collections.abc import Sequence
 
 from kbplanner import __version__
 from kbplanner.core.errors import KbplannerError
+from kbplanner.core.output_dirs import output_options
 
 EXIT_OK = 0
 EXIT_NEGATIVE = 1
@@ -41,9 +45,16 @@ COMMANDS: tuple[str, ...] = (
 )
 
 
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one message (and the fix), exit 2."""
+
+    def error(self, message: str) -> typing.NoReturn:
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message}\n  fix: see '{self.prog} --help'\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every registered command."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="kbplanner",
         description="Plan and simulate construction robot work inside a 4D BIM model.",
         epilog="Exit codes: 0 ok, 1 negative result (e.g. model does not conform), 2 bad input.",
@@ -71,10 +82,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return EXIT_BAD_INPUT
+    words = list(sys.argv[1:] if argv is None else argv)
     try:
-        return int(args.func(args))
+        with output_options(force=bool(getattr(args, "force", False)),
+                            command=shlex.join(["kbplanner", *words])):
+            return int(args.func(args))
     except KbplannerError as err:
         sys.stderr.write(f"kbplanner: error: {err}\n")
+        return EXIT_BAD_INPUT
+    except OSError as err:  # a path the operating system refuses (permissions, a full disk, ...)
+        where = f"{err.filename}: " if err.filename is not None else ""
+        sys.stderr.write(f"kbplanner: error: {where}{err.strerror or err}\n"
+                         "  fix: check the path and its permissions\n")
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         sys.stderr.write("kbplanner: interrupted\n")

@@ -14,6 +14,8 @@ from pathlib import Path
 
 from rich.console import Console
 
+from kbplanner.cli.arguments import add_force, check_out, positive_float, seed_int
+
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
@@ -24,15 +26,19 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     )
     p.add_argument("project", help="project directory (holding project.toml)")
     p.add_argument("--scenarios", required=True, help="comma-separated scenario names, e.g. A,B")
-    p.add_argument("--seed", type=int, help="random seed (default: [project] seed)")
-    p.add_argument("--threshold", type=float, default=1.0, help="proximity threshold in metres (default 1.0)")
-    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output directory (replaced)")
+    p.add_argument("--seed", type=seed_int, help="random seed (default: [project] seed)")
+    p.add_argument("--threshold", type=positive_float, default=1.0,
+                   help="proximity threshold in metres (default 1.0)")
+    p.add_argument("--out", type=Path, required=True, metavar="DIR",
+                   help="output folder: new, or one kbplanner wrote (replaced)")
+    add_force(p)
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from kbplanner.analysis.comparison import compare
 
+    check_out(args.out)
     names = [s.strip() for s in args.scenarios.split(",") if s.strip()]
     err = Console(stderr=True)
     with err.status("comparing") as status:

@@ -13,6 +13,7 @@ import sys
 from dataclasses import asdict
 from pathlib import Path
 
+from kbplanner.cli.arguments import check_out, seed_int
 from kbplanner.scale.building_generator import generate_building
 
 
@@ -22,20 +23,22 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--storeys", type=int, required=True, help="number of storeys (1-60)")
     p.add_argument("--units-per-storey", type=int, required=True, help="apartments per storey (1-40)")
     p.add_argument("--out", type=Path, required=True, help="project directory to write")
-    p.add_argument("--seed", type=int, default=0, help="moves partitions and doors per unit (default 0)")
+    p.add_argument("--seed", type=seed_int, default=0, help="moves partitions and doors per unit (default 0)")
     p.add_argument("--force", action="store_true",
-                   help="replace a non-empty directory not written by the generator")
+                   help="write into an existing folder that kbplanner did not write; files in it are "
+                        "kept (kbplanner never deletes a file it did not write)")
     p.add_argument("--format", choices=("text", "json"), default="text")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    check_out(args.out)
     b = generate_building(args.out, storeys=args.storeys, units_per_storey=args.units_per_storey,
                           seed=args.seed, force=args.force)
     if args.format == "json":
         data = asdict(b)
         data["directory"], data["ifc"] = str(b.directory), str(b.ifc)
-        sys.stdout.write(json.dumps(data, indent=2) + "\n")
+        sys.stdout.write(json.dumps(data, indent=2, allow_nan=False) + "\n")
         return 0
     lines = [
         f"{b.directory}: {b.storeys} storeys x {b.units_per_storey} units (seed {b.seed}), "

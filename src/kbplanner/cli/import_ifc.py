@@ -21,10 +21,15 @@ import sys
 import tomllib
 from pathlib import Path
 
+from rdflib import Graph
 from rich.progress import Progress
 
+from kbplanner.cli.arguments import positive_int
 from kbplanner.core.errors import IfcError, ProjectError
 from kbplanner.core.iris import base_iri
+from kbplanner.core.output_dirs import probe_writable
+from kbplanner.core.outputs import atomic_write_text
+from kbplanner.model import ifc_turtle
 from kbplanner.model.ifc_import import MESH_DIR, MODEL_FILE, ImportResult, import_ifc
 from kbplanner.model.ifc_report import SKIPPED_CSV
 
@@ -42,7 +47,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                    help="project directory to write model.ttl, meshes/ (and a starter project.toml) into")
     p.add_argument("--name", help="project name (default: the name in PROJECT_DIR/project.toml, "
                                   "else the IFC file's name)")
-    p.add_argument("--processes", type=int, default=1,
+    p.add_argument("--processes", type=positive_int, default=1,
                    help="geometry worker processes (default 1)")
     p.set_defaults(func=run)
 
@@ -58,6 +63,48 @@ def _existing_manifest(path: Path) -> tuple[str | None, str | None]:
     name = project.get("name")
     base = project.get("base_iri")
     return (str(name) if name else None), (str(base) if base else None)
+
+
+def check_import_target(out: Path) -> None:
+    """The output rule for an import: model.ttl and meshes/ may only replace an earlier import.
+
+    Raises:
+        IfcError: a parent of ``out`` is a file, ``model.ttl`` is not an import's, or ``meshes/`` holds
+            files that are not meshes (the import replaces the folder), so nothing of the user's is lost.
+    """
+    for parent in Path(os.path.abspath(out)).parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise IfcError(f"--out is below a file ({parent})", file=out, element="--out",
+                               fix="give a project directory whose parents are folders")
+            break
+    probe_writable(out if out.is_dir() else next(p for p in Path(os.path.abspath(out)).parents if p.exists()),
+                   out)
+    model = out / MODEL_FILE
+    if model.is_symlink() or model.is_dir() or (model.exists() and not _is_import(model)):
+        raise IfcError(f"{MODEL_FILE} exists and was not written by an import", file=model, element="--out",
+                       fix="move your file away, or import into a new project directory")
+    meshes = out / MESH_DIR
+    if meshes.is_symlink() or (meshes.exists() and not meshes.is_dir()):
+        raise IfcError(f"{MESH_DIR} exists and is not a folder of meshes", file=meshes, element="--out",
+                       fix="move it away, or import into a new project directory")
+    if meshes.is_dir():
+        other = sorted(p.name for p in meshes.iterdir() if p.suffix != ".glb" or not p.is_file()
+                       or p.is_symlink())
+        if other:
+            raise IfcError(f"{MESH_DIR}/ holds files that an import did not write: {', '.join(other[:3])}",
+                           file=meshes, element="--out",
+                           fix="move them away (an import replaces meshes/), or import into a new directory")
+
+
+def _is_import(path: Path) -> bool:
+    """Whether ``path`` starts as every model.ttl of an import does."""
+    first = ifc_turtle.serialize(Graph()).split(b"\n", 1)[0]
+    try:
+        with open(path, "rb") as fh:
+            return fh.read(len(first) + 1) == first + b"\n"
+    except OSError:
+        return False
 
 
 def starter_manifest(name: str, ifc_relative: str) -> str:
@@ -80,6 +127,7 @@ def run(args: argparse.Namespace) -> int:
                        fix="use --processes 1 (or 2 on a machine with two cores or more)")
     if out.exists() and not out.is_dir():
         raise IfcError("--out names a file, not a directory", file=out, fix="give a project directory")
+    check_import_target(out)
     manifest = out / MANIFEST
     existing_name, existing_base = _existing_manifest(manifest) if manifest.is_file() else (None, None)
     if args.name and existing_name and args.name != existing_name:
@@ -107,7 +155,7 @@ def run(args: argparse.Namespace) -> int:
     wrote_manifest = False
     if not manifest.exists():
         relative = Path(os.path.relpath(model.resolve(), out.resolve())).as_posix()
-        manifest.write_text(starter_manifest(name, relative), encoding="utf-8")
+        atomic_write_text(manifest, starter_manifest(name, relative))
         wrote_manifest = True
     sys.stdout.write(summary(result, out, name, wrote_manifest))
     return 1 if result.blocking else 0

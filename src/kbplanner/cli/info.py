@@ -24,7 +24,7 @@ def run(args: argparse.Namespace) -> int:
     project = Project.load(args.project, scenario=args.scenario, store=args.store)
     info = project.info()
     if args.format == "json":
-        sys.stdout.write(json.dumps(asdict(info), indent=2, default=str) + "\n")
+        sys.stdout.write(json.dumps(asdict(info), indent=2, default=str, allow_nan=False) + "\n")
         return 0
     out = [f"{info.name}  ({info.path})"]
     out.append(f"  model: {info.ifc} ({info.schema}), {info.triples} triples"

@@ -17,7 +17,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from kbplanner.core.outputs import atomic_write_text
+from kbplanner.cli.arguments import add_force, check_out
+from kbplanner.core.outputs import atomic_write_text, run_directory
 from kbplanner.core.tables import render
 from kbplanner.planning.plan_model import Plan
 from kbplanner.planning.plan_rdf import plan_turtle
@@ -45,7 +46,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--scenario", help="scenario overlay to apply (default: the bare model)")
     p.add_argument("--date", help="date of the world that places the elements at their storage "
                                   "(default: [simulation] date, else the task's start)")
-    p.add_argument("--out", type=Path, metavar="DIR", help="write plan.json and plan.ttl into DIR")
+    p.add_argument("--out", type=Path, metavar="DIR",
+                   help="write plan.json and plan.ttl into DIR (new, or one kbplanner wrote)")
+    add_force(p)
     p.set_defaults(func=run)
 
 
@@ -109,14 +112,16 @@ def plan_text(plan: Plan) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    check_out(args.out)
     at = parse_date(args.date) if args.date is not None else None  # checked before the project load
     project = Project.load(args.project, scenario=args.scenario)
     plan = plan_task(project, args.task, args.robot, at=at)
     text = plan_text(plan)
     if args.out is not None:
         js, ttl = plan.to_json(), plan_turtle(plan, project.kb)
-        atomic_write_text(args.out / "plan.json", js)
-        atomic_write_text(args.out / "plan.ttl", ttl)
+        with run_directory(args.out) as stage:
+            atomic_write_text(stage / "plan.json", js)
+            atomic_write_text(stage / "plan.ttl", ttl)
         text += f"\nwrote plan.json and plan.ttl to {args.out}\n"
     sys.stdout.write(text)
     return EXIT_FEASIBLE if plan.feasible else EXIT_INFEASIBLE

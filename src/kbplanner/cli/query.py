@@ -10,11 +10,10 @@ import argparse
 import sys
 from pathlib import Path
 
-from rdflib import URIRef
 from rdflib.term import Identifier
 
 from kbplanner.core.errors import InputFileError, QueryError
-from kbplanner.core.named_queries import catalogue, get_query, result_rows, run_text, to_term
+from kbplanner.core.named_queries import catalogue, get_query, iri_term, result_rows, run_text, to_term
 from kbplanner.core.stores import add_store_argument
 from kbplanner.core.tables import FORMATS, iri_shortener, render
 from kbplanner.project import Project
@@ -70,7 +69,8 @@ def run(args: argparse.Namespace) -> int:
         text = path.read_text(encoding="utf-8")
         terms: dict[str, Identifier] = {}
         for k, v in binds.items():
-            terms[k] = URIRef(v[1:-1]) if v.startswith("<") and v.endswith(">") else to_term(v, "xsd:string")
+            terms[k] = (iri_term(v[1:-1], param=k, query=str(path)) if v.startswith("<") and v.endswith(">")
+                        else to_term(v, "xsd:string"))
         project = Project.load(args.project, scenario=args.scenario, store=args.store)
         try:
             result = result_rows(run_text(project.graph, text, terms))

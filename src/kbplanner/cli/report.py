@@ -11,6 +11,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from kbplanner.cli.arguments import add_force, check_out, positive_float
 from kbplanner.core.errors import InputFileError
 
 
@@ -23,7 +24,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     )
     p.add_argument("runs", nargs="+", type=Path, metavar="RUN_DIR")
     p.add_argument("--out", type=Path, help="where to write the report (default: the single RUN_DIR)")
-    p.add_argument("--threshold", type=float, default=1.0, help="proximity threshold in metres (default 1.0)")
+    add_force(p)
+    p.add_argument("--threshold", type=positive_float, default=1.0,
+                   help="proximity threshold in metres (default 1.0)")
     p.set_defaults(func=run)
 
 
@@ -35,6 +38,10 @@ def run(args: argparse.Namespace) -> int:
 
     if args.out is None and len(args.runs) > 1:
         raise InputFileError("several run directories and no --out", fix="give --out DIR for the report")
+    if args.out is not None:
+        check_out(args.out)
+    else:
+        check_out(args.runs[0], option="RUN_DIR (the report's folder without --out)")
     records = [RunRecord.load(d) for d in args.runs]
     project_dir = records[0].manifest.get("project_dir")
     if not project_dir or not Path(project_dir).is_dir():
@@ -66,7 +73,10 @@ def run(args: argparse.Namespace) -> int:
             )
         )
     out = args.out or args.runs[0]
-    comp = write_outputs(Path(project_dir), runs, out, threshold_m=args.threshold)
+    from kbplanner.core.outputs import run_directory
+
+    with run_directory(out, replace=False) as stage:  # adds the report to the run folder
+        comp = write_outputs(Path(project_dir), runs, stage, threshold_m=args.threshold)
     sys.stdout.write(comp.text())
     sys.stdout.write(f"report: {out / 'report.html'}\n")
     return 0

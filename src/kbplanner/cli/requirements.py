@@ -13,6 +13,9 @@ import argparse
 import sys
 from pathlib import Path
 
+from kbplanner.cli.arguments import check_out_file
+from kbplanner.core.output_dirs import FILE_SIGNATURE
+from kbplanner.core.outputs import atomic_write_text
 from kbplanner.core.stores import add_store_argument
 from kbplanner.core.tables import render
 from kbplanner.knowledge.requirements import RequirementsResult, derive_requirements
@@ -57,6 +60,7 @@ def format_result(result: RequirementsResult, fmt: str) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    check_out_file(args.template, "--template")
     project = Project.load(args.project, scenario=args.scenario, store=args.store)
     result = derive_requirements(project.model, project.kb, task_id=args.task)
     if args.ids is not None or args.augmented_ifc is not None:
@@ -65,6 +69,7 @@ def run(args: argparse.Namespace) -> int:
         write_ids_files(project, result, args.task, args.ids, args.augmented_ifc)
     sys.stdout.write(format_result(result, args.format))
     if args.template is not None:
-        args.template.write_text(result.template(project.base), encoding="utf-8")
+        atomic_write_text(args.template, f"{FILE_SIGNATURE} requirements --template\n"
+                          + result.template(project.base))
         sys.stderr.write(f"wrote template {args.template}\n")
     return 0

@@ -45,5 +45,5 @@ def run(args: argparse.Namespace) -> int:
                  "checks": [{"check": c.check, "ok": c.ok, "message": c.message} for c in a.checks]}
                 for a in sel.assessments]
         sys.stdout.write(json.dumps({"task": sel.task.task_id, "specification": sel.spec.spec_id,
-                                     "robots": data}, indent=2) + "\n")
+                                     "robots": data}, indent=2, allow_nan=False) + "\n")
     return 0

@@ -10,6 +10,7 @@ from rich.console import Console
 from rich.table import Table
 
 from kbplanner.analysis.report import COMPARISON_COLUMNS
+from kbplanner.cli.arguments import add_force, check_out, positive_int, seed_int
 from kbplanner.pipeline import PipelineResult, run_pipeline
 
 
@@ -17,18 +18,20 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("run", help="the full pipeline on a project: requirements, validation, robots, "
                                    "world, for every scenario, into one run directory")
     p.add_argument("project", help="project directory (holding project.toml)")
-    p.add_argument("--out", required=True, help="run directory to write (replaced when the run completes)")
+    p.add_argument("--out", required=True,
+                   help="run folder: new, or one kbplanner wrote (replaced when the run completes)")
+    add_force(p)
     p.add_argument("--scenario", action="append", dest="scenarios",
                    help="only this scenario (repeatable; default: all)")
-    p.add_argument("--seed", type=int, help="random seed of the simulations (default: [project] seed)")
+    p.add_argument("--seed", type=seed_int, help="random seed of the simulations (default: [project] seed)")
     p.add_argument("--no-simulation", action="store_true",
                    help="stop after the world (requirements, validation, robots, world only)")
     p.add_argument("--tasks", choices=("main", "all"), default="main",
                    help="simulate the [simulation] task only (main, default) or every robotized task of the "
                         "schedule, each in the world at its start (all: a whole building)")
-    p.add_argument("--max-elements", type=int, metavar="N",
+    p.add_argument("--max-elements", type=positive_int, metavar="N",
                    help="simulate the first N elements of each task only (a quick look)")
-    p.add_argument("--workers", type=int, default=1,
+    p.add_argument("--workers", type=positive_int, default=1,
                    help="local processes for --tasks all (default 1; the number of cores is a good choice)")
     p.set_defaults(func=run)
 
@@ -51,6 +54,7 @@ def summary_table(result: PipelineResult) -> Table:
 
 
 def run(args: argparse.Namespace) -> int:
+    check_out(args.out)
     err = Console(stderr=True)
     out = Console(width=max(Console().width, 150))
     with err.status("starting") as status:

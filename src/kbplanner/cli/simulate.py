@@ -17,6 +17,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from kbplanner.cli.arguments import add_force, check_out, seed_int
+
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
@@ -27,13 +29,15 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     )
     p.add_argument("project", help="project directory (holding project.toml)")
     p.add_argument("--scenario", help="scenario overlay to apply (default: the bare model)")
-    p.add_argument("--seed", type=int, help="random seed (default: [project] seed of project.toml)")
+    p.add_argument("--seed", type=seed_int, help="random seed (default: [project] seed of project.toml)")
     p.add_argument("--task", help="robotized task id (default: [simulation] task)")
     p.add_argument("--robot", help="robot id of the knowledge base (default: the first fitting one)")
     p.add_argument("--gui", action="store_true", help="show the PyBullet GUI when a display exists")
     p.add_argument("--no-keyframes", action="store_true", help="do not render key frame images")
-    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="run directory (replaced)")
+    p.add_argument("--out", type=Path, required=True, metavar="DIR",
+                   help="run folder: new, or one kbplanner wrote (replaced)")
     p.add_argument("--mcap", type=Path, metavar="FILE", help="also write the run as MCAP (see export-mcap)")
+    add_force(p)
     p.set_defaults(func=run)
 
 
@@ -50,6 +54,7 @@ def run(args: argparse.Namespace) -> int:
     from kbplanner.world.build import build_world
     from kbplanner.world.exports import storey_map
 
+    check_out(args.out)
     console = Console(stderr=True)
     project = Project.load(args.project, scenario=args.scenario)
     seed = args.seed if args.seed is not None else project.manifest.seed

@@ -21,6 +21,8 @@ from pathlib import Path
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+from kbplanner.cli.arguments import add_force, check_out, positive_float, positive_int
+
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
@@ -33,12 +35,16 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--vary", action="append", default=[], metavar="AXIS=VALUES",
                    help="storage=A;X,Y;X,Y,YAW;grid:STEP | seed=1,2 | start=07:00,10:00 (repeatable)")
     p.add_argument("--scenario", help="base scenario of moved storage candidates (default: the first)")
-    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output directory")
-    p.add_argument("--workers", type=int, default=1, help="local processes (default 1: serial)")
+    p.add_argument("--out", type=Path, required=True, metavar="DIR",
+                   help="output folder: new, or one kbplanner wrote (replaced)")
+    add_force(p)
+    p.add_argument("--workers", type=positive_int, default=1, help="local processes (default 1: serial)")
     p.add_argument("--cluster", metavar="URL", help="dask://HOST:PORT or ray://HOST:PORT")
-    p.add_argument("--max-elements", type=int, metavar="N", help="simulate only the first N elements")
+    p.add_argument("--max-elements", type=positive_int, metavar="N",
+                   help="simulate only the first N elements")
     p.add_argument("--keep-runs", action="store_true", help="keep each variant's run directory")
-    p.add_argument("--threshold", type=float, default=1.0, help="proximity threshold in metres (default 1.0)")
+    p.add_argument("--threshold", type=positive_float, default=1.0,
+                   help="proximity threshold in metres (default 1.0)")
     p.add_argument("--safety", choices=["threshold", "iso"], default="threshold",
                    help="Pareto safety objective: time below --threshold, or below ISO/TS 15066 S_p")
     p.set_defaults(func=run)
@@ -48,6 +54,7 @@ def run(args: argparse.Namespace) -> int:
     from kbplanner.scale.sweep import SweepSpec, run_sweep
     from kbplanner.scale.sweep_axes import SweepError, parse_vary
 
+    check_out(args.out)
     if args.max_elements is not None and args.max_elements < 1:
         raise SweepError(f"--max-elements {args.max_elements} is not positive", element="--max-elements",
                          fix="give 1 or more, or leave it out to simulate every element")

@@ -13,6 +13,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from kbplanner.cli.arguments import add_force, check_out, positive_float
 from kbplanner.core.errors import KbplannerError
 from kbplanner.core.outputs import run_directory
 from kbplanner.project import Project
@@ -32,16 +33,19 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--scenario", help="scenario overlay to apply (default: the bare model)")
     p.add_argument("--task", help="robotized task whose elements wait at their storage "
                                   "(default: [simulation] task)")
-    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output directory (replaced)")
+    p.add_argument("--out", type=Path, required=True, metavar="DIR",
+                   help="output folder: new, or one kbplanner wrote (replaced)")
+    add_force(p)
     p.add_argument("--storey", help="storey (label or IRI) of the occupancy map (default: the task's)")
-    p.add_argument("--resolution", type=float, default=MapSettings.resolution_m,
+    p.add_argument("--resolution", type=positive_float, default=MapSettings.resolution_m,
                    help="map cell size in metres (default %(default)s)")
-    p.add_argument("--robot-height", type=float, default=MapSettings.robot_height_m,
+    p.add_argument("--robot-height", type=positive_float, default=MapSettings.robot_height_m,
                    help="top of the map's height band above the floor, metres (default %(default)s)")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    check_out(args.out)
     settings = MapSettings(resolution_m=args.resolution, robot_height_m=args.robot_height)
     at = parse_date(args.date) if args.date is not None else None  # checked before the project load
     project = Project.load(args.project, scenario=args.scenario)

@@ -8,6 +8,7 @@ data (IFC names, GlobalIds) can change a query.
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass, field
 from datetime import date, datetime
@@ -115,6 +116,23 @@ def get_query(name: str) -> NamedQuery:
     return cat[name]
 
 
+_IRI = re.compile(r'[A-Za-z][A-Za-z0-9+.\-]*:[^<>"{}|^`\\\x00-\x20]*')
+
+
+def iri_term(value: str, *, param: str = "", query: str = "") -> URIRef:
+    """An absolute IRI as SPARQL allows it (no spaces, ``<>"{}|^`\\``), else a QueryError (exit 2).
+
+    Example:
+        >>> iri_term("https://example.org/a")
+        rdflib.term.URIRef('https://example.org/a')
+    """
+    if not _IRI.fullmatch(value):
+        raise QueryError(f"{value!r} for parameter {param!r} is not an absolute IRI", element=query or None,
+                         fix="give an IRI with a scheme and without spaces or any of <>\"{}|^`\\, "
+                             "e.g. https://example.org/a")
+    return URIRef(value)
+
+
 def to_term(value: Any, type_name: str, *, param: str = "", query: str = "") -> Identifier:
     """Convert a Python value or CLI string into the RDF term a parameter expects."""
     if isinstance(value, Identifier):
@@ -122,7 +140,7 @@ def to_term(value: Any, type_name: str, *, param: str = "", query: str = "") -> 
     t = type_name.lower()
     try:
         if t in ("iri", "uri", "uriref"):
-            return URIRef(str(value))
+            return iri_term(str(value), param=param, query=query)
         if t == "xsd:datetime":
             if isinstance(value, datetime):
                 return Literal(value, datatype=XSD.dateTime)
@@ -132,7 +150,10 @@ def to_term(value: Any, type_name: str, *, param: str = "", query: str = "") -> 
             dt = datetime.fromisoformat(s if ("T" in s or " " in s) else s + "T00:00:00")
             return Literal(dt, datatype=XSD.dateTime)
         if t == "xsd:double":
-            return Literal(float(value), datatype=XSD.double)
+            number = float(value)
+            if not math.isfinite(number):
+                raise ValueError(value)
+            return Literal(number, datatype=XSD.double)
         if t == "xsd:integer":
             return Literal(int(value), datatype=XSD.integer)
         if t == "xsd:boolean":

@@ -1,23 +1,42 @@
-"""Writing results (all steps): atomic files and run directories, and the run manifest.
+"""Writing results (all steps): atomic files, strict JSON, run directories and the run manifest.
 
-A file is written to a temporary sibling and renamed into place; a run directory is assembled in
-``DIR.partial`` and renamed to ``DIR`` only when the run completes, so a crashed or killed run never
-leaves a half-written file that looks complete.
+A file is written to a temporary sibling and renamed into place, with the mode that the umask gives;
+a run directory is assembled in ``DIR.partial`` and installed only when the run completes
+(:mod:`kbplanner.core.output_dirs`, the output rule), so a crashed or killed run never leaves a
+half-written file that looks complete. JSON is strict: a NaN or infinity is refused, never written.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import platform
-import shutil
 import tempfile
-from collections.abc import Iterator
-from contextlib import contextmanager
 from importlib import metadata
 from pathlib import Path
 from typing import Any
+
+from kbplanner.core.errors import KbplannerError
+from kbplanner.core.output_dirs import run_directory
+
+__all__ = ["atomic_write_bytes", "atomic_write_text", "file_mode", "input_hashes", "json_text",
+           "run_directory", "sha256_file", "versions", "write_json"]
+
+
+def file_mode() -> int:
+    """The mode of a new file under the process umask (``0o666 & ~umask``)."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return 0o666 & ~int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return 0o666 & ~mask
 
 
 def atomic_write_bytes(path: Path, data: bytes) -> None:
@@ -28,6 +47,7 @@ def atomic_write_bytes(path: Path, data: bytes) -> None:
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
+            os.fchmod(fh.fileno(), file_mode())  # mkstemp makes 0600; a file gets what the umask gives
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
@@ -39,42 +59,42 @@ def atomic_write_text(path: Path, text: str) -> None:
     atomic_write_bytes(path, text.encode("utf-8"))
 
 
-def write_json(path: Path, data: Any) -> None:
-    """Write JSON (sorted keys, 2-space indent) atomically."""
-    text = json.dumps(data, indent=2, sort_keys=True, default=str, ensure_ascii=False)
-    atomic_write_text(path, text + "\n")
+def _non_finite(data: Any, where: str = "") -> str | None:
+    """The path of the first NaN or infinity in ``data``, or None."""
+    if isinstance(data, float) and not math.isfinite(data):
+        return where or "(top level)"
+    if isinstance(data, dict):
+        items: list[tuple[str, Any]] = [(f"{where}.{k}" if where else str(k), v) for k, v in data.items()]
+    elif isinstance(data, list | tuple):
+        items = [(f"{where}[{i}]", v) for i, v in enumerate(data)]
+    else:
+        return None
+    for w, v in items:
+        found = _non_finite(v, w)
+        if found is not None:
+            return found
+    return None
 
 
-@contextmanager
-def run_directory(out: Path) -> Iterator[Path]:
-    """Yield a staging directory that replaces ``out`` only if the block completes.
+def json_text(data: Any, *, name: str = "JSON output", indent: int | None = 2, sort_keys: bool = True) -> str:
+    """Strict JSON text (no NaN or Infinity): a non-finite number is an error naming where it is.
 
-    Example:
-        >>> import tempfile
-        >>> d = Path(tempfile.mkdtemp()) / "run"
-        >>> with run_directory(d) as stage:
-        ...     _ = (stage / "a.txt").write_text("ok")
-        >>> (d / "a.txt").read_text()
-        'ok'
+    Raises:
+        KbplannerError: ``data`` holds a NaN or an infinity (it came from a number no site could have).
     """
-    out = Path(out)
-    stage = out.with_name(out.name + ".partial")
-    if stage.exists():
-        shutil.rmtree(stage)
-    stage.mkdir(parents=True)
     try:
-        yield stage
-    except BaseException:
-        shutil.rmtree(stage, ignore_errors=True)
-        raise
-    old = out.with_name(out.name + ".old")
-    if old.exists():
-        shutil.rmtree(old)
-    if out.exists():
-        os.replace(out, old)
-    os.replace(stage, out)
-    if old.exists():
-        shutil.rmtree(old)
+        return json.dumps(data, indent=indent, sort_keys=sort_keys, default=str, ensure_ascii=False,
+                          allow_nan=False)
+    except ValueError:
+        where = _non_finite(data) or "a value"
+        raise KbplannerError(f"{name} would hold a non-finite number at {where}", element=where,
+                             fix="check the numbers of the inputs (speeds, distances, sizes must be finite)"
+                             ) from None
+
+
+def write_json(path: Path, data: Any) -> None:
+    """Write strict JSON (sorted keys, 2-space indent) atomically."""
+    atomic_write_text(path, json_text(data, name=Path(path).name) + "\n")
 
 
 def sha256_file(path: Path) -> str:

@@ -54,7 +54,7 @@ def render(columns: Sequence[str], rows: Sequence[Sequence[Any]], fmt: str = "ta
         return buf.getvalue()
     if fmt == "json":
         return json.dumps([{c: _plain(v) for c, v in zip(columns, r, strict=True)} for r in rows],
-                          indent=2, ensure_ascii=False) + "\n"
+                          indent=2, ensure_ascii=False, allow_nan=False) + "\n"
     if fmt != "table":
         raise ValueError(f"unknown format {fmt!r}; use one of {FORMATS}")
     cut = shorten or (lambda s: s)

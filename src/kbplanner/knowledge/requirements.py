@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import logging
 import time
 from collections.abc import Iterable
@@ -27,6 +26,7 @@ from rdflib import RDF, RDFS, XSD, Graph, Literal, URIRef
 from rdflib.term import Node
 
 from kbplanner.core.iris import mint, slug
+from kbplanner.core.outputs import json_text
 from kbplanner.core.rdf_io import bind_prefixes
 from kbplanner.core.vocab import KBP
 from kbplanner.knowledge.binding_paths import (
@@ -164,7 +164,7 @@ class RequirementsResult:
             "requirements": [r.as_dict() for r in self.requirements],
             "checked": [c.__dict__ for c in self.checks],
         }
-        return json.dumps(data, indent=2, ensure_ascii=False) + "\n"
+        return json_text(data, name="requirements.json", sort_keys=False) + "\n"
 
     def to_graph(self) -> Graph:
         """The requirements as RDF (``kbp:ModelingRequirement``), with minted IRIs."""

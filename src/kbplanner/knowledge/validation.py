@@ -24,6 +24,7 @@ from rdflib.compare import to_canonical_graph
 from rdflib.plugins.sparql import prepareQuery
 from rdflib.term import Node
 
+from kbplanner.core.output_dirs import FILE_SIGNATURE
 from kbplanner.core.outputs import atomic_write_text
 from kbplanner.core.rdf_io import bind_prefixes, parse_turtle
 from kbplanner.core.resources import shape_files
@@ -84,10 +85,15 @@ class ValidationResult:
         return "\n".join([head, *(r.line() for r in self.rows)]) + "\n"
 
     def write(self, path: Path) -> None:
-        """Write the report as Turtle (standard SHACL, canonical blank nodes), or as text for ``.txt``."""
+        """Write the report as Turtle (standard SHACL, canonical blank nodes), or as text for ``.txt``.
+
+        The first line is kbplanner's signature (a Turtle comment), so that a later run may replace the
+        file and no other (the output rule, :mod:`kbplanner.core.output_dirs`).
+        """
         path = Path(path)
+        head = f"{FILE_SIGNATURE} validate: the SHACL validation report\n"
         if path.suffix == ".txt":
-            atomic_write_text(path, self.text())
+            atomic_write_text(path, head + self.text())
             return
         canon = to_canonical_graph(self.report_graph)
         out = Graph()
@@ -95,7 +101,7 @@ class ValidationResult:
         out.bind("sh", SH)
         for t in canon:
             out.add(t)
-        atomic_write_text(path, out.serialize(format="turtle"))
+        atomic_write_text(path, head + out.serialize(format="turtle"))
 
 
 _TARGETS = (SH.targetClass, SH.targetNode, SH.targetSubjectsOf, SH.targetObjectsOf)

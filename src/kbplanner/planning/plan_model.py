@@ -14,6 +14,8 @@ import json
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
+from kbplanner.core.outputs import json_text
+
 JsonValue = Any
 
 
@@ -125,7 +127,7 @@ class Plan:
 
     def to_json(self) -> str:
         """Stable JSON text (sorted keys)."""
-        return json.dumps(asdict(self), indent=2, sort_keys=True, ensure_ascii=False) + "\n"
+        return json_text(asdict(self), name="plan.json") + "\n"
 
     @classmethod
     def from_json(cls, text: str) -> Plan:

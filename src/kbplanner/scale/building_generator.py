@@ -51,6 +51,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from kbplanner.core.output_dirs import check_output_dir, output_options
 from kbplanner.core.outputs import run_directory
 from kbplanner.scale.building_geometry import Builder
 from kbplanner.scale.building_plan import MAX_STOREYS, MAX_UNITS, SCENARIO, GeneratorError
@@ -139,22 +140,9 @@ def _check_args(storeys: int, units: int, seed: int) -> None:
 
 
 def _check_out(out: Path, force: bool) -> None:
-    if out.exists() and not out.is_dir():
-        raise GeneratorError(
-            "the output path is a file, not a directory",
-            file=out,
-            fix="give a new or empty directory with --out",
-        )
-    if out.is_dir() and any(out.iterdir()) and not force:
-        marker = out / "project.toml"
-        text = marker.read_text(encoding="utf-8") if marker.is_file() else ""
-        generated = "kbplanner.scale.building_generator" in text or "kbplanner.building_generator" in text
-        if not generated:
-            raise GeneratorError(
-                "the output directory is not empty and was not written by the generator",
-                file=out,
-                fix="give a new or empty directory, or pass --force to replace it",
-            )
+    """The output rule (:mod:`kbplanner.core.output_dirs`); ``force`` writes among files, keeping them."""
+    with output_options(force=force):
+        check_output_dir(out)
 
 
 def generate_building(
@@ -162,8 +150,9 @@ def generate_building(
 ) -> GeneratedBuilding:
     """Write a generated building project into ``out_dir`` (see the module docstring).
 
-    A directory written earlier by the generator is replaced; any other non-empty directory only
-    with ``force``. The directory is assembled in ``OUT.partial`` and renamed when complete.
+    A directory written earlier by kbplanner is replaced; any other non-empty directory only with
+    ``force``, which keeps the files in it (the output rule). The directory is assembled in
+    ``OUT.partial`` and installed when complete.
 
     Raises:
         GeneratorError: sizes out of range, a negative seed, an unusable output directory.
@@ -192,7 +181,7 @@ def generate_building(
         "scenarios/storage_in_units.ttl": files.storages(),
         ".gitignore": ".kbplanner-cache/\n",
     }
-    with run_directory(out) as stage:
+    with output_options(force=force), run_directory(out) as stage:
         (stage / "model").mkdir()
         f.write(str(stage / "model" / "building.ifc"))
         for rel, text in texts.items():

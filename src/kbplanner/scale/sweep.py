@@ -41,11 +41,12 @@ Example:
 from __future__ import annotations
 
 import logging
-import shutil
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from kbplanner.core.outputs import run_directory
 from kbplanner.scale.sweep_axes import (
     StorageCandidate,
     SweepAxes,
@@ -180,9 +181,16 @@ def run_sweep(spec: SweepSpec, *, out_dir: Path | None = None, workers: int = 1,
     variants, rejected = build_variants(spec, base=base, grid=grid)
     if keep_runs and out_dir is None:
         raise SweepError("keep_runs needs an output directory", fix="give --out DIR")
-    runs_dir = (out_dir / "runs").resolve() if keep_runs and out_dir is not None else None
-    if runs_dir is not None and runs_dir.exists():
-        shutil.rmtree(runs_dir)
+    with run_directory(out_dir) if out_dir is not None else nullcontext(None) as stage:
+        return _run_variants(spec, variants, rejected, base, stage, out_dir, workers, cluster, keep_runs,
+                             safety, progress)
+
+
+def _run_variants(spec: SweepSpec, variants: list[Variant], rejected: dict[str, str],
+                  base: StorageInfo | None, stage: Path | None, out_dir: Path | None, workers: int,
+                  cluster: str | None, keep_runs: bool, safety: str, progress: Progress | None
+                  ) -> SweepResult:
+    runs_dir = (stage / "runs").resolve() if keep_runs and stage is not None else None
     tasks = [VariantTask(str(Path(spec.project_dir).resolve()), v, spec.max_elements, spec.threshold_m,
                          str(runs_dir / v.id) if runs_dir is not None else None)
              for v in variants if v.id not in rejected]
@@ -200,6 +208,6 @@ def run_sweep(spec: SweepSpec, *, out_dir: Path | None = None, workers: int = 1,
                                   storage_y=c.y, storage_yaw=rounded(yaw, 4), seed=v.seed, start=v.start,
                                   status=REJECTED, reason=rejected[v.id]))
     result = SweepResult(rows=rows, front=pareto_front(rows, safety), safety=safety, out_dir=out_dir)
-    if out_dir is not None:
-        write_sweep(result, out_dir)
+    if stage is not None:
+        write_sweep(result, stage)
     return result

@@ -16,10 +16,10 @@ the same bytes.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Sequence
 from typing import Any
 
+from kbplanner.core.outputs import json_text
 from kbplanner.simulation.sim_env import SimEnv
 
 
@@ -80,7 +80,7 @@ class Recorder:
 
     def events_jsonl(self) -> str:
         """The events as JSON lines."""
-        return "".join(json.dumps(e, sort_keys=True, ensure_ascii=False) + "\n" for e in self.events)
+        return "".join(json_text(e, name="events.jsonl", indent=None) + "\n" for e in self.events)
 
     def kinds(self) -> Sequence[str]:
         """Event kinds in order."""
