@@ -26,6 +26,7 @@ from typing import Any
 
 from _common import REPO, RESULTS_DIR, machine_info, peak_rss_mb, write_json
 
+from kbplanner.model.dates import parse_date
 from kbplanner.planning.base_poses import element_polygon, mark_polygon
 from kbplanner.planning.carry import transform
 from kbplanner.planning.manipulation import refine_plan
@@ -36,10 +37,11 @@ from kbplanner.simulation.grid_yardstick import grid_shortest_path_length
 from kbplanner.simulation.skills import ExecSettings
 from kbplanner.simulation.skills.navigation import window
 from kbplanner.simulation.workers import plan_workers
-from kbplanner.world.build import World, build_world, parse_date
+from kbplanner.world.build import build_world
 from kbplanner.world.exports import storey_map
 from kbplanner.world.footprint import Footprint, Rect
 from kbplanner.world.occupancy import OccupancyGrid
+from kbplanner.world.world_types import World
 
 RESULTS = RESULTS_DIR
 CASE_STUDY = REPO / "data" / "case_study"

@@ -27,9 +27,10 @@ def run_case(project_dir: Path, scenario: str | None, date: str | None) -> dict[
     """Build, map, export and load one world in this process; returns the figures."""
     import pybullet as p
 
+    from kbplanner.model.dates import parse_date
     from kbplanner.project import Project
     from kbplanner.simulation.sim_world import load_world, settle
-    from kbplanner.world.build import build_world, parse_date
+    from kbplanner.world.build import build_world
     from kbplanner.world.exports import export_world, storey_map
 
     t0 = time.perf_counter()

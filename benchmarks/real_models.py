@@ -34,9 +34,10 @@ def measure(ifc: Path, out_dir: Path) -> dict[str, Any]:
 
     from kbplanner.core.iris import base_iri
     from kbplanner.core.vocab import KBP
+    from kbplanner.model.dates import parse_date
     from kbplanner.model.ifc_import import import_ifc
     from kbplanner.project import Project
-    from kbplanner.world.build import build_world, parse_date
+    from kbplanner.world.build import build_world
     from kbplanner.world.exports import storey_map
 
     f = ifcopenshell.open(str(ifc))

@@ -35,13 +35,15 @@ import numpy as np
 
 from ifc_factory import write_test_building
 from kbplanner.core.iris import element_iri
+from kbplanner.model.dates import parse_date
 from kbplanner.planning.manipulation import refine_plan
 from kbplanner.planning.plan_model import Plan
 from kbplanner.planning.planner import plan_task
 from kbplanner.project import Project
-from kbplanner.world.build import World, build_world, parse_date
+from kbplanner.world.build import build_world
 from kbplanner.world.exports import storey_map
 from kbplanner.world.occupancy import OccupancyGrid
+from kbplanner.world.world_types import World
 
 BASE = "https://w3id.org/kbplanner/data/simtest/"
 PANEL_SIZE = (0.6, 0.09, 2.4)  # along the wall, thickness, height

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from kbplanner.model.dates import parse_date
 from kbplanner.planning.carry import transform
 from kbplanner.planning.manipulation import refine_plan
 from kbplanner.planning.planner import plan_task
@@ -17,7 +18,7 @@ from kbplanner.planning.pose_frames import target_variants
 from kbplanner.project import Project
 from kbplanner.simulation.executor import INSTALLED, simulate
 from kbplanner.simulation.sim_env import angle_between
-from kbplanner.world.build import build_world, parse_date
+from kbplanner.world.build import build_world
 from kbplanner.world.exports import storey_map
 
 CASE_STUDY = Path(__file__).resolve().parents[1] / "data" / "case_study"

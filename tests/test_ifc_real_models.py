@@ -13,9 +13,10 @@ import pytest
 
 from kbplanner.core.iris import base_iri
 from kbplanner.core.vocab import KBP
+from kbplanner.model.dates import parse_date
 from kbplanner.model.ifc_import import ImportResult, import_ifc_graph
 from kbplanner.project import Project
-from kbplanner.world.build import build_world, parse_date
+from kbplanner.world.build import build_world
 from kbplanner.world.exports import storey_map
 
 REPO = Path(__file__).resolve().parents[1]

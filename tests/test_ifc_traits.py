@@ -16,9 +16,10 @@ from ifc_traits import SPLIT_LEVEL_M, write_length_unit, write_mass_unit, write_
 from kbplanner.cli import main
 from kbplanner.core.iris import element_iri
 from kbplanner.core.vocab import KBP
+from kbplanner.model.dates import parse_date
 from kbplanner.model.ifc_import import import_ifc_graph
 from kbplanner.project import Project
-from kbplanner.world.build import build_world, parse_date
+from kbplanner.world.build import build_world
 from kbplanner.world.exports import storey_map
 from kbplanner.world.levels import RAISED, STAIR
 from kbplanner.world.occupancy import Box, occupancy_from_meshes

@@ -20,7 +20,7 @@ from kbplanner.planning.element_order import RULE_GLOBAL_ID, RULE_NEAREST, RULE_
 from kbplanner.planning.plan_model import Plan, Pose2
 from kbplanner.planning.planner import PlanningError, PoseChoice, assign_poses, plan_task
 from kbplanner.project import Calendar, Manifest, Project
-from kbplanner.world.build import pose_matrix
+from kbplanner.world.world_types import pose_matrix
 
 TEST = "https://example.org/test-kb#"
 

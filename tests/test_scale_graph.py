@@ -15,6 +15,7 @@ import pytest
 from rdflib import XSD, Literal
 
 from conftest import CASE_STUDY
+from kbplanner.core.errors import WorldError
 from kbplanner.core.vocab import KBP
 from kbplanner.knowledge.task_specs import robotized_tasks
 from kbplanner.model.schedule_model import query_text
@@ -22,7 +23,9 @@ from kbplanner.planning.planner import PlanningError, plan_task, plan_tasks
 from kbplanner.project import Project
 from kbplanner.scale.building_generator import generate_building
 from kbplanner.scale.building_plan import SCENARIO
-from kbplanner.world.build import BUILT, NOT_STARTED, World, WorldError, build_world, world_tables
+from kbplanner.world.build import build_world
+from kbplanner.world.tables import world_tables
+from kbplanner.world.world_types import BUILT, NOT_STARTED, World
 
 # The index as it was written before (a property path from an unbound storey): the reference.
 PATH_INDEX = """PREFIX bot: <https://w3id.org/bot#>

@@ -8,18 +8,12 @@ from datetime import datetime
 
 import pytest
 
-from kbplanner.core.errors import KbplannerError
+from kbplanner.core.errors import KbplannerError, WorldError
+from kbplanner.model.dates import parse_date
 from kbplanner.project import Project
-from kbplanner.world.build import (
-    BUILT,
-    IN_PROGRESS,
-    NOT_STARTED,
-    World,
-    WorldError,
-    build_world,
-    element_mesh,
-    parse_date,
-)
+from kbplanner.world.build import build_world
+from kbplanner.world.meshes import element_mesh
+from kbplanner.world.world_types import BUILT, IN_PROGRESS, NOT_STARTED, World
 from test_world_support import DATE, STORAGE, STORAGE_SIZE, WorldProject, make_world_project
 
 

@@ -14,10 +14,13 @@ from rdflib import Literal, URIRef
 
 from kbplanner.core.iris import element_iri
 from kbplanner.core.vocab import BOT, KBP
+from kbplanner.model.dates import parse_date
 from kbplanner.project import Project
 from kbplanner.simulation.sim_world import load_world, settle
-from kbplanner.world.build import NOT_STARTED, World, build_world, parse_date, site_object_mesh
+from kbplanner.world.build import build_world
 from kbplanner.world.exports import StoreyMap, storey_map
+from kbplanner.world.meshes import site_object_mesh
+from kbplanner.world.world_types import NOT_STARTED, World
 
 Expected = dict[str, Any]
 CASE = Path(__file__).resolve().parents[1] / "data" / "case_study"

@@ -14,8 +14,9 @@ import pytest
 import trimesh
 
 from kbplanner.cli import main
+from kbplanner.model.dates import parse_date
 from kbplanner.project import Project
-from kbplanner.world.build import World, build_world, parse_date
+from kbplanner.world.build import build_world
 from kbplanner.world.exports import (
     MapSettings,
     StoreyMap,
@@ -25,6 +26,7 @@ from kbplanner.world.exports import (
     write_world_existing_sdf,
 )
 from kbplanner.world.occupancy import OccupancyGrid
+from kbplanner.world.world_types import World
 from test_world_support import DATE, EXTENT, NO_GO, WORKSPACE, WorldProject, make_world_project
 
 

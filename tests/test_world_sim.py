@@ -9,9 +9,11 @@ import pybullet as p
 import pytest
 
 from kbplanner.core.errors import KbplannerError
+from kbplanner.model.dates import parse_date
 from kbplanner.project import Project
 from kbplanner.simulation.sim_world import SimWorld, element_frame, load_world, settle
-from kbplanner.world.build import World, build_world, parse_date, pose_matrix
+from kbplanner.world.build import build_world
+from kbplanner.world.world_types import World, pose_matrix
 from test_world_support import DATE, WorldProject, make_world_project
 
 

@@ -33,7 +33,7 @@ if TYPE_CHECKING:
     from kbplanner.knowledge.validation import ValidationResult
     from kbplanner.planning.plan_model import Plan
     from kbplanner.simulation.executor import SimulationResult
-    from kbplanner.world.build import World
+    from kbplanner.world.world_types import World
 
 __all__ = [
     "CACHE_ENV",

@@ -28,8 +28,9 @@ from kbplanner.analysis.report_doc import ReportDoc
 from kbplanner.analysis.run_record import RunRecord
 from kbplanner.core.outputs import atomic_write_bytes, atomic_write_text
 from kbplanner.model.project_data import ProjectData
-from kbplanner.world.build import World, build_world, pose_matrix
+from kbplanner.world.build import build_world
 from kbplanner.world.exports import Y_UP, glb_bytes
+from kbplanner.world.world_types import World, pose_matrix
 
 VIEWER = Path(__file__).resolve().parent / "viewer"
 FOLDER = "playback"

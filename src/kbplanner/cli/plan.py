@@ -20,11 +20,11 @@ from typing import Any
 from kbplanner.cli.arguments import add_force, check_out
 from kbplanner.core.outputs import atomic_write_text, run_directory
 from kbplanner.core.tables import render
+from kbplanner.model.dates import parse_date
 from kbplanner.planning.plan_model import Plan
 from kbplanner.planning.plan_rdf import plan_turtle
 from kbplanner.planning.planner import plan_task
 from kbplanner.project import Project
-from kbplanner.world.build import parse_date
 
 EXIT_FEASIBLE = 0
 EXIT_INFEASIBLE = 1

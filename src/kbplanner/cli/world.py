@@ -14,10 +14,11 @@ import sys
 from pathlib import Path
 
 from kbplanner.cli.arguments import add_force, check_out, positive_float
-from kbplanner.core.errors import KbplannerError
+from kbplanner.core.errors import KbplannerError, WorldError
 from kbplanner.core.outputs import run_directory
+from kbplanner.model.dates import parse_date
 from kbplanner.project import Project
-from kbplanner.world.build import WorldError, build_world, parse_date
+from kbplanner.world.build import build_world
 from kbplanner.world.exports import MapSettings, export_world, map_summary
 
 MAP_LINES = 10  # level regions and map notes printed (all are in world.json)

@@ -19,9 +19,9 @@ import shapely
 
 from kbplanner.planning.carry import Matrix
 from kbplanner.planning.plan_model import Pose2
-from kbplanner.world.build import Bounds
 from kbplanner.world.footprint import Footprint
 from kbplanner.world.occupancy import OccupancyGrid
+from kbplanner.world.world_types import Bounds
 
 N_YAW_BINS = 72
 

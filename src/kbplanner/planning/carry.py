@@ -1,7 +1,8 @@
 """Grasp and carry geometry (B4 arm poses, B5 NV-2): how a held element sits on the robot.
 
 Takes a robot loaded in PyBullet (:class:`~kbplanner.robot.robot_model.RobotModel`), an element's box in
-its own frame (``local_bounds`` of :class:`~kbplanner.world.build.WorldElement`) and where it lies; returns
+its own frame (``local_bounds`` of :class:`~kbplanner.world.world_types.WorldElement`) and where it
+lies; returns
 :class:`Grasp` candidates (the tool frame in the element's frame) and the two carry modes of the
 paper (section 4.4.3, Figure 14) as :class:`CarryGeometry`: the carry arm poses and, from forward
 kinematics, the element's footprint in the robot frame as :class:`~kbplanner.world.footprint.Footprint`
@@ -55,8 +56,8 @@ from scipy.spatial.transform import Rotation
 
 from kbplanner.robot.arm_ik import IkMethod, solve_ik
 from kbplanner.robot.robot_model import RobotModel
-from kbplanner.world.build import Bounds
 from kbplanner.world.footprint import Footprint, Rect
+from kbplanner.world.world_types import Bounds
 
 log = logging.getLogger(__name__)
 

@@ -1,6 +1,6 @@
 """B4, pick (MM-G-1): a base pose, a grasp and the arm poses to take an element from its storage.
 
-Takes the element where it lies in the world (:class:`~kbplanner.world.build.WorldElement`), its grasp
+Takes the element where it lies in the world (:class:`~kbplanner.world.world_types.WorldElement`), its grasp
 point, the navigation arm pose and the robot; gives a :class:`Pick` (base pose, grasp, arm poses
 ``initial``/``approach``/``pre_grasp``/``grasp``/``lift``/``final``, the carry geometry of both carry
 modes, cached per grasp) or the reason why none was found. Grasps as in :mod:`kbplanner.planning.carry`;
@@ -31,7 +31,7 @@ from kbplanner.planning.plan_model import Pose2, SkillCall
 from kbplanner.planning.pose_frames import as_pose6_list, joints, pose6_matrix, shifted, tool_frame
 from kbplanner.planning.pose_search import PoseSearch
 from kbplanner.robot.arm_ik import IkResult
-from kbplanner.world.build import WorldElement
+from kbplanner.world.world_types import WorldElement
 
 log = logging.getLogger(__name__)
 

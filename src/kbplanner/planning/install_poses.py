@@ -25,7 +25,7 @@ from kbplanner.planning.grasp_poses import Pick
 from kbplanner.planning.plan_model import Pose2, SkillCall
 from kbplanner.planning.pose_frames import joints, shifted, target_variants, tool_frame
 from kbplanner.planning.pose_search import PoseSearch
-from kbplanner.world.build import WorldElement
+from kbplanner.world.world_types import WorldElement
 
 log = logging.getLogger(__name__)
 

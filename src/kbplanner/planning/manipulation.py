@@ -1,7 +1,8 @@
 """B4, arm and base poses per skill: refine an action-level plan with inverse kinematics.
 
 Takes a :class:`~kbplanner.planning.plan_model.Plan` (B1-B3, from :mod:`kbplanner.planning.planner`) and the
-:class:`~kbplanner.world.build.World` it runs in; returns a copy of the plan in which every step of every
+:class:`~kbplanner.world.world_types.World` it runs in; returns a copy of the plan in which every
+step of every
 element has its base pose and its arm poses (joint angles of the robot's arm, radians), found with
 PyBullet IK on the robot's URDF (:mod:`kbplanner.robot.arm_ik`), or is infeasible with the reason.
 
@@ -73,8 +74,8 @@ from kbplanner.planning.plan_model import Plan, SkillCall
 from kbplanner.planning.pose_frames import as_joints, as_pose6_list, joints, pose2, pose6_matrix
 from kbplanner.planning.pose_search import RefineSettings
 from kbplanner.robot.robot_model import RobotModel
-from kbplanner.world.build import World, WorldElement
 from kbplanner.world.occupancy import OccupancyGrid
+from kbplanner.world.world_types import World, WorldElement
 
 log = logging.getLogger(__name__)
 

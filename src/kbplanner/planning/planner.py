@@ -29,7 +29,7 @@ unknown id
   be placed, e.g. no ``kbp:storedIn``); robot start and the task storey's elevation from the world.
 
 Several tasks: :func:`plan_tasks` (default every robotized task) reads the building once
-(:func:`kbplanner.world.build.world_tables`) and gives the plans :func:`plan_task` gives for each task.
+(:func:`kbplanner.world.tables.world_tables`) and gives the plans :func:`plan_task` gives for each task.
 
 B4 (base poses, IK arm poses) is not done here: ``base_pose`` and ``arm_poses`` stay empty and
 :func:`assign_poses` lets the B4 code fill them in a copy of the plan.
@@ -61,20 +61,16 @@ from kbplanner.knowledge.task_specs import (
     robotized_tasks,
     task_specification,
 )
+from kbplanner.model.dates import parse_date
 from kbplanner.model.ifc_geometry import Pose
 from kbplanner.model.project_data import ProjectData
 from kbplanner.planning.element_order import element_order
 from kbplanner.planning.plan_model import ElementInfo, JsonValue, Plan, Pose2, Pose6, SkillCall
 from kbplanner.planning.skill_inputs import resolve_inputs
-from kbplanner.world.build import (
-    World,
-    WorldTables,
-    build_world,
-    load_mesh,
-    parse_date,
-    pose_matrix,
-    world_tables,
-)
+from kbplanner.world.build import build_world
+from kbplanner.world.meshes import load_mesh
+from kbplanner.world.tables import WorldTables, world_tables
+from kbplanner.world.world_types import World, pose_matrix
 
 log = logging.getLogger(__name__)
 
@@ -416,7 +412,7 @@ def plan_task(project: ProjectData, task_id: str | None = None, robot_id: str | 
     ``robot_id`` (a robot's id, IRI or label) overrides the ranking; ``at`` is the date of the world
     that places the elements at their storage (default ``[simulation] date``, else the task's start);
     a ``world`` already built for the task may be passed to save building it again, or the
-    project's :func:`~kbplanner.world.build.world_tables` to build it without reading the whole building
+    project's :func:`~kbplanner.world.tables.world_tables` to build it without reading the whole building
     again (:func:`plan_tasks` does that for several tasks).
 
     Raises:
@@ -480,7 +476,7 @@ def plan_tasks(project: ProjectData, task_ids: Sequence[str] | None = None, robo
     """B1-B3 for several robotized tasks (default: every one, in schedule order): one plan per task.
 
     The plans are those of :func:`plan_task` for each task, but the building is read once
-    (:func:`~kbplanner.world.build.world_tables`) and each task's world is built from those tables, so
+    (:func:`~kbplanner.world.tables.world_tables`) and each task's world is built from those tables, so
     planning every storey of a building grows linearly with its size instead of with storeys x
     elements. ``robot_id`` and ``at`` apply to every task, as in :func:`plan_task`.
 

@@ -20,7 +20,7 @@ from scipy.spatial.transform import Rotation
 from kbplanner.planning.carry import Matrix, from_pos_quat, transform
 from kbplanner.planning.plan_model import Pose2, Pose6
 from kbplanner.robot.robot_model import RobotModel
-from kbplanner.world.build import Bounds
+from kbplanner.world.world_types import Bounds
 
 
 def target_variants(bounds: Bounds, target: Matrix) -> list[tuple[bool, Matrix]]:

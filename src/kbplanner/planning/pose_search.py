@@ -1,7 +1,7 @@
 """B4, the search state shared by pick and install: settings, IK at the settings' tolerances, the
 navigation arm pose, the arm's reach, and seeded base-pose candidates around a target.
 
-Takes the plan, the :class:`~kbplanner.world.build.World`, the robot loaded in PyBullet
+Takes the plan, the :class:`~kbplanner.world.world_types.World`, the robot loaded in PyBullet
 (:class:`~kbplanner.robot.robot_model.RobotModel`) and the task storey's occupancy grid; :class:`PoseSearch`
 is the base of the pick search (:mod:`kbplanner.planning.grasp_poses`), the install search
 (:mod:`kbplanner.planning.install_poses`) and the refiner of :mod:`kbplanner.planning.manipulation`.
@@ -24,8 +24,8 @@ from kbplanner.planning.pose_frames import pose2
 from kbplanner.robot.arm_ik import IkMethod, IkResult, solve_ik
 from kbplanner.robot.lidar import sensor_view_hits
 from kbplanner.robot.robot_model import RobotModel
-from kbplanner.world.build import World
 from kbplanner.world.occupancy import OccupancyGrid
+from kbplanner.world.world_types import World
 
 
 @dataclass(frozen=True)

@@ -22,8 +22,8 @@ from kbplanner.core.vocab import KBP
 from kbplanner.scale.sweep_axes import StorageCandidate, SweepError
 
 if TYPE_CHECKING:
-    from kbplanner.world.build import World
     from kbplanner.world.occupancy import OccupancyGrid
+    from kbplanner.world.world_types import World
 
 log = logging.getLogger(__name__)
 

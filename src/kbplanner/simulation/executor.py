@@ -59,7 +59,7 @@ from kbplanner.simulation.recorder import Recorder, clean
 from kbplanner.simulation.sim_env import SimEnv
 from kbplanner.simulation.skills import ExecSettings, RunContext, Status, skill_for
 from kbplanner.simulation.skills.navigation import NavigationSkill
-from kbplanner.world.build import World
+from kbplanner.world.world_types import World
 
 if TYPE_CHECKING:
     from kbplanner.model.project_data import ProjectData

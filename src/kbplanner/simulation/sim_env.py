@@ -1,6 +1,6 @@
 """B5 simulation environment: the world at a date, the robot and the workers in one PyBullet client.
 
-Takes a :class:`~kbplanner.world.build.World` (A6), the robot's name in the robot table, worker motions
+Takes a :class:`~kbplanner.world.world_types.World` (A6), the robot's name in the robot table, worker motions
 (:func:`kbplanner.simulation.workers.plan_workers`) and the storey's occupancy grid; gives a Gymnasium-style
 environment: :meth:`SimEnv.reset` (connect, load, place the robot at its start), :meth:`SimEnv.step`
 (advance the simulated clock by one control period: workers move along their motions, a held
@@ -47,8 +47,8 @@ from kbplanner.planning.carry import Matrix, from_pos_quat, quat_of
 from kbplanner.robot.robot_model import RobotModel
 from kbplanner.simulation.sim_world import SimWorld, element_frame, load_world
 from kbplanner.simulation.workers import WORKER_RADIUS_M, WorkerMotion
-from kbplanner.world.build import World, WorldElement
 from kbplanner.world.occupancy import OccupancyGrid
+from kbplanner.world.world_types import World, WorldElement
 
 log = logging.getLogger(__name__)
 

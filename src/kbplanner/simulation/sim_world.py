@@ -1,6 +1,6 @@
 """A6 -> B5: load the world at a date into a PyBullet client.
 
-Takes a :class:`~kbplanner.world.build.World` and a connected PyBullet client (``p.connect(p.DIRECT)``);
+Takes a :class:`~kbplanner.world.world_types.World` and a connected PyBullet client (``p.connect(p.DIRECT)``);
 creates, and returns the handles of (:class:`SimWorld`):
 
 - a ground plane at the ground level (``World.ground_z``);
@@ -37,7 +37,8 @@ import pybullet as p
 import trimesh
 
 from kbplanner.core.errors import KbplannerError
-from kbplanner.world.build import SiteObject, World, WorldElement, element_local_mesh, element_mesh
+from kbplanner.world.meshes import element_local_mesh, element_mesh
+from kbplanner.world.world_types import SiteObject, World, WorldElement
 
 log = logging.getLogger(__name__)
 

@@ -9,11 +9,12 @@ from typing import Any
 
 
 def __getattr__(name: str) -> Any:
-    """``from kbplanner.world import X`` as with 0.1's flat module: X of :mod:`kbplanner.world.build`."""
+    """``from kbplanner.world import X`` as with 0.1's flat module: X of :mod:`.build`,
+    :mod:`.world_types`, :mod:`.tables`, :mod:`.meshes`."""
     if name.startswith("__"):
         raise AttributeError(name)
-    module = importlib.import_module("kbplanner.world.build")
-    try:
-        return getattr(module, name)
-    except AttributeError:
-        raise AttributeError(f"module 'kbplanner.world' has no attribute {name!r}") from None
+    for home in ("build", "world_types", "tables", "meshes"):
+        module = importlib.import_module(f"kbplanner.world.{home}")
+        if hasattr(module, name):
+            return getattr(module, name)
+    raise AttributeError(f"module 'kbplanner.world' has no attribute {name!r}")

@@ -1,6 +1,6 @@
 """A6 exports of the world at a date: occupancy maps, SDF (Gazebo) and glTF files, world.json.
 
-Takes a :class:`~kbplanner.world.build.World` and writes, into a directory:
+Takes a :class:`~kbplanner.world.world_types.World` and writes, into a directory:
 
 - ``map.pgm`` + ``map.yaml``: the occupancy grid (ROS map_server format) of one storey, by default
   the storey of the robotized task. Obstacles are what lies within the robot's height band above
@@ -46,19 +46,11 @@ import trimesh
 
 from kbplanner.core.errors import KbplannerError
 from kbplanner.core.outputs import atomic_write_bytes
-from kbplanner.world.build import (
-    StoreyInfo,
-    World,
-    WorldElement,
-    element_local_mesh,
-    element_mesh,
-    ground_level_storey,
-    group_mesh,
-    pose_matrix,
-    site_object_mesh,
-)
+from kbplanner.world.build import ground_level_storey
 from kbplanner.world.levels import SUPPORT_DEPTH_M, LevelRegion, level_regions, levels_summary
+from kbplanner.world.meshes import element_local_mesh, element_mesh, group_mesh, site_object_mesh
 from kbplanner.world.occupancy import Box, OccupancyGrid, occupancy_from_meshes
+from kbplanner.world.world_types import StoreyInfo, World, WorldElement, pose_matrix
 
 log = logging.getLogger(__name__)
 

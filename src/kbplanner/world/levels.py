@@ -21,7 +21,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from kbplanner.world.build import WorldElement
+from kbplanner.world.world_types import WorldElement
 
 FLOOR_KINDS = ("Slab", "Covering")
 STAIR_KINDS = ("Stair", "Ramp")
