@@ -8,6 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ifc_factory import TestBuilding, write_test_building
+from project_parts import project_toml
 
 SITE_TTL = """@prefix kbp: <https://w3id.org/kbplanner/ontology#> .
 @prefix rdfs: <http://www.w3.org/2000/01/rdf-schema#> .
@@ -41,8 +42,5 @@ def make_project(directory: Path, *, name: str = "testproj", schema: str = "IFC4
     building = write_test_building(directory / "model.ifc", schema=schema, unit_mm=unit_mm)  # type: ignore[arg-type]
     (directory / "site.ttl").write_text(SITE_TTL)
     (directory / "schedule.csv").write_text(SCHEDULE_CSV)
-    (directory / "project.toml").write_text(
-        f'[project]\nname = "{name}"\nbase_iri = "https://w3id.org/kbplanner/data/testproj/"\n'
-        '[model]\nifc = "model.ifc"\nschedule = "schedule.csv"\nsite = ["site.ttl"]\n'
-    )
+    (directory / "project.toml").write_text(project_toml(name, "https://w3id.org/kbplanner/data/testproj/"))
     return building

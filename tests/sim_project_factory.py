@@ -21,17 +21,8 @@ The normal carry of a panel (2.4 m across the robot) does not pass the 0.9 m doo
 from __future__ import annotations
 
 import math
-import uuid
 from dataclasses import dataclass
 from pathlib import Path
-
-import ifcopenshell
-import ifcopenshell.api.geometry
-import ifcopenshell.api.material
-import ifcopenshell.api.root
-import ifcopenshell.api.spatial
-import ifcopenshell.guid
-import numpy as np
 
 from ifc_factory import write_test_building
 from kbplanner.core.iris import element_iri
@@ -44,6 +35,16 @@ from kbplanner.world.build import build_world
 from kbplanner.world.exports import storey_map
 from kbplanner.world.occupancy import OccupancyGrid
 from kbplanner.world.world_types import World
+from project_parts import (
+    PanelSpec,
+    add_panels,
+    guid,
+    layout_ttl,
+    pose_ttl,
+    prefixes,
+    project_toml,
+    storage_head_ttl,
+)
 
 BASE = "https://w3id.org/kbplanner/data/simtest/"
 PANEL_SIZE = (0.6, 0.09, 2.4)  # along the wall, thickness, height
@@ -81,60 +82,21 @@ class SimProject:
 
 
 def _guid(name: str) -> str:
-    return str(ifcopenshell.guid.compress(uuid.uuid5(uuid.NAMESPACE_URL, f"simtest-{name}").hex))
+    return guid(f"simtest-{name}")
 
 
 def _add_panels(ifc_path: Path, names: tuple[str, ...]) -> dict[str, str]:
-    f = ifcopenshell.open(str(ifc_path))
-    storey = next(s for s in f.by_type("IfcBuildingStorey") if s.Name == "Level 1")
-    body = next(c for c in f.by_type("IfcGeometricRepresentationSubContext") if c.ContextIdentifier == "Body")
-    wood = ifcopenshell.api.material.add_material(f, name="Wood - Stud")
-    length, thickness, height = PANEL_SIZE
-    out = {}
-    for name, x, y, z, yaw in PANELS:
-        if name not in names:
-            continue
-        panel = ifcopenshell.api.root.create_entity(f, ifc_class="IfcMember", name=f"Panel {name}")
-        panel.GlobalId = _guid(name)
-        ifcopenshell.api.spatial.assign_container(f, products=[panel], relating_structure=storey)
-        m = np.eye(4)
-        c, s = math.cos(yaw), math.sin(yaw)
-        m[:3, :3] = [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
-        m[:3, 3] = [x, y, z]
-        ifcopenshell.api.geometry.edit_object_placement(f, product=panel, matrix=m)
-        hl, ht = length / 2, thickness / 2
-        rep = ifcopenshell.api.geometry.add_slab_representation(
-            f, context=body, depth=height, polyline=[(-hl, -ht), (hl, -ht), (hl, ht), (-hl, ht)])
-        ifcopenshell.api.geometry.assign_representation(f, product=panel, representation=rep)
-        ifcopenshell.api.material.assign_material(f, products=[panel], material=wood)
-        qty = f.create_entity("IfcQuantityWeight", Name="NetWeight", WeightValue=PANEL_MASS_KG)
-        f.create_entity("IfcRelDefinesByProperties", GlobalId=_guid(f"qto-rel-{name}"),
-                        RelatedObjects=[panel], RelatingPropertyDefinition=f.create_entity(
-                            "IfcElementQuantity", GlobalId=_guid(f"qto-{name}"), Name="BaseQuantities",
-                            Quantities=[qty]))
-        out[name] = panel.GlobalId
-    f.write(str(ifc_path))
-    return out
+    specs = [PanelSpec(name, _guid(name), x, y, z, yaw) for name, x, y, z, yaw in PANELS if name in names]
+    add_panels(ifc_path, specs, size=PANEL_SIZE, shape="slab", mass_kg=PANEL_MASS_KG, guid_key="simtest-")
+    return {s.name: s.global_id for s in specs}
 
 
-def _pose(name: str, x: float, y: float, z: float, yaw: float = 0.0) -> str:
-    return (f"site:{name} a kbp:Pose ; kbp:x {x!r} ; kbp:y {y!r} ; kbp:z {z!r} ;\n"
-            f"    kbp:roll 0.0 ; kbp:pitch 0.0 ; kbp:yaw {yaw!r} .\n")
-
-
-_PREFIXES = ("@prefix kbp: <https://w3id.org/kbplanner/ontology#> .\n"
-             "@prefix rdfs: <http://www.w3.org/2000/01/rdf-schema#> .\n"
-             f"@prefix site: <{BASE}site/> .\n\n")
+_pose = pose_ttl
+_PREFIXES = prefixes(BASE)
 
 
 def _site_ttl() -> str:
-    x0, y0, x1, y1 = EXTENT
-    sx, sy, syaw = ROBOT_START
-    text = (_PREFIXES
-            + "site:layout a kbp:SiteLayout ; kbp:siteExtent site:extent ; kbp:robotStart site:start .\n"
-            + f"site:extent a kbp:Box ; kbp:minX {x0!r} ; kbp:minY {y0!r} ; kbp:minZ -1.0 ;\n"
-            + f"    kbp:maxX {x1!r} ; kbp:maxY {y1!r} ; kbp:maxZ 10.0 .\n"
-            + _pose("start", sx, sy, 0.0, syaw))
+    text = _PREFIXES + layout_ttl(EXTENT, ROBOT_START)
     for name, bx, by in BENCHES:
         text += (f"site:{name} a kbp:Workspace ; rdfs:label \"{name}\" ; kbp:obstructs false ;\n"
                  "    kbp:sizeX 1.0 ; kbp:sizeY 1.0 ; kbp:sizeZ 1.0 ;\n"
@@ -149,14 +111,7 @@ def _site_ttl() -> str:
 
 
 def _storage_ttl(panels: dict[str, str], walled: bool) -> str:
-    x, y, z, yaw = STORAGE
-    sx, sy, sz = STORAGE_SIZE
-    px, py, pz, pyaw = PICKUP
-    text = (_PREFIXES
-            + "site:storage a kbp:MaterialStorage ; rdfs:label \"Panel storage\" ; kbp:obstructs true ;\n"
-            + f"    kbp:sizeX {sx!r} ; kbp:sizeY {sy!r} ; kbp:sizeZ {sz!r} ;\n"
-            + "    kbp:installedPose site:storage-pose ; kbp:pickupLocation site:pickup .\n"
-            + _pose("storage-pose", x, y, z, yaw) + _pose("pickup", px, py, pz, pyaw))
+    text = _PREFIXES + storage_head_ttl(STORAGE, STORAGE_SIZE, PICKUP)
     order = sorted(panels)  # P1 first: top of the stack
     for n, name in enumerate(order):
         iri = element_iri(BASE, panels[name])
@@ -186,23 +141,9 @@ def make_sim_project(directory: Path, *, high_panel: bool = True) -> SimProject:
     (directory / "stored.ttl").write_text(_storage_ttl(panels, walled=False), encoding="utf-8")
     (directory / "walled.ttl").write_text(_storage_ttl(panels, walled=True), encoding="utf-8")
     (directory / "project.toml").write_text(
-        "[project]\n"
-        'name = "simtest"\n'
-        f'base_iri = "{BASE}"\n'
-        "seed = 3\n"
-        "[model]\n"
-        'ifc = "model.ifc"\n'
-        'schedule = "schedule.csv"\n'
-        'site = ["site.ttl"]\n'
-        "[simulation]\n"
-        'task = "T5"\n'
-        f'date = "{DATE}"\n'
-        "[scenarios.stored]\n"
-        'description = "panels stacked on a storage in the yard"\n'
-        'overlays = ["stored.ttl"]\n'
-        "[scenarios.walled]\n"
-        'description = "the same storage, fenced in all round"\n'
-        'overlays = ["walled.ttl"]\n',
+        project_toml("simtest", BASE, seed=3, simulation={"task": "T5", "date": DATE}, scenarios={
+            "stored": ("panels stacked on a storage in the yard", ["stored.ttl"]),
+            "walled": ("the same storage, fenced in all round", ["walled.ttl"])}),
         encoding="utf-8",
     )
     return SimProject(directory, panels)

@@ -19,16 +19,18 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-import ifcopenshell
-import ifcopenshell.api.geometry
-import ifcopenshell.api.material
-import ifcopenshell.api.root
-import ifcopenshell.api.spatial
-import ifcopenshell.guid
-import numpy as np
-
 from ifc_factory import TestBuilding, write_test_building
 from kbplanner.core.iris import element_iri
+from project_parts import (
+    PanelSpec,
+    add_panels,
+    guid,
+    layout_ttl,
+    pose_ttl,
+    prefixes,
+    project_toml,
+    storage_head_ttl,
+)
 
 BASE = "https://w3id.org/kbplanner/data/worldtest/"
 PANEL_SIZE = (0.6, 0.09, 2.4)  # along the wall, across it (thickness), height
@@ -66,50 +68,22 @@ class WorldProject:
 
 
 def _panel_guid(n: int) -> str:
-    import uuid
-
-    return str(ifcopenshell.guid.compress(uuid.uuid5(uuid.NAMESPACE_URL, f"worldtest-panel-{n}").hex))
+    return guid(f"worldtest-panel-{n}")
 
 
 def _add_panels(ifc_path: Path) -> tuple[str, ...]:
-    f = ifcopenshell.open(str(ifc_path))
-    storey = next(s for s in f.by_type("IfcBuildingStorey") if s.Name == "Level 1")
-    body = next(c for c in f.by_type("IfcGeometricRepresentationSubContext") if c.ContextIdentifier == "Body")
-    wood = ifcopenshell.api.material.add_material(f, name="Wood - Stud")
-    guids = []
-    for n, x in enumerate(PANEL_XS, start=1):
-        panel = ifcopenshell.api.root.create_entity(f, ifc_class="IfcMember", name=f"Panel P{n}")
-        panel.GlobalId = _panel_guid(n)
-        ifcopenshell.api.spatial.assign_container(f, products=[panel], relating_structure=storey)
-        m = np.eye(4)
-        m[:3, 3] = [x, 3.0, 0.0]
-        ifcopenshell.api.geometry.edit_object_placement(f, product=panel, matrix=m)
-        length, thickness, height = PANEL_SIZE
-        rep = ifcopenshell.api.geometry.add_wall_representation(
-            f, context=body, length=length, height=height, thickness=thickness)
-        ifcopenshell.api.geometry.assign_representation(f, product=panel, representation=rep)
-        ifcopenshell.api.material.assign_material(f, products=[panel], material=wood)
-        guids.append(panel.GlobalId)
-    f.write(str(ifc_path))
-    return tuple(guids)
+    specs = [PanelSpec(f"P{n}", _panel_guid(n), x, 3.0) for n, x in enumerate(PANEL_XS, start=1)]
+    add_panels(ifc_path, specs, size=PANEL_SIZE, shape="wall")
+    return tuple(s.global_id for s in specs)
 
 
-def _pose(name: str, x: float, y: float, z: float, yaw: float = 0.0) -> str:
-    return (f"site:{name} a kbp:Pose ; kbp:x {x!r} ; kbp:y {y!r} ; kbp:z {z!r} ;\n"
-            f"    kbp:roll 0.0 ; kbp:pitch 0.0 ; kbp:yaw {yaw!r} .\n")
+_pose = pose_ttl
 
 
 def _site_ttl() -> str:
-    x0, y0, x1, y1 = EXTENT
     ox, oy, osx, osy, osz = OFFICE
     return (
-        "@prefix kbp: <https://w3id.org/kbplanner/ontology#> .\n"
-        "@prefix rdfs: <http://www.w3.org/2000/01/rdf-schema#> .\n"
-        f"@prefix site: <{BASE}site/> .\n\n"
-        "site:layout a kbp:SiteLayout ; kbp:siteExtent site:extent ; kbp:robotStart site:start .\n"
-        f"site:extent a kbp:Box ; kbp:minX {x0!r} ; kbp:minY {y0!r} ; kbp:minZ -1.0 ;\n"
-        f"    kbp:maxX {x1!r} ; kbp:maxY {y1!r} ; kbp:maxZ 10.0 .\n"
-        + _pose("start", -3.0, -2.0, 0.0)
+        prefixes(BASE) + layout_ttl(EXTENT, (-3.0, -2.0, 0.0))
         + "site:office a kbp:SiteOffice ; rdfs:label \"Office\" ; kbp:obstructs true ;\n"
         f"    kbp:sizeX {osx!r} ; kbp:sizeY {osy!r} ; kbp:sizeZ {osz!r} ;\n"
         "    kbp:installedPose site:office-pose .\n"
@@ -130,18 +104,8 @@ def _site_ttl() -> str:
 
 
 def _storage_ttl(panels: tuple[str, ...], stack: dict[str, int]) -> str:
-    x, y, z, yaw = STORAGE
-    sx, sy, sz = STORAGE_SIZE
-    text = (
-        "@prefix kbp: <https://w3id.org/kbplanner/ontology#> .\n"
-        "@prefix rdfs: <http://www.w3.org/2000/01/rdf-schema#> .\n"
-        f"@prefix site: <{BASE}site/> .\n\n"
-        "site:storage a kbp:MaterialStorage ; rdfs:label \"Panel storage\" ; kbp:obstructs true ;\n"
-        f"    kbp:sizeX {sx!r} ; kbp:sizeY {sy!r} ; kbp:sizeZ {sz!r} ;\n"
-        "    kbp:installedPose site:storage-pose ; kbp:pickupLocation site:pickup .\n"
-        + _pose("storage-pose", x, y, z, yaw)
-        + _pose("pickup", x - 1.4, y, 0.0)
-    )
+    x, y, _, _ = STORAGE
+    text = prefixes(BASE) + storage_head_ttl(STORAGE, STORAGE_SIZE, (x - 1.4, y, 0.0, 0.0))
     for gid in panels:
         text += f"<{element_iri(BASE, gid)}> kbp:storedIn site:storage ; kbp:stackIndex {stack[gid]} .\n"
     return text
@@ -159,19 +123,8 @@ def make_world_project(directory: Path, *, storeys: int = 2, bays: int = 2) -> W
     (directory / "site.ttl").write_text(_site_ttl(), encoding="utf-8")
     (directory / "storage.ttl").write_text(_storage_ttl(panels, stack), encoding="utf-8")
     (directory / "project.toml").write_text(
-        "[project]\n"
-        'name = "worldtest"\n'
-        f'base_iri = "{BASE}"\n'
-        "[model]\n"
-        'ifc = "model.ifc"\n'
-        'schedule = "schedule.csv"\n'
-        'site = ["site.ttl"]\n'
-        "[simulation]\n"
-        'task = "T5"\n'
-        f'date = "{DATE}"\n'
-        "[scenarios.stored]\n"
-        'description = "panels on a storage in the yard"\n'
-        'overlays = ["storage.ttl"]\n',
+        project_toml("worldtest", BASE, simulation={"task": "T5", "date": DATE},
+                     scenarios={"stored": ("panels on a storage in the yard", ["storage.ttl"])}),
         encoding="utf-8",
     )
     return WorldProject(directory, building, panels, stack)
