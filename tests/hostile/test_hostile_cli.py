@@ -182,8 +182,36 @@ def _bad_ifc(root: Path) -> None:
     (root / "proj" / "model.ifc").write_text("these are meeting notes, not a building\n")
 
 
-# Malformed input files (part B adds its numeric and site-location cases here).
+def _site_number(prop: str, value: str) -> Callable[[Path], None]:
+    """Append ``site:hostile <prop> <value>`` to the project's site Turtle."""
+    def setup(root: Path) -> None:
+        with open(root / "proj" / "site.ttl", "a") as fh:
+            fh.write(f'\nsite:hostile {prop} {value} .\n')
+    return setup
+
+
+_XSD_DOUBLE = "^^<http://www.w3.org/2001/XMLSchema#double>"
+# The numeric rule for numbers in files: every command that reads the file stops with exit 2.
+NUMBER_CASES: dict[str, Case] = {
+    f"{command}-{prop.split(':')[1]}-{label}": _case(
+        command, "proj", *(OUT if command in ("plan", "simulate", "run") else ()), needle=prop,
+        setup=_site_number(prop, value))
+    for command in ("validate", "plan", "simulate", "run", "info")
+    for prop, label, value in (
+        ("kbp:maxSpeed", "nan", f'"NaN"{_XSD_DOUBLE}'),
+        ("kbp:maxSpeed", "inf", f'"INF"{_XSD_DOUBLE}'),
+        ("kbp:maxSpeed", "negative", "-1.0"),
+        ("kbp:safetyStopDistance", "inf", f'"INF"{_XSD_DOUBLE}'),
+        ("kbp:walkingSpeed", "zero", "0.0"),
+        ("kbp:dwellTime", "negative", "-5.0"),
+        ("kbp:sizeX", "zero", "0.0"),
+        ("kbp:x", "inf", f'"-INF"{_XSD_DOUBLE}'),
+    )
+}
+
+# Malformed input files.
 FILE_CASES: dict[str, Case] = {
+    **NUMBER_CASES,
     "bad-toml": _case("validate", "proj", needle="project.toml", setup=_bad_toml),
     "bad-turtle": _case("validate", "proj", needle="site.ttl", setup=_bad_turtle),
     "bad-csv": _case("plan", "proj", needle="schedule.csv", setup=_bad_csv),

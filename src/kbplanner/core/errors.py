@@ -88,3 +88,7 @@ class QueryError(KbplannerError):
 
 class WorldError(KbplannerError):
     """The world cannot be built: unknown task, no task to simulate, a mesh file that is missing."""
+
+
+class NumberRangeError(InputFileError):
+    """A number from a user's file is not finite or outside its physical range (the numeric rule)."""

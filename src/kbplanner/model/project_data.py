@@ -24,6 +24,7 @@ from rdflib import RDF, Graph
 from kbplanner.core.errors import ProjectError
 from kbplanner.core.iris import base_iri
 from kbplanner.core.named_queries import QueryResult, run_named
+from kbplanner.core.number_rule import check_numbers
 from kbplanner.core.rdf_io import bind_prefixes, parse_turtle
 
 if TYPE_CHECKING:
@@ -282,7 +283,10 @@ class ProjectData:
             overlays += list(manifest.scenarios[scenario].overlays)
         for p in overlays:
             say(f"reading {p.name}")
-            parse_turtle(p, into=model)
+            overlay = parse_turtle(p)
+            check_numbers(overlay, p)  # the numeric rule, where the numbers are read
+            for triple in overlay:
+                model.add(triple)
         say("loading knowledge base")
         kb, kb_files = _load_kb(manifest.knowledge_base)
         merged: Graph | None = None
