@@ -18,7 +18,7 @@ Then the end-to-end run (``--end-to-end SxU``, default 10x8: 1,120 frames on 10 
 ``--no-end-to-end`` skips it): ``kbplanner generate-building`` and ``kbplanner run DIR --out OUT
 --tasks all --workers 2`` as subprocesses in a temporary directory, each timed, with the peak resident
 memory of the largest process of each (``os.wait4``: worker processes included), the pipeline's stage
-timings (OUT/metrics.json), installed / elements, simulated time and real-time factor of every task
+timings (OUT/run_timings.json), installed / elements, simulated time and real-time factor of every task
 (``tasks/tasks.json``, ``tasks_timings.json``), and whether generate-to-report took less than the aim
 (600 s). It prints its own table. Everything goes to ``benchmarks/results/bench.json`` (``--out``),
 the end-to-end figures under ``"end_to_end"``.
@@ -255,7 +255,7 @@ def measure_end_to_end(storeys: int, units: int, work: Path, *, workers: int = E
     """``kbplanner generate-building`` then ``kbplanner run --tasks all`` in ``work``, as subprocesses.
 
     Wall time, exit code, peak memory (largest process of the tree, workers included) and CPU time of
-    each command; the pipeline's stage timings (``metrics.json``); per scenario the tasks, installed /
+    each command; the pipeline's stage timings (``run_timings.json``); per scenario the tasks, installed /
     elements, simulated time, the simulation's wall time and real-time factor (``tasks/tasks.json``,
     ``tasks_timings.json``); whether the report was written and generate-to-report met the aim.
     """
@@ -289,7 +289,7 @@ def measure_end_to_end(storeys: int, units: int, work: Path, *, workers: int = E
     if run["exit"] not in (0, 1):
         record["error"] = "kbplanner run failed"
         record["log_tail"] = _tail(work / "run.log")
-    metrics = _read_json(out / "metrics.json") or {}
+    metrics = _read_json(out / "run_timings.json") or {}
     record["pipeline_stages"] = metrics.get("stages", [])
     record["pipeline_total_s"] = metrics.get("total_seconds")
     record["pipeline_main_peak_rss_mb"] = metrics.get("peak_rss_mb")

@@ -46,7 +46,8 @@ def test_the_run_directory_holds_requirements_validation_and_worlds(run_dir: Run
         assert (s / "validation.ttl").is_file()
         assert "NOT FIT" in (s / "robots.txt").read_text()
         assert (s / "world" / "map.pgm").is_file() and (s / "world" / "world_existing.sdf").is_file()
-    metrics = json.loads((out / "metrics.json").read_text())
+    assert not (out / "metrics.json").exists()  # wall-clock timings are not called metrics (issue 17)
+    metrics = json.loads((out / "run_timings.json").read_text())
     stages = {m["stage"] for m in metrics["stages"]}
     assert stages >= {"import and load", "requirements", "validation", "world"}
     manifest = json.loads((out / "manifest.json").read_text())

@@ -204,7 +204,7 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
                                                   task_tables=task_tables or None)
         result.timings = clock.timings
         result.seconds = round(time.perf_counter() - t_start, 3)
-        write_json(stage / "metrics.json", {
+        write_json(stage / "run_timings.json", {  # wall clock: not deterministic, unlike metrics.json
             "stages": [asdict(t) for t in clock.timings],
             "total_seconds": result.seconds,
             "peak_rss_mb": round(peak_rss_mb(), 1),

@@ -15,6 +15,7 @@ from pathlib import Path
 from rich.console import Console
 
 from kbplanner.cli.arguments import add_force, check_out, positive_float, seed_int
+from kbplanner.cli.progress import status
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -41,14 +42,14 @@ def run(args: argparse.Namespace) -> int:
     check_out(args.out)
     names = [s.strip() for s in args.scenarios.split(",") if s.strip()]
     err = Console(stderr=True)
-    with err.status("comparing") as status:
+    with status(err, "comparing") as say:
         comp, runs = compare(
             Path(args.project),
             names,
             out_dir=args.out,
             seed=args.seed,
             threshold_m=args.threshold,
-            progress=lambda m: status.update(m),
+            progress=say,
         )
     sys.stdout.write(comp.text())
     sys.stdout.write(f"report: {Path(args.out) / 'report.html'}\n")

@@ -11,6 +11,7 @@ from rich.table import Table
 
 from kbplanner.analysis.report import COMPARISON_COLUMNS
 from kbplanner.cli.arguments import add_force, check_out, positive_int, seed_int
+from kbplanner.cli.progress import status
 from kbplanner.pipeline import PipelineResult, run_pipeline
 
 
@@ -57,9 +58,9 @@ def run(args: argparse.Namespace) -> int:
     check_out(args.out)
     err = Console(stderr=True)
     out = Console(width=max(Console().width, 150))
-    with err.status("starting") as status:
+    with status(err, "starting") as say:
         result = run_pipeline(Path(args.project), Path(args.out), scenarios=args.scenarios,
-                              say=lambda m: status.update(m), simulate=not args.no_simulation, seed=args.seed,
+                              say=say, simulate=not args.no_simulation, seed=args.seed,
                               tasks=args.tasks, workers=args.workers, max_elements=args.max_elements)
     out.print(f"Bare model: {result.requirements} additional modeling requirement(s) "
               f"covering {result.requirement_elements} element(s) (requirements.csv)")

@@ -46,6 +46,7 @@ def run(args: argparse.Namespace) -> int:
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
     from rich.table import Table
 
+    from kbplanner.cli.progress import plain_counter
     from kbplanner.planning.manipulation import refine_plan
     from kbplanner.planning.planner import plan_task
     from kbplanner.project import Project
@@ -69,16 +70,21 @@ def run(args: argparse.Namespace) -> int:
     grid = storey_map(world).grid
     settings = ExecSettings(keyframes=not args.no_keyframes)
     columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
-    with Progress(*columns, console=console, transient=False) as bar:
+    lines = plain_counter(console)  # plain lines where stderr is no terminal (logs, nohup)
+    with Progress(*columns, console=console, transient=False, disable=lines is not None) as bar:
         b4 = bar.add_task("B4 arm and base poses", total=len(plan.elements))
         def refined_one(_label: str, done: int, total: int) -> None:
             bar.update(b4, completed=done, total=total)
+            if lines is not None:
+                lines.count("B4 arm and base poses", done, total)
 
         refined = refine_plan(plan, world, seed=seed, grid=grid, progress=refined_one)
         b5 = bar.add_task("B5 simulation", total=len(refined.steps))
 
         def tell(label: str, done: int, total: int) -> None:
             bar.update(b5, completed=done, total=total, description=f"B5 simulation: {label}")
+            if lines is not None:
+                lines.count(f"B5 simulation: {label}", done, total)
 
         result = simulate(project, refined, seed=seed, out_dir=args.out, progress=tell, world=world,
                           grid=grid, settings=settings, gui=args.gui)

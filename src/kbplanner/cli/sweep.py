@@ -51,6 +51,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from kbplanner.cli.progress import plain_counter
     from kbplanner.scale.sweep import SweepSpec, run_sweep
     from kbplanner.scale.sweep_axes import SweepError, parse_vary
 
@@ -61,12 +62,15 @@ def run(args: argparse.Namespace) -> int:
     spec = SweepSpec(Path(args.project), scenario=args.scenario, axes=parse_vary(args.vary),
                      max_elements=args.max_elements, threshold_m=args.threshold)
     err = Console(stderr=True)
+    lines = plain_counter(err)  # plain lines where stderr is no terminal (logs, nohup)
     with Progress(TextColumn("sweep"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.description}"),
-                  TimeElapsedColumn(), console=err, transient=True) as bar:
+                  TimeElapsedColumn(), console=err, transient=True, disable=lines is not None) as bar:
         job = bar.add_task("preparing", total=None)
 
         def tell(done: int, total: int, variant: str) -> None:
             bar.update(job, completed=done, total=total, description=variant)
+            if lines is not None:
+                lines.count(f"sweep ({variant})", done, total)
 
         result = run_sweep(spec, out_dir=args.out, workers=args.workers, cluster=args.cluster,
                            keep_runs=args.keep_runs, safety=args.safety, progress=tell)

@@ -47,7 +47,7 @@ import trimesh
 from kbplanner.core.errors import KbplannerError
 from kbplanner.core.outputs import atomic_write_bytes
 from kbplanner.world.build import ground_level_storey
-from kbplanner.world.levels import SUPPORT_DEPTH_M, LevelRegion, level_regions, levels_summary
+from kbplanner.world.levels import STAIR, SUPPORT_DEPTH_M, LevelRegion, level_regions, levels_summary
 from kbplanner.world.meshes import element_local_mesh, element_mesh, group_mesh, site_object_mesh
 from kbplanner.world.occupancy import Box, OccupancyGrid, occupancy_from_meshes
 from kbplanner.world.world_types import StoreyInfo, World, WorldElement, pose_matrix
@@ -210,8 +210,8 @@ def storey_map(world: World, storey: str | None = None, settings: MapSettings | 
     seconds = time.perf_counter() - started
     log.info("map of %s: %d x %d cells, %.1f %% occupied, %.2f s", chosen.label, grid.shape[1],
              grid.shape[0], 100.0 * (1.0 - grid.free_fraction), seconds)
-    for region in levels:
-        log.warning("map of %s: %s", chosen.label, region.text())
+    for region in levels:  # stairs are expected obstacles; other floor heights deserve a look
+        (log.info if region.role == STAIR else log.warning)("map of %s: %s", chosen.label, region.text())
     return StoreyMap(chosen, grid, band, ground, len(meshes), seconds, levels)
 
 
