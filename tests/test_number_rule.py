@@ -57,3 +57,32 @@ def test_validate_reports_a_bad_number_in_its_shacl_report(tmp_path: Path) -> No
     result = validate_model(project.model, project.kb)
     assert not result.conforms
     assert any(str(node) in str(r) and "maxSpeed" in str(r) for r in result.rows)
+
+
+def test_a_turtle_syntax_error_gives_line_and_column(tmp_path: Path) -> None:
+    from kbplanner.core.errors import RdfSyntaxError
+    from kbplanner.core.rdf_io import parse_turtle
+
+    bad = tmp_path / "site.ttl"
+    bad.write_text('@prefix kbp: <https://w3id.org/kbplanner/ontology#> .\n<urn:a> kbp:x 1.0 .\n'
+                   '<urn:b> kbp:y 2.0 ;\n   kbp:z zz:q .\n')
+    with pytest.raises(RdfSyntaxError) as err:
+        parse_turtle(bad)
+    assert str(err.value).startswith(f"{bad}:4: Turtle syntax error at column 10: ")
+    assert 'zz:' in str(err.value)
+
+
+def test_owl_imports_of_a_local_file_is_read_and_a_missing_one_is_an_error(tmp_path: Path) -> None:
+    from kbplanner.core.errors import InputFileError
+    from kbplanner.core.rdf_io import parse_turtle
+
+    main = tmp_path / "main.ttl"
+    main.write_text("@prefix owl: <http://www.w3.org/2002/07/owl#> .\n"
+                    "<urn:o> a owl:Ontology ; owl:imports <other.ttl> .\n")
+    (tmp_path / "other.ttl").write_text('<urn:x> <urn:p> "from other" .\n'
+                                        "<urn:o2> <http://www.w3.org/2002/07/owl#imports> <main.ttl> .\n")
+    g = parse_turtle(main)
+    assert (URIRef("urn:x"), URIRef("urn:p"), Literal("from other")) in g
+    (tmp_path / "other.ttl").unlink()
+    with pytest.raises(InputFileError, match="no such file"):
+        parse_turtle(main)

@@ -10,6 +10,8 @@ from __future__ import annotations
 import re
 from collections.abc import Iterable
 from pathlib import Path
+from urllib.parse import urlparse
+from urllib.request import url2pathname
 
 from rdflib import OWL, Graph, URIRef
 
@@ -38,8 +40,10 @@ def bind_prefixes(g: Graph) -> None:
     g.bind("bot", BOT, override=True)
 
 
-def parse_turtle(path: Path, into: Graph | None = None) -> Graph:
-    """Parse one Turtle file; a syntax error names the file and line, a remote import is refused.
+def parse_turtle(path: Path, into: Graph | None = None, *,
+                 _importing: frozenset[Path] = frozenset()) -> Graph:
+    """Parse one Turtle file; a syntax error names the file, line and column; a remote import is
+    refused; ``owl:imports`` of a local ``file:`` IRI is read too (a missing file is an error).
 
     Example:
         >>> from kbplanner.core.resources import data_dir
@@ -55,22 +59,49 @@ def parse_turtle(path: Path, into: Graph | None = None) -> Graph:
     try:
         part.parse(path, format="turtle")
     except Exception as exc:  # rdflib raises several parser exception types
-        text = str(exc)
-        m = _LINE_RE.search(text)
-        line = int(m.group(1)) if m else None
-        first = text.strip().splitlines()[0] if text.strip() else type(exc).__name__
+        line, column, why = _syntax_position(exc)
         raise RdfSyntaxError(
-            f"Turtle syntax error: {first}",
+            f"Turtle syntax error{f' at column {column}' if column is not None else ''}: {why}",
             file=path,
             line=line,
             fix="correct the Turtle at that line (check prefixes, '.' and ';' terminators)",
         ) from None
     check_imports(part, path)
+    here = _importing | {path.resolve()}
+    for target in sorted(str(o) for o in part.objects(None, OWL.imports)):
+        local = Path(url2pathname(urlparse(target).path))
+        if local.resolve() in here:
+            continue  # an import circle: each file is read once
+        if not local.is_file():
+            raise InputFileError(f"owl:imports <{target}>: no such file", file=path, element=target,
+                                 fix="correct the file: IRI (absolute, or relative to this file) or "
+                                     "remove the owl:imports line")
+        parse_turtle(local, into=part, _importing=here)
     for t in part:
         g.add(t)
     for prefix, ns in part.namespaces():
         g.bind(prefix, ns, override=False)
     return g
+
+
+def _syntax_position(exc: Exception) -> tuple[int | None, int | None, str]:
+    """Line, column (1-based) and reason of a parser error (rdflib's ``BadSyntax`` keeps the text
+    and the offset; other errors give what their message says)."""
+    why = str(getattr(exc, "_why", "") or "")
+    text = getattr(exc, "_str", None)
+    offset = getattr(exc, "_i", None)
+    lines = getattr(exc, "lines", None)
+    if isinstance(text, bytes | str) and isinstance(offset, int):
+        raw = text.decode("utf-8", "replace") if isinstance(text, bytes) else text
+        before = raw[:offset]
+        line = before.count("\n") + 1 if not isinstance(lines, int) else lines + 1
+        column = offset - (before.rfind("\n") + 1) + 1
+        return line, column, why or type(exc).__name__
+    message = str(exc)
+    m = _LINE_RE.search(message)
+    rest = [s.strip() for s in message.strip().splitlines() if s.strip()]
+    reason = next((s for s in rest if not s.startswith("at line")), rest[0] if rest else type(exc).__name__)
+    return (int(m.group(1)) if m else None), None, why or reason
 
 
 def check_imports(g: Graph, path: Path) -> None:
