@@ -92,3 +92,8 @@ class WorldError(KbplannerError):
 
 class NumberRangeError(InputFileError):
     """A number from a user's file is not finite or outside its physical range (the numeric rule)."""
+
+
+class SiteLocationError(InputFileError):
+    """A declared site location (a pickup location, a storage) cannot be used: off the site, inside an
+    element or a solid site object, or in a no-go zone."""

@@ -75,6 +75,7 @@ from kbplanner.planning.pose_frames import as_joints, as_pose6_list, joints, pos
 from kbplanner.planning.pose_search import RefineSettings
 from kbplanner.robot.robot_model import RobotModel
 from kbplanner.world.occupancy import OccupancyGrid
+from kbplanner.world.site_checks import check_pickup_locations
 from kbplanner.world.world_types import World, WorldElement
 
 log = logging.getLogger(__name__)
@@ -310,6 +311,7 @@ def refine_plan(
         from kbplanner.world.exports import storey_map
 
         grid = storey_map(world).grid
+    check_pickup_locations(world, grid)  # a declared location is used, or the run stops (exit 2)
     robot = RobotModel.load(robot_name(out))
     robot.floor_z = float(out.storey_elevation_m)  # the robot works on the task's storey
     fallbacks = 0
