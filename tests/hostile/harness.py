@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 from pathlib import Path
 
 import pytest
@@ -58,9 +59,13 @@ class Workspace:
         return code, err
 
 
+PROGRESS_LINE = re.compile(r"^\[\s*[0-9.]+ s\] ")  # plain progress where stderr is no terminal
+
+
 def one_message(err: str) -> str:
     """The error line of ``err`` (exactly one ``error:`` line, optionally followed by its fix)."""
-    lines = [ln for ln in err.splitlines() if ln.strip() and not ln.startswith(("WARNING ", "INFO "))]
+    lines = [ln for ln in err.splitlines() if ln.strip() and not ln.startswith(("WARNING ", "INFO "))
+             and not PROGRESS_LINE.match(ln)]
     errors = [ln for ln in lines if ": error: " in ln]
     assert len(errors) == 1, err
     extra = [ln for ln in lines if ln not in errors and not ln.startswith("  fix:")]

@@ -17,7 +17,7 @@ from pathlib import Path
 from rdflib import Graph, Literal, Namespace, URIRef
 
 from kbplanner.core.errors import NumberRangeError
-from kbplanner.core.resources import data_dir
+from kbplanner.core.resources import shape_files
 
 SH = Namespace("http://www.w3.org/ns/shacl#")
 KBP_NS = "https://w3id.org/kbplanner/ontology#"
@@ -44,21 +44,31 @@ class NumberRange:
 
 @lru_cache(maxsize=1)
 def number_ranges() -> dict[URIRef, NumberRange]:
-    """The ranges of ``shapes/numbers.ttl``, by property."""
-    g = Graph()
-    g.parse(data_dir("shapes") / "numbers.ttl", format="turtle")
-    out: dict[URIRef, NumberRange] = {}
-    for ps in g.subjects(SH.path, None):
-        prop = g.value(ps, SH.path)
-        if not isinstance(prop, URIRef):
-            continue
-        lo_ex, lo_in = g.value(ps, SH.minExclusive), g.value(ps, SH.minInclusive)
-        hi = g.value(ps, SH.maxInclusive)
-        low = lo_ex if lo_ex is not None else lo_in
-        if not isinstance(low, Literal) or not isinstance(hi, Literal):
-            continue
-        out[prop] = NumberRange(prop, float(low.toPython()), lo_ex is None, float(hi.toPython()))
-    return out
+    """The ranges of the properties of ``shapes/numbers.ttl``; a lower bound given by another shape
+    file for the same property (``shapes/jobsite.ttl``) counts too (the strictest bound wins)."""
+    lows: dict[URIRef, tuple[float, bool]] = {}
+    highs: dict[URIRef, float] = {}
+    ruled: set[URIRef] = set()
+    for path in shape_files():
+        g = Graph()
+        g.parse(path, format="turtle")
+        for ps in g.subjects(SH.path, None):
+            prop = g.value(ps, SH.path)
+            if not isinstance(prop, URIRef):
+                continue
+            if path.name == "numbers.ttl":
+                ruled.add(prop)
+            for bound, inclusive in ((SH.minExclusive, False), (SH.minInclusive, True)):
+                v = g.value(ps, bound)
+                if isinstance(v, Literal):
+                    new = (float(v.toPython()), inclusive)
+                    old = lows.get(prop)
+                    if old is None or new[0] > old[0] or (new[0] == old[0] and not inclusive):
+                        lows[prop] = new
+            hi = g.value(ps, SH.maxInclusive)
+            if isinstance(hi, Literal):
+                highs[prop] = min(highs.get(prop, math.inf), float(hi.toPython()))
+    return {p: NumberRange(p, *lows.get(p, (-math.inf, True)), highs.get(p, math.inf)) for p in sorted(ruled)}
 
 
 def literal_number(value: Literal) -> float | None:
