@@ -159,7 +159,9 @@ def compare_runs(runs: Mapping[str, RunRecord], *, threshold_m: float = 1.0) -> 
     return Comparison(figures=figs, runs=dict(runs))
 
 
-def _space_finder(project: ProjectData) -> Callable[[float, float], str]:
+def _space_finder(project: ProjectData) -> Callable[[float, float, float], str]:
+    """``nearest(x, y, floor_z)``: the room at a point of the storey whose elevation is nearest to
+    ``floor_z`` (the robot's storey), or how far outside the nearest room of that storey it is."""
     spaces = []
     for r in run_named(project.graph, "space_bounds").as_dicts():
         spaces.append(
@@ -173,9 +175,14 @@ def _space_finder(project: ProjectData) -> Callable[[float, float], str]:
             )
         )
 
-    def nearest(x: float, y: float) -> str:
+    def nearest(x: float, y: float, floor_z: float = 0.0) -> str:
         best, best_d = "", float("inf")
-        for label, x0, y0, x1, y1, _ in spaces:
+        if not spaces:
+            return ""
+        level = min((abs(s[5] - floor_z), s[5]) for s in spaces)[1]
+        for label, x0, y0, x1, y1, elevation in spaces:
+            if elevation != level:
+                continue
             dx = max(x0 - x, 0.0, x - x1)
             dy = max(y0 - y, 0.0, y - y1)
             d = (dx * dx + dy * dy) ** 0.5

@@ -83,6 +83,19 @@ def _box_corners(o: LayoutObject) -> FloatArray:
     return np.asarray(pts @ np.array([[c, s], [-s, c]]) + np.array([o.x, o.y]), dtype=np.float64)
 
 
+LABEL_GAP_M = (3.0, 0.9)  # two labels closer than this (x, y) would overlap at the plot's scale
+
+
+def _free_label_spot(placed: Sequence[tuple[float, float]], x: float, y: float) -> tuple[float, float]:
+    """Where a label at (x, y) overlaps no label placed before: moved up in steps until it is free."""
+    for step in range(12):
+        cand = (x, y + step * LABEL_GAP_M[1])
+        if all(abs(cand[0] - px) >= LABEL_GAP_M[0] or abs(cand[1] - py) >= LABEL_GAP_M[1]
+               for px, py in placed):
+            return cand
+    return x, y
+
+
 def site_layout(
     grid: OccupancyGrid | None,
     objects: Sequence[LayoutObject],
@@ -108,7 +121,8 @@ def site_layout(
             interpolation="nearest",
         )
     seen: set[str] = set()
-    for o in objects:
+    placed: list[tuple[float, float]] = []
+    for o in sorted(objects, key=lambda o: (o.y, o.x, o.label)):
         colour = _KIND_COLOURS.get(o.kind, "#cccccc")
         label = o.kind if o.kind not in seen else None
         seen.add(o.kind)
@@ -123,7 +137,10 @@ def site_layout(
                 label=label,
             )
         )
-        ax.annotate(o.label, (o.x, o.y), fontsize=6, ha="center", va="center")
+        lx, ly = _free_label_spot(placed, o.x, o.y)
+        placed.append((lx, ly))
+        ax.annotate(o.label, (lx, ly), fontsize=6, ha="center", va="center",
+                    bbox={"boxstyle": "round,pad=0.15", "facecolor": "white", "alpha": 0.7, "linewidth": 0})
     for i, (name, xy) in enumerate(sorted(workers.items())):
         if len(xy):
             ax.plot(

@@ -188,7 +188,8 @@ def build_report(runs: Mapping[str, RunRecord], *, title: str,
                   f"{name}: distance over time with the {threshold_m:g} m and ISO/TS 15066 thresholds")
         rows = []
         for iv in p.intervals:
-            where = space_of(iv.x_m, iv.y_m) if space_of else ""
+            floor = float(rec.manifest.get("robot_floor_z", 0.0))  # the robot's storey, not another
+            where = space_of(iv.x_m, iv.y_m, floor) if space_of else ""
             rows.append([iv.worker, iv.threshold, _r(iv.start_s, 1), _r(iv.duration_s, 1),
                          _r(iv.min_distance_m), f"({iv.x_m:.1f}, {iv.y_m:.1f})", where])
         if rows:

@@ -42,6 +42,9 @@ def _upper_bodies(env: SimEnv) -> list[int]:
     return sorted(bodies)
 
 
+GROUND_DROP_M = 0.05  # the ground plane's drop while a key frame is rendered
+
+
 def render_png(env: SimEnv, size: tuple[int, int] = (640, 480)) -> bytes:
     """A PNG of the scene around the robot, ``size`` = (width, height) pixels."""
     import pybullet as p
@@ -60,10 +63,17 @@ def render_png(env: SimEnv, size: tuple[int, int] = (640, 480)) -> bytes:
     for body in hidden:  # storeys above the robot's would hide it from a camera above
         p.resetBasePositionAndOrientation(body, [0.0, 0.0, -1000.0], [0.0, 0.0, 0.0, 1.0],
                                           physicsClientId=env.client)
+    ground = env.world_bodies.ground
+    # The ground plane and a slab at ground level are coplanar: the renderer's depth test streaks
+    # them (z-fighting). For the picture only, the plane sits a little lower.
+    p.resetBasePositionAndOrientation(ground, [0.0, 0.0, env.world.ground_z - GROUND_DROP_M],
+                                      [0.0, 0.0, 0.0, 1.0], physicsClientId=env.client)
     try:
         _, _, rgba, _, _ = p.getCameraImage(width, height, viewMatrix=view, projectionMatrix=proj,
                                             renderer=p.ER_TINY_RENDERER, physicsClientId=env.client)
     finally:
+        p.resetBasePositionAndOrientation(ground, [0.0, 0.0, env.world.ground_z], [0.0, 0.0, 0.0, 1.0],
+                                          physicsClientId=env.client)
         for body in hidden:
             p.resetBasePositionAndOrientation(body, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0],
                                               physicsClientId=env.client)

@@ -49,6 +49,17 @@ GRAVITY_MPS2 = 9.81
 TASK_FRICTION = 0.8  # timber on timber (stacked frames stay put)
 
 _RGBA_STATIC = (0.8, 0.8, 0.78, 1.0)
+# Key frames tell floors from walls: static bodies are coloured by the class of their merge group.
+_RGBA_BY_KIND = {"slab": (0.86, 0.84, 0.78, 1.0), "covering": (0.86, 0.84, 0.78, 1.0),
+                 "roof": (0.7, 0.55, 0.5, 1.0), "wall": (0.45, 0.47, 0.52, 1.0),
+                 "door": (0.6, 0.42, 0.25, 1.0), "window": (0.55, 0.7, 0.85, 1.0),
+                 "stair": (0.65, 0.6, 0.55, 1.0)}
+
+
+def _static_colour(name: str) -> tuple[float, float, float, float]:
+    """The colour of a merged static body by the class in its group name (``level-1_wall#0``)."""
+    kind = name.split("#", 1)[0].rsplit("_", 1)[-1].lower()
+    return _RGBA_BY_KIND.get(kind, _RGBA_STATIC)
 _RGBA_TASK = (0.87, 0.67, 0.35, 1.0)
 _RGBA_SITE = (0.94, 0.59, 0.16, 1.0)
 
@@ -128,8 +139,8 @@ def _static_body(client: int, name: str, meshes: Sequence[trimesh.Trimesh], visu
                    "concave mesh shape", name)
     visual = -1
     if visuals:
-        visual = p.createVisualShape(p.GEOM_MESH, vertices=vertices, indices=indices, rgbaColor=_RGBA_STATIC,
-                                     physicsClientId=client)
+        visual = p.createVisualShape(p.GEOM_MESH, vertices=vertices, indices=indices,
+                                     rgbaColor=_static_colour(name), physicsClientId=client)
     return _check(p.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=shape, baseVisualShapeIndex=visual,
                                     physicsClientId=client), "static body", name)
 
