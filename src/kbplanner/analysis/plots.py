@@ -83,16 +83,18 @@ def _box_corners(o: LayoutObject) -> FloatArray:
     return np.asarray(pts @ np.array([[c, s], [-s, c]]) + np.array([o.x, o.y]), dtype=np.float64)
 
 
-LABEL_GAP_M = (3.0, 0.9)  # two labels closer than this (x, y) would overlap at the plot's scale
+LABEL_LINE = 0.022  # a label's height, as a fraction of the plot's x span (font size 6)
+LABEL_CHAR = 0.0075  # a character's width, as a fraction of the plot's x span
 
 
-def _free_label_spot(placed: Sequence[tuple[float, float]], x: float, y: float) -> tuple[float, float]:
-    """Where a label at (x, y) overlaps no label placed before: moved up in steps until it is free."""
-    for step in range(12):
-        cand = (x, y + step * LABEL_GAP_M[1])
-        if all(abs(cand[0] - px) >= LABEL_GAP_M[0] or abs(cand[1] - py) >= LABEL_GAP_M[1]
-               for px, py in placed):
-            return cand
+def _free_label_spot(placed: Sequence[tuple[float, float, float]], x: float, y: float, half_w: float,
+                     line: float) -> tuple[float, float]:
+    """Where a label centred at (x, y), ``half_w`` wide each side, overlaps no label placed before:
+    moved up, then down, a line at a time, until it is free."""
+    for step in (0, 1, -1, 2, -2, 3, -3, 4, -4):
+        cy = y + step * line
+        if all(abs(x - px) >= half_w + pw or abs(cy - py) >= line for px, py, pw in placed):
+            return x, cy
     return x, y
 
 
@@ -121,7 +123,10 @@ def site_layout(
             interpolation="nearest",
         )
     seen: set[str] = set()
-    placed: list[tuple[float, float]] = []
+    placed: list[tuple[float, float, float]] = []
+    xs = [o.x for o in objects] + ([grid.origin[0], grid.origin[0] + grid.shape[1] * grid.resolution]
+                                   if grid is not None else [])
+    span = (max(xs) - min(xs)) if len(xs) > 1 else 10.0
     for o in sorted(objects, key=lambda o: (o.y, o.x, o.label)):
         colour = _KIND_COLOURS.get(o.kind, "#cccccc")
         label = o.kind if o.kind not in seen else None
@@ -137,8 +142,9 @@ def site_layout(
                 label=label,
             )
         )
-        lx, ly = _free_label_spot(placed, o.x, o.y)
-        placed.append((lx, ly))
+        half_w = len(o.label) * LABEL_CHAR * span / 2
+        lx, ly = _free_label_spot(placed, o.x, o.y, half_w, LABEL_LINE * span)
+        placed.append((lx, ly, half_w))
         ax.annotate(o.label, (lx, ly), fontsize=6, ha="center", va="center",
                     bbox={"boxstyle": "round,pad=0.15", "facecolor": "white", "alpha": 0.7, "linewidth": 0})
     for i, (name, xy) in enumerate(sorted(workers.items())):
@@ -162,7 +168,7 @@ def site_layout(
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_title(title)
-    ax.legend(loc="upper left", fontsize=7, framealpha=0.85)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, framealpha=0.85)
     fig.tight_layout()
     return to_png(fig)
 
