@@ -165,7 +165,7 @@ def measure_size(storeys: int, units: int, workdir: Path, *, endpoint: str | Non
                  simulate_max_frames: int = 0) -> dict[str, Any]:
     """Every stage on a generated ``storeys`` x ``units`` building (see the module docstring)."""
     from kbplanner.planning.planner import plan_task, plan_tasks
-    from kbplanner.world.exports import storey_map
+    from kbplanner.world.maps import storey_map
 
     rec = Recorder()
     directory = workdir / f"building-{storeys}x{units}"

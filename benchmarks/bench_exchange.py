@@ -32,7 +32,7 @@ from kbplanner.project import Project
 from kbplanner.simulation.executor import simulate
 from kbplanner.simulation.skills import ExecSettings
 from kbplanner.world.build import build_world
-from kbplanner.world.exports import storey_map
+from kbplanner.world.maps import storey_map
 
 CASE = REPO / "data" / "case_study"
 RESULTS = RESULTS_DIR / "exchange.json"

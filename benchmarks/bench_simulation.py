@@ -38,8 +38,8 @@ from kbplanner.simulation.skills import ExecSettings
 from kbplanner.simulation.skills.navigation import window
 from kbplanner.simulation.workers import plan_workers
 from kbplanner.world.build import build_world
-from kbplanner.world.exports import storey_map
 from kbplanner.world.footprint import Footprint, Rect
+from kbplanner.world.maps import storey_map
 from kbplanner.world.occupancy import OccupancyGrid
 from kbplanner.world.world_types import World
 

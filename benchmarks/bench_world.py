@@ -31,7 +31,8 @@ def run_case(project_dir: Path, scenario: str | None, date: str | None) -> dict[
     from kbplanner.project import Project
     from kbplanner.simulation.sim_world import load_world, settle
     from kbplanner.world.build import build_world
-    from kbplanner.world.exports import export_world, storey_map
+    from kbplanner.world.exports import export_world
+    from kbplanner.world.maps import storey_map
 
     t0 = time.perf_counter()
     project = Project.load(project_dir, scenario=scenario)

@@ -38,7 +38,7 @@ def measure(ifc: Path, out_dir: Path) -> dict[str, Any]:
     from kbplanner.model.ifc_import import import_ifc
     from kbplanner.project import Project
     from kbplanner.world.build import build_world
-    from kbplanner.world.exports import storey_map
+    from kbplanner.world.maps import storey_map
 
     f = ifcopenshell.open(str(ifc))
     with tempfile.TemporaryDirectory() as tmp:

@@ -32,7 +32,7 @@ from kbplanner.planning.plan_model import Plan
 from kbplanner.planning.planner import plan_task
 from kbplanner.project import Project
 from kbplanner.world.build import build_world
-from kbplanner.world.exports import storey_map
+from kbplanner.world.maps import storey_map
 from kbplanner.world.occupancy import OccupancyGrid
 from kbplanner.world.world_types import World
 from project_parts import (

@@ -19,7 +19,7 @@ from kbplanner.project import Project
 from kbplanner.simulation.executor import INSTALLED, simulate
 from kbplanner.simulation.sim_env import angle_between
 from kbplanner.world.build import build_world
-from kbplanner.world.exports import storey_map
+from kbplanner.world.maps import storey_map
 
 CASE_STUDY = Path(__file__).resolve().parents[1] / "data" / "case_study"
 POS_TOL_M = 0.02

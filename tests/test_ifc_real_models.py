@@ -17,7 +17,7 @@ from kbplanner.model.dates import parse_date
 from kbplanner.model.ifc_import import ImportResult, import_ifc_graph
 from kbplanner.project import Project
 from kbplanner.world.build import build_world
-from kbplanner.world.exports import storey_map
+from kbplanner.world.maps import storey_map
 
 REPO = Path(__file__).resolve().parents[1]
 DUPLEX = REPO / "data" / "case_study" / "model" / "Duplex_A_20110907.ifc"

@@ -20,8 +20,8 @@ from kbplanner.model.dates import parse_date
 from kbplanner.model.ifc_import import import_ifc_graph
 from kbplanner.project import Project
 from kbplanner.world.build import build_world
-from kbplanner.world.exports import storey_map
 from kbplanner.world.levels import RAISED, STAIR
+from kbplanner.world.maps import storey_map
 from kbplanner.world.occupancy import Box, occupancy_from_meshes
 from kbplanner.world.raster import fill_from_outline, fill_section
 

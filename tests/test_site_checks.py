@@ -12,7 +12,7 @@ from kbplanner.core.errors import SiteLocationError
 from kbplanner.model.dates import parse_date
 from kbplanner.project import Project
 from kbplanner.world.build import build_world
-from kbplanner.world.exports import storey_map
+from kbplanner.world.maps import storey_map
 from kbplanner.world.site_checks import check_pickup_locations
 from sim_project_factory import DATE, PICKUP, make_sim_project
 

@@ -115,7 +115,7 @@ def test_grid_candidates_are_free_inside_the_site_and_deterministic(project: Pat
 
 def test_a_later_start_shifts_the_workers_into_their_day(project: Path) -> None:
     p = Project.load(project, scenario="stored")
-    from kbplanner.world.exports import storey_map
+    from kbplanner.world.maps import storey_map
 
     grid = storey_map(p.world()).grid
     day = shifted_workers(p, grid, seed=3, horizon_s=1000.0, offset_s=0.0)

@@ -18,7 +18,7 @@ from kbplanner.model.dates import parse_date
 from kbplanner.project import Project
 from kbplanner.simulation.sim_world import load_world, settle
 from kbplanner.world.build import build_world
-from kbplanner.world.exports import StoreyMap, storey_map
+from kbplanner.world.maps import StoreyMap, storey_map
 from kbplanner.world.meshes import site_object_mesh
 from kbplanner.world.world_types import NOT_STARTED, World
 

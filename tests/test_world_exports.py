@@ -17,14 +17,8 @@ from kbplanner.cli import main
 from kbplanner.model.dates import parse_date
 from kbplanner.project import Project
 from kbplanner.world.build import build_world
-from kbplanner.world.exports import (
-    MapSettings,
-    StoreyMap,
-    export_world,
-    storey_map,
-    write_element_sdf,
-    write_world_existing_sdf,
-)
+from kbplanner.world.exports import export_world, write_element_sdf, write_world_existing_sdf
+from kbplanner.world.maps import MapSettings, StoreyMap, storey_map
 from kbplanner.world.occupancy import OccupancyGrid
 from kbplanner.world.world_types import World
 from test_world_support import DATE, EXTENT, NO_GO, WORKSPACE, WorldProject, make_world_project

@@ -83,7 +83,7 @@ def simulate_scenario(
     from kbplanner.simulation.executor import INSTALLED, simulate
     from kbplanner.simulation.skills import ExecSettings
     from kbplanner.world.build import world_of
-    from kbplanner.world.exports import storey_map
+    from kbplanner.world.maps import storey_map
 
     say = progress or (lambda _m: None)
     if project is None:

@@ -61,7 +61,7 @@ def write_run_mcap(run_dir: Path, out: Path, *, grid: OccupancyGrid | None = Non
     if (grid is None or start is None) and project_dir and Path(project_dir).is_dir():
         from kbplanner.project import Project
         from kbplanner.world.build import build_world
-        from kbplanner.world.exports import storey_map
+        from kbplanner.world.maps import storey_map
 
         project = Project.load(project_dir, scenario=rec.scenario)
         if start is None:

@@ -34,7 +34,7 @@ def run(args: argparse.Namespace) -> int:
     from kbplanner.analysis.comparison import ScenarioRun, write_outputs
     from kbplanner.analysis.run_record import RunRecord
     from kbplanner.project import Project
-    from kbplanner.world.exports import storey_map
+    from kbplanner.world.maps import storey_map
 
     if args.out is None and len(args.runs) > 1:
         raise InputFileError("several run directories and no --out", fix="give --out DIR for the report")

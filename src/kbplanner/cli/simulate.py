@@ -53,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
     from kbplanner.simulation.executor import INSTALLED, simulate
     from kbplanner.simulation.skills import ExecSettings
     from kbplanner.world.build import build_world
-    from kbplanner.world.exports import storey_map
+    from kbplanner.world.maps import storey_map
 
     check_out(args.out)
     console = Console(stderr=True)

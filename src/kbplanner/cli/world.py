@@ -19,7 +19,8 @@ from kbplanner.core.outputs import run_directory
 from kbplanner.model.dates import parse_date
 from kbplanner.project import Project
 from kbplanner.world.build import build_world
-from kbplanner.world.exports import MapSettings, export_world, map_summary
+from kbplanner.world.exports import export_world
+from kbplanner.world.maps import MapSettings, map_summary
 
 MAP_LINES = 10  # level regions and map notes printed (all are in world.json)
 

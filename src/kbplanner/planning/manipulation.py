@@ -297,7 +297,7 @@ def refine_plan(
 ) -> Plan:
     """B4: a copy of ``plan`` with base and arm poses for every step (see module docstring).
 
-    ``grid`` is the task storey's occupancy grid (default: :func:`kbplanner.world.exports.storey_map`
+    ``grid`` is the task storey's occupancy grid (default: :func:`kbplanner.world.maps.storey_map`
     of the world). ``progress(label, done, total)`` is called after each element.
 
     Raises:
@@ -308,7 +308,7 @@ def refine_plan(
         out.notes.append("B4 not run: no robot selected")
         return out
     if grid is None:
-        from kbplanner.world.exports import storey_map
+        from kbplanner.world.maps import storey_map
 
         grid = storey_map(world).grid
     check_pickup_locations(world, grid)  # a declared location is used, or the run stops (exit 2)

@@ -98,7 +98,7 @@ def run_variant(task: VariantTask) -> VariantResult:
     from kbplanner.simulation.executor import WORKER_HORIZON_S_PER_STEP, simulate
     from kbplanner.simulation.skills import ExecSettings
     from kbplanner.world.build import world_of
-    from kbplanner.world.exports import storey_map
+    from kbplanner.world.maps import storey_map
 
     v = task.variant
     project = ProjectData.load(task.project_dir, scenario=v.scenario)

@@ -126,7 +126,7 @@ def apply_overlay(model: Graph, overlay: Overlay) -> None:
 # ---- free-space checks ---------------------------------------------------------------------------
 def free_ground_grid(world: World, storage_iri: str) -> OccupancyGrid:
     """The task storey's occupancy grid with the storage itself left out (where could it stand?)."""
-    from kbplanner.world.exports import storey_map
+    from kbplanner.world.maps import storey_map
 
     others = tuple(o for o in world.site_objects if o.iri != storage_iri)
     return storey_map(replace(world, site_objects=others)).grid

@@ -391,7 +391,7 @@ def simulate(
             cannot be loaded.
     """
     from kbplanner.simulation.workers import plan_workers
-    from kbplanner.world.exports import storey_map
+    from kbplanner.world.maps import storey_map
 
     settings = settings or ExecSettings()
     if not plan.robot_id:
