@@ -58,3 +58,16 @@ def test_every_module_is_in_a_subpackage() -> None:
     top = {m.name for m in pkgutil.iter_modules(kbplanner.__path__)}
     assert top - set(SUBPACKAGES) == {"__main__", "pipeline", "project", "queries"} - (
         {"queries"} - top)
+
+
+MAX_LINES = 500
+SRC = __import__("pathlib").Path(kbplanner.__file__).parent
+
+
+def test_no_module_over_500_lines_without_a_reason_at_its_top() -> None:
+    unexplained = []
+    for path in sorted(SRC.rglob("*.py")):
+        lines = path.read_text(encoding="utf-8").splitlines()
+        if len(lines) > MAX_LINES and not lines[0].startswith("# Over 500 lines: "):
+            unexplained.append(f"{path.relative_to(SRC)}: {len(lines)} lines")
+    assert not unexplained, unexplained

@@ -1,3 +1,4 @@
+# Over 500 lines: A3 in one place (report -> rows -> template); the template writer is next to split.
 """Additional modeling requirements (A3): what the 4D model lacks for the skills of its robotized tasks.
 
 ``derive_requirements(model, kb)`` generates the requirement shapes

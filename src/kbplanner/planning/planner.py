@@ -1,3 +1,4 @@
+# Over 500 lines: B1-B3 of one task in one place (task, robot, parameters, elements, steps); next to split.
 """B1-B3, the action-level plan: a robotized task broken into skill calls for one robot.
 
 Takes a loaded :class:`~kbplanner.model.project_data.ProjectData` (one scenario), a robotized task id and
