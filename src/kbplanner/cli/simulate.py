@@ -32,6 +32,10 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--robot", help="robot id of the knowledge base (default: the first fitting one)")
     p.add_argument("--gui", action="store_true", help="show the PyBullet GUI when a display exists")
     p.add_argument("--no-keyframes", action="store_true", help="do not render key frame images")
+    p.add_argument("--monitoring", choices=("ssm", "off"), default="ssm",
+                   help="ISO/TS 15066 speed and separation monitoring (default ssm; off: what-if)")
+    p.add_argument("--scripted-workers", action="store_true",
+                   help="workers walk their routes without yielding (the old precomputed motions)")
     p.add_argument("--out", type=Path, required=True, metavar="DIR", help="run directory (replaced)")
     p.set_defaults(func=run)
 
@@ -61,7 +65,8 @@ def run(args: argparse.Namespace) -> int:
             sys.stdout.write(f"  {r}\n")
         return 1
     grid = storey_map(world).grid
-    settings = ExecSettings(keyframes=not args.no_keyframes)
+    settings = ExecSettings(keyframes=not args.no_keyframes, monitoring=args.monitoring,
+                            reactive_workers=not args.scripted_workers)
     columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
     with Progress(*columns, console=console, transient=False) as bar:
         b4 = bar.add_task("B4 arm and base poses", total=len(plan.elements))
@@ -90,4 +95,13 @@ def run(args: argparse.Namespace) -> int:
     out.print(f"installed {totals['installed']} of {totals['elements']}; simulated {result.sim_time_s:.1f} s "
               f"in {result.wall_time_s:.1f} s wall; {totals['stops']} safety stop(s); wrote "
               f"{len(result.files)} files to {args.out}")
+    safety = result.metrics["safety"]
+    if safety["collisions"]:
+        out.print(f"COLLISIONS: {safety['collisions']} contact event(s) between the robot and a worker "
+                  "(events.jsonl, kind 'collision')")
+    out.print(f"safety: min. separation {safety['min_separation_m']} m, {safety['time_below_1m_s']} s below 1 m, "
+              f"{safety['time_below_protective_s']} s below S_p, {safety['slowdowns']} slow-down(s), "
+              f"{safety['time_lost_s']} s lost to monitoring ({safety['monitoring']})")
+    if safety["collisions"]:
+        return 1
     return 0 if all(e.outcome == INSTALLED for e in result.elements) and result.elements else 1

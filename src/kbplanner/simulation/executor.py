@@ -59,9 +59,9 @@ from kbplanner.simulation.recorder import Recorder, clean
 from kbplanner.simulation.safety import ContactMonitor, safety_summary
 from kbplanner.simulation.separation import SsmParameters, hazard_rects
 from kbplanner.simulation.sim_env import SimEnv
-from kbplanner.simulation.social_force import Obstacle
 from kbplanner.simulation.skills import ExecSettings, RunContext, Status, skill_for
 from kbplanner.simulation.skills.navigation import NavigationSkill
+from kbplanner.simulation.social_force import Obstacle
 from kbplanner.world.build import World
 from kbplanner.world.footprint import Rect
 
