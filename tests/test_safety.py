@@ -98,10 +98,11 @@ def _standing(x: float, y: float) -> WorkerMotion:
 
 def test_without_monitoring_driving_into_a_worker_is_a_collision_event_and_counted(
         case, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
-    # a worker standing (not yielding) where the robot drives 10 s into its run, alone
+    # a worker standing (not yielding) on the way the robot drives alone, 2 m from its start
     free = _run(case, tmp_path / "free", monitoring="off", workers=[])
     row = next(line.split(",") for line in (tmp_path / "free" / "trajectories.csv").read_text().splitlines()[1:]
-               if float(line.split(",")[0]) >= 10.0)
+               if float(line.split(",")[0]) >= 10.0 and (float(line.split(",")[1]) - 6.5) ** 2
+               + (float(line.split(",")[2]) + 5.0) ** 2 > 4.0)
     wx, wy = float(row[1]), float(row[2])
     del free
     r = _run(case, tmp_path / "off", monitoring="off", workers=[_standing(wx, wy)])
