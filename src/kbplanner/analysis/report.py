@@ -51,18 +51,22 @@ class ScenarioFigures:
     below_separation_s: float
     worker_stops: int
     stop_time_s: float
+    collisions: int = 0
+    slowdowns: int = 0
+    time_lost_s: float = 0.0
 
     def row(self) -> list[Any]:
         """One row of the comparison table."""
         return [self.scenario, f"{self.installed}/{self.elements}", _r(self.first_element_min),
                 _r(self.per_element_min), _r(self.total_min), _r(self.min_separation_m),
                 _r(self.below_threshold_s), _r(self.below_separation_s), self.worker_stops,
-                _r(self.stop_time_s)]
+                _r(self.stop_time_s), self.slowdowns, _r(self.time_lost_s), self.collisions]
 
 
 COMPARISON_COLUMNS = ["scenario", "installed", "first frame (min)", "per frame (min)", "total (min)",
                       "min separation (m)", "time < 1 m (s)", "time < ISO/TS 15066 S_p (s)",
-                      "stops for workers", "stopped (s)"]
+                      "stops for workers", "stopped (s)", "slow-downs", "time lost to monitoring (s)",
+                      "collisions"]
 
 
 def _r(v: float | None, nd: int = 2) -> float | None:
@@ -74,6 +78,7 @@ def scenario_figures(rec: RunRecord, prox: ProximityResult) -> ScenarioFigures:
     d = rec.durations()
     totals = rec.metrics.get("totals", {})
     stops = sum(1 for e in rec.events if e.get("kind") == "stop")
+    safety = rec.metrics.get("safety", {})
     return ScenarioFigures(
         scenario=rec.scenario or rec.directory.name,
         installed=d.installed, elements=len(d.elements),
@@ -84,7 +89,23 @@ def scenario_figures(rec: RunRecord, prox: ProximityResult) -> ScenarioFigures:
         below_threshold_s=sum(w.time_below_threshold_s for w in prox.workers),
         below_separation_s=sum(w.time_below_separation_s for w in prox.workers),
         worker_stops=stops, stop_time_s=float(totals.get("stop_time_s", 0.0)),
+        collisions=int(safety.get("collisions", 0)), slowdowns=int(safety.get("slowdowns", 0)),
+        time_lost_s=float(safety.get("time_lost_s", 0.0)),
     )
+
+
+def collision_lines(runs: Mapping[str, RunRecord]) -> list[str]:
+    """One line per collision event of the runs (empty: none)."""
+    out = []
+    for name, rec in runs.items():
+        for e in rec.events:
+            if e.get("kind") == "collision":
+                d = e.get("details", {})
+                out.append(f"{name}: t = {e.get('t_s')} s, {d.get('worker')}: {d.get('cause')} (robot "
+                           f"{d.get('robot_speed_mps')} m/s, worker {d.get('worker_speed_mps')} "
+                           f"m/s, carrying "
+                           f"{d.get('carried') or 'nothing'}, step {e.get('step')} {e.get('action')})")
+    return out
 
 
 def _layout_objects(world: Any) -> list[LayoutObject]:
@@ -116,6 +137,10 @@ def build_report(runs: Mapping[str, RunRecord], *, title: str,
     section on every robotized task of a whole-building run (``kbplanner run --tasks all``).
     """
     doc = ReportDoc(title)
+    hits = collision_lines(runs)
+    if hits:
+        doc.heading(f"COLLISIONS: {len(hits)} contact event(s) between the robot and a worker")
+        doc.paragraph("A worker's body overlapped the robot or its load. Each event: " + "; ".join(hits))
     prox = {name: rec.proximity(threshold_m=threshold_m) for name, rec in runs.items()}
     figures = [scenario_figures(rec, prox[name]) for name, rec in runs.items()]
 

@@ -34,6 +34,10 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--robot", help="robot id of the knowledge base (default: the first fitting one)")
     p.add_argument("--gui", action="store_true", help="show the PyBullet GUI when a display exists")
     p.add_argument("--no-keyframes", action="store_true", help="do not render key frame images")
+    p.add_argument("--monitoring", choices=("ssm", "off"), default="ssm",
+                   help="ISO/TS 15066 speed and separation monitoring (default ssm; off: what-if)")
+    p.add_argument("--scripted-workers", action="store_true",
+                   help="workers walk their routes without yielding (the old precomputed motions)")
     p.add_argument("--out", type=Path, required=True, metavar="DIR",
                    help="run folder: new, or one kbplanner wrote (replaced)")
     p.add_argument("--mcap", type=Path, metavar="FILE", help="also write the run as MCAP (see export-mcap)")
@@ -68,7 +72,8 @@ def run(args: argparse.Namespace) -> int:
             sys.stdout.write(f"  {r}\n")
         return 1
     grid = storey_map(world).grid
-    settings = ExecSettings(keyframes=not args.no_keyframes)
+    settings = ExecSettings(keyframes=not args.no_keyframes, monitoring=args.monitoring,
+                            reactive_workers=not args.scripted_workers)
     columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
     lines = plain_counter(console)  # plain lines where stderr is no terminal (logs, nohup)
     with Progress(*columns, console=console, transient=False, disable=lines is not None) as bar:
@@ -106,4 +111,14 @@ def run(args: argparse.Namespace) -> int:
         from kbplanner.cli.export_mcap import report, write_run_mcap
 
         report(write_run_mcap(args.out, args.mcap, grid=grid, start=project.world_date(args.task)))
+    safety = result.metrics["safety"]
+    if safety["collisions"]:
+        out.print(f"COLLISIONS: {safety['collisions']} contact event(s) between the robot and a worker "
+                  "(events.jsonl, kind 'collision')")
+    out.print(f"safety: min. separation {safety['min_separation_m']} m, {safety['time_below_1m_s']} "
+                  f"s below 1 m, "
+              f"{safety['time_below_protective_s']} s below S_p, {safety['slowdowns']} slow-down(s), "
+              f"{safety['time_lost_s']} s lost to monitoring ({safety['monitoring']})")
+    if safety["collisions"]:
+        return 1
     return 0 if all(e.outcome == INSTALLED for e in result.elements) and result.elements else 1

@@ -101,7 +101,9 @@ class KBP(DefinedNamespace):
     bindingPath: URIRef
     bindsInput: URIRef
     bounds: URIRef
+    brakingDeceleration: URIRef
     buildsElement: URIRef
+    comfortDistance: URIRef
     defaultValue: URIRef
     doorClearance: URIRef
     dwellTime: URIRef
@@ -136,12 +138,14 @@ class KBP(DefinedNamespace):
     height: URIRef
     hostWall: URIRef
     howToAdd: URIRef
+    humanApproachSpeed: URIRef
     ifcClass: URIRef
     ifcSchema: URIRef
     infeasibleReason: URIRef
     inputName: URIRef
     inputSource: URIRef
     installedPose: URIRef
+    intrusionDistance: URIRef
     isExternal: URIRef
     isExternalSource: URIRef
     jointAngles: URIRef
@@ -176,13 +180,17 @@ class KBP(DefinedNamespace):
     parameterKind: URIRef
     pathStart: URIRef
     payload: URIRef
+    personalDistance: URIRef
     pickupLocation: URIRef
     pitch: URIRef
     planScenario: URIRef
     planStep: URIRef
+    positionUncertainty: URIRef
     predecessor: URIRef
     predefinedType: URIRef
     reach: URIRef
+    reactionTime: URIRef
+    relaxationTime: URIRef
     requirementText: URIRef
     requiresCapability: URIRef
     robotArrival: URIRef

@@ -77,6 +77,7 @@ class Scan:
     ranges: FloatArray
     bodies: IntArray
     origin: tuple[float, float, float]
+    points: FloatArray | None = None  # (n, 2) site x, y of each ray's hit (nan: no hit)
 
     def nearest(self, bodies: Mapping[int, str]) -> tuple[str, float, float] | None:
         """(name, distance m, angle rad) of the nearest hit on one of ``bodies`` (id -> name), or None."""
@@ -93,7 +94,8 @@ class Scan:
 def scan(robot: RobotModel, spec: LidarSpec, *, ignore: Iterable[int] = ()) -> Scan:
     """Cast one scan from the robot's lidar link in its current pose.
 
-    Hits on the robot itself and on bodies in ``ignore`` (e.g. the held element) count as no hit.
+    Hits on the robot itself and on bodies in ``ignore`` (e.g. the held element) count as no hit; as
+    each ray reports only its first hit, they also hide what is behind them (occlusion).
     """
     import pybullet as p
 
@@ -110,13 +112,15 @@ def scan(robot: RobotModel, spec: LidarSpec, *, ignore: Iterable[int] = ()) -> S
     span = spec.range_max_m - spec.range_min_m
     ranges = np.full(len(ang), np.inf)
     bodies = np.full(len(ang), -1, dtype=np.int64)
+    points = np.full((len(ang), 2), np.nan)
     for i, h in enumerate(hits):
         body = int(h[0])
-        if body < 0 or body in skip:
+        if body < 0 or body in skip:  # nothing, the robot itself, or an ignored body (it occludes)
             continue
         ranges[i] = spec.range_min_m + float(h[2]) * span
         bodies[i] = body
-    return Scan(ang, ranges, bodies, (float(pos[0]), float(pos[1]), float(pos[2])))
+        points[i] = (float(h[3][0]), float(h[3][1]))
+    return Scan(ang, ranges, bodies, (float(pos[0]), float(pos[1]), float(pos[2])), points)
 
 
 def sensor_view_hits(

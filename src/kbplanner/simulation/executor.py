@@ -51,14 +51,18 @@ from kbplanner.core.outputs import (
     versions,
     write_json,
 )
-from kbplanner.planning.carry import pose_of, rect_dict
-from kbplanner.planning.manipulation import elements_in_order, robot_name
+from kbplanner.planning.carry import NARROW, NORMAL, geometry_from_joints, pose_of, rect_dict
+from kbplanner.planning.manipulation import KIND_NAVIGATION_WITH_OBJECT, elements_in_order, robot_name
 from kbplanner.planning.plan_model import Plan, SkillCall
 from kbplanner.simulation.keyframes import render_png
 from kbplanner.simulation.recorder import Recorder, clean
+from kbplanner.simulation.safety import ContactMonitor, safety_summary
+from kbplanner.simulation.separation import SsmParameters, hazard_rects
 from kbplanner.simulation.sim_env import SimEnv
 from kbplanner.simulation.skills import ExecSettings, RunContext, Status, skill_for
 from kbplanner.simulation.skills.navigation import NavigationSkill
+from kbplanner.simulation.social_force import Obstacle
+from kbplanner.world.footprint import Rect
 from kbplanner.world.world_types import World
 
 if TYPE_CHECKING:
@@ -182,6 +186,39 @@ class _Run:
         self.footprints: dict[str, dict[str, Any]] = {}
         self.done_steps = 0
         self.total_steps = len(plan.steps)
+        self._element_rects: dict[str, dict[str, Rect]] = {}
+        self._robot_rects = list(env.robot.spec.footprint().rects)
+        env.hazard = self.hazard
+        self.contact = ContactMonitor(env, self.hazard, self.emit,
+                                      lambda: env.held.element.global_id if env.held is not None else "")
+
+    def hazard(self) -> Obstacle:
+        """The robot's hazard footprint now: base + the held element's carry-mode rectangle."""
+        env = self.env
+        held = env.held
+        if held is None:
+            return Obstacle(env.base_pose(), self._robot_rects)
+        gid = held.element.global_id
+        if gid not in self._element_rects:
+            self._element_rects[gid] = self._carry_rects(held.element.iri, gid)
+        return Obstacle(env.base_pose(), hazard_rects(self._robot_rects, self._element_rects[gid] or None,
+                                                      self.ctx.carry_mode))
+
+    def _carry_rects(self, iri: str, gid: str) -> dict[str, Rect]:
+        """The held element's normal/narrow carry rectangles, from the plan's NV-2 carry poses."""
+        env = self.env
+        held = env.held
+        assert held is not None
+        step = next((s for s in self.plan.steps_for(iri) if s.skill_kind == KIND_NAVIGATION_WITH_OBJECT
+                     and s.arm_poses.get("carry_normal") and s.arm_poses.get("carry_narrow")), None)
+        if step is None or held.element.local_bounds is None:
+            return {}
+        q = env.robot.arm_positions()
+        geo = geometry_from_joints(env.robot, held.element.local_bounds, held.tool_in_element,
+                                   step.arm_poses["carry_normal"], step.arm_poses["carry_narrow"])
+        env.set_arm(q)
+        self.footprints[gid] = {"normal": rect_dict(geo.normal.rect), "narrow": rect_dict(geo.narrow.rect)}
+        return {NORMAL: geo.normal.rect, NARROW: geo.narrow.rect}
 
     def emit(self, kind: str, **details: Any) -> None:
         step = self.ctx.step
@@ -286,9 +323,11 @@ class _Run:
         status = skill.status
         while status is Status.RUNNING:
             status = skill.update()
+            self.contact.after_robot()
             if status is not Status.RUNNING:
                 break
             env.step()
+            self.contact.after_workers()
             self.sample()
             if env.t - t0 > MAX_STEP_S:
                 status = skill.fail(f"still running after {MAX_STEP_S:.0f} s of simulated time")
@@ -310,7 +349,8 @@ def _metrics(plan: Plan, elements: list[ElementOutcome], sim_time: float, settin
              seed: int) -> dict[str, Any]:
     per_action: dict[str, dict[str, Any]] = {}
     nav: list[dict[str, Any]] = []
-    totals = {"stops": 0, "stop_time_s": 0.0, "replans": 0, "path_length_m": 0.0, "driven_m": 0.0}
+    totals = {"stops": 0, "stop_time_s": 0.0, "slowdowns": 0, "time_lost_s": 0.0, "replans": 0,
+              "path_length_m": 0.0, "driven_m": 0.0}
     for e in elements:
         for s in e.steps:
             a = per_action.setdefault(s.action, {"count": 0, "succeeded": 0, "failed": 0, "skipped": 0,
@@ -325,9 +365,12 @@ def _metrics(plan: Plan, elements: list[ElementOutcome], sim_time: float, settin
                             "driven_m": d.get("driven_m", 0.0), "narrow_length_m": d["narrow_length_m"],
                             "carry_modes": d["carry_modes"], "stops": d["stops"],
                             "stop_time_s": d["stop_time_s"], "replans": d["replans"],
-                            "duration_s": s.duration_s})
+                            "slowdowns": d.get("slowdowns", 0), "slow_time_s": d.get("slow_time_s", 0.0),
+                            "time_lost_s": d.get("time_lost_s", 0.0), "duration_s": s.duration_s})
                 totals["stops"] += d["stops"]
                 totals["stop_time_s"] += d["stop_time_s"]
+                totals["slowdowns"] += d.get("slowdowns", 0)
+                totals["time_lost_s"] += d.get("time_lost_s", 0.0)
                 totals["replans"] += d["replans"]
                 totals["path_length_m"] += d["path_length_m"]
                 totals["driven_m"] += d.get("driven_m", 0.0)
@@ -363,7 +406,8 @@ def _metrics(plan: Plan, elements: list[ElementOutcome], sim_time: float, settin
                       "tolerance_m": settings.place_tol_m, "tolerance_deg": settings.place_tol_deg},
         "settings": {"control_hz": settings.control_hz, "record_hz": settings.record_hz,
                      "joint_speed_rps": settings.joint_speed_rps, "replan_after_s": settings.replan_after_s,
-                     "give_up_after_s": settings.give_up_after_s},
+                     "give_up_after_s": settings.give_up_after_s, "monitoring": settings.monitoring,
+                     "reactive_workers": settings.reactive_workers},
     })
 
 
@@ -390,7 +434,7 @@ def simulate(
         KbplannerError: no robot in the plan, no [simulation] date for the world, a robot whose URDF
             cannot be loaded.
     """
-    from kbplanner.simulation.workers import plan_workers
+    from kbplanner.simulation.workers import WorkerSpec, load_workers, plan_workers
     from kbplanner.world.maps import storey_map
 
     settings = settings or ExecSettings()
@@ -401,11 +445,14 @@ def simulate(
     started = time.perf_counter()
     world = world or _world(project, plan)
     grid = grid if grid is not None else storey_map(world).grid
-    if workers is None:
+    reactive: list[WorkerSpec] = []
+    if workers is None and settings.reactive_workers:
+        reactive, workers = load_workers(project.model), []
+    elif workers is None:
         horizon = 1800.0 + WORKER_HORIZON_S_PER_STEP * len(plan.steps)  # past it workers hold their last pose
         workers = plan_workers(project.model, grid, seed=seed, horizon_s=horizon)
-    env = SimEnv(world, robot_name(plan), grid=grid, workers=workers, control_hz=settings.control_hz, gui=gui,
-                 visuals=settings.keyframes)
+    env = SimEnv(world, robot_name(plan), grid=grid, workers=workers, reactive=reactive,
+                 control_hz=settings.control_hz, gui=gui, visuals=settings.keyframes)
     loaded = time.perf_counter()
     try:
         env.reset(seed=seed)
@@ -419,6 +466,14 @@ def simulate(
         env.close()
     wall = time.perf_counter() - started
     metrics = _metrics(plan, elements, sim_time, settings, seed)
+    footprints = {"frame": "robot (x forward, y left), metres, radians",
+                  "robot": [rect_dict(r) for r in robot_fp.rects],
+                  "elements": dict(sorted(run.footprints.items()))}
+    nav_params = next((s.parameters for s in plan.steps if s.skill_kind == KIND_NAVIGATION_WITH_OBJECT),
+                      next((s.parameters for s in plan.steps if "maxSpeed" in s.parameters), {}))
+    metrics["safety"] = clean(safety_summary(run.rec.trajectories_csv(), footprints, abs(floor_z - ground_z),
+                                             SsmParameters.from_parameters(nav_params), run.rec.events,
+                                             metrics["navigation"], settings.monitoring))
     planning = {str(s.step): round(s.details.get("planning_time_s", 0.0), 4)
                 for e in elements for s in e.steps if "planning_time_s" in s.details}
     timing = {"note": "wall-clock figures: they differ from run to run (all other files do not)",
@@ -446,9 +501,6 @@ def simulate(
                   "keyframes/": "PNG images at key events"},
         "deterministic": ["trajectories.csv", "events.jsonl", "metrics.json", "footprints.json", "plan.json"],
     }
-    footprints = {"frame": "robot (x forward, y left), metres, radians",
-                  "robot": [rect_dict(r) for r in robot_fp.rects],
-                  "elements": dict(sorted(run.footprints.items()))}
     out_dir = Path(out_dir)
     files: list[str] = []
     with run_directory(out_dir) as stage:

@@ -13,7 +13,9 @@ physics is not stepped except by :meth:`SimEnv.settle` where it matters.
   else it logs a warning and stays headless.
 - The world: :func:`kbplanner.simulation.sim_world.load_world` (static elements merged, task elements as
   bodies at their storage, solid site objects), visual shapes only when images are wanted.
-- Workers: kinematic capsules (radius 0.25 m, 1.7 m tall, mass 0) moved to ``motion.position(t)``.
+- Workers: kinematic capsules (radius 0.25 m, 1.7 m tall, mass 0), either reactive
+  (:class:`kbplanner.simulation.crowd.Crowd`, stepped each period with the robot's hazard footprint
+  from :attr:`SimEnv.hazard`) or scripted (``WorkerMotion.position(t)``, e.g. for tests).
 - Holding: :meth:`SimEnv.attach` ties the element to the tool link with a ``p.JOINT_FIXED``
   constraint at the grasp and filters collisions between the element and every robot link off; as
   the robot moves kinematically, :meth:`SimEnv.step` also puts the element where the constraint
@@ -35,7 +37,7 @@ import contextlib
 import logging
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -45,8 +47,10 @@ from kbplanner.core.iris import slug
 from kbplanner.planning.base_poses import element_polygon, mark_polygon
 from kbplanner.planning.carry import Matrix, from_pos_quat, quat_of
 from kbplanner.robot.robot_model import RobotModel
+from kbplanner.simulation.crowd import Crowd
 from kbplanner.simulation.sim_world import SimWorld, element_frame, load_world
-from kbplanner.simulation.workers import WORKER_RADIUS_M, WorkerMotion
+from kbplanner.simulation.social_force import Obstacle
+from kbplanner.simulation.workers import WORKER_RADIUS_M, WorkerMotion, WorkerSpec
 from kbplanner.world.occupancy import OccupancyGrid
 from kbplanner.world.world_types import World, WorldElement
 
@@ -68,9 +72,9 @@ class Held:
 
 @dataclass(frozen=True)
 class WorkerBody:
-    """A worker's capsule body and the column slug used in the trajectories."""
+    """A worker's capsule body and the column slug used in the trajectories (``motion``: scripted)."""
 
-    motion: WorkerMotion
+    motion: WorkerMotion | None
     body: int
     slug: str
     label: str
@@ -86,6 +90,7 @@ class SimEnv:
         *,
         grid: OccupancyGrid,
         workers: Sequence[WorkerMotion] = (),
+        reactive: Sequence[WorkerSpec] = (),
         control_hz: float = 10.0,
         gui: bool = False,
         visuals: bool = False,
@@ -98,6 +103,10 @@ class SimEnv:
         self.base_grid = grid
         self.grid = grid
         self.worker_motions = tuple(workers)
+        self.reactive = tuple(reactive)
+        self.crowd: Crowd | None = None
+        # the robot's hazard footprint now (pose, robot-frame rectangles); set by the executor
+        self.hazard: Callable[[], Obstacle] | None = None
         self.control_hz = float(control_hz)
         self.gui = gui
         self.visuals = visuals
@@ -132,6 +141,8 @@ class SimEnv:
         start = self.world.robot_start
         self._robot.set_base_pose(start.x if start else 0.0, start.y if start else 0.0,
                                   start.yaw if start else 0.0)
+        self.crowd = Crowd(self.reactive, self.base_grid, seed=self.seed, control_hz=self.control_hz) \
+            if self.reactive else None
         self.workers = self._make_workers()
         self.tick = 0
         self.held = None
@@ -142,6 +153,8 @@ class SimEnv:
     def step(self) -> float:
         """Advance the clock by one control period; move workers and the held element. Returns t (s)."""
         self.tick += 1
+        if self.crowd is not None:
+            self.crowd.step(self.hazard() if self.hazard is not None else None)
         self._move_workers()
         self.follow()
         return self.t
@@ -228,13 +241,19 @@ class SimEnv:
         p.resetBasePositionAndOrientation(body, com[:3, 3].tolist(), quat_of(com),
                                           physicsClientId=self.client)
 
+    def worker_poses(self) -> list[tuple[float, float, float]]:
+        """(x, y, heading) of every worker now, in :attr:`workers` order."""
+        out = self.crowd.positions() if self.crowd is not None else []
+        out += [w.motion.position(self.t) for w in self.workers if w.motion is not None]
+        return out
+
     def worker_positions(self) -> list[tuple[str, float, float]]:
         """(slug, x, y) of every worker now."""
-        out = []
-        for w in self.workers:
-            x, y, _ = w.motion.position(self.t)
-            out.append((w.slug, x, y))
-        return out
+        return [(w.slug, x, y) for w, (x, y, _) in zip(self.workers, self.worker_poses(), strict=True)]
+
+    def worker_xy(self) -> np.ndarray:
+        """(n, 2) positions of every worker now."""
+        return np.array([(x, y) for x, y, _ in self.worker_poses()], dtype=np.float64).reshape(-1, 2)
 
     # ---- holding ----------------------------------------------------------------------------------
     def attach(self, iri: str) -> Held:
@@ -336,8 +355,9 @@ class SimEnv:
         visual = p.createVisualShape(p.GEOM_CAPSULE, radius=WORKER_RADIUS_M, length=cyl,
                                      rgbaColor=_RGBA_WORKER,
                                      physicsClientId=self.client)
-        for m in self.worker_motions:
-            name = slug(m.spec.label) or "worker"
+        specs = [(None, s) for s in self.reactive] + [(m, m.spec) for m in self.worker_motions]
+        for m, spec in specs:
+            name = slug(spec.label) or "worker"
             base, n = name, 2
             while name in used:
                 name = f"{base}-{n}"
@@ -345,15 +365,14 @@ class SimEnv:
             used.add(name)
             body = p.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=shape, baseVisualShapeIndex=visual,
                                      basePosition=[0.0, 0.0, -20.0], physicsClientId=self.client)
-            out.append(WorkerBody(m, int(body), name, m.spec.label))
+            out.append(WorkerBody(m, int(body), name, spec.label))
         return tuple(out)
 
     def _move_workers(self) -> None:
         import pybullet as p
 
         z = self.world.ground_z + WORKER_HEIGHT_M / 2
-        for w in self.workers:
-            x, y, heading = w.motion.position(self.t)
+        for w, (x, y, heading) in zip(self.workers, self.worker_poses(), strict=True):
             orn = p.getQuaternionFromEuler([0.0, 0.0, heading])
             p.resetBasePositionAndOrientation(w.body, [x, y, z], orn,
                                               physicsClientId=self.client)

@@ -21,6 +21,7 @@ from rdflib import Graph
 
 from kbplanner.core.errors import KbplannerError
 from kbplanner.core.named_queries import run_named
+from kbplanner.simulation.social_force import SocialForceParams
 from kbplanner.world.occupancy import OccupancyGrid
 
 log = logging.getLogger(__name__)
@@ -50,6 +51,7 @@ class WorkerSpec:
     role: str
     speed_mps: float
     stops: tuple[RouteStop, ...]
+    social: SocialForceParams | None = None  # reactive workers' parameters (None: the defaults)
 
 
 def load_workers(graph: Graph) -> list[WorkerSpec]:
@@ -72,8 +74,28 @@ def load_workers(graph: Graph) -> list[WorkerSpec]:
                                  fix="give kbp:walkingSpeed in m/s, e.g. 1.2")
         out.append(WorkerSpec(iri=iri, label=str(r["label"] or iri.rsplit("/", 1)[-1]),
                               role=str(r["role"] or "worker"), speed_mps=speed,
-                              stops=tuple(by_worker[iri]["stops"])))
+                              stops=tuple(by_worker[iri]["stops"]), social=_social(iri, r)))
     return out
+
+
+_SOCIAL = (("comfort", "comfort_distance_m", "kbp:comfortDistance", 0.0, 5.0),
+           ("personal", "personal_distance_m", "kbp:personalDistance", 0.0, 3.0),
+           ("relaxation", "relaxation_time_s", "kbp:relaxationTime", 0.05, 5.0),
+           ("reaction", "reaction_time_s", "kbp:reactionTime", 0.0, 3.0))
+
+
+def _social(iri: str, row: dict[str, Any]) -> SocialForceParams:
+    """The worker's social-force parameters from the site Turtle (defaults where not given), checked."""
+    values: dict[str, float] = {}
+    for col, field_name, prop, lo, hi in _SOCIAL:
+        if row.get(col) is None:
+            continue
+        v = float(row[col])
+        if not (math.isfinite(v) and lo <= v <= hi):
+            raise KbplannerError(f"{prop} {v} is out of range [{lo}, {hi}]", element=iri,
+                                 fix=f"give {prop} within [{lo}, {hi}] (see docs/safety.md for defaults)")
+        values[field_name] = v
+    return SocialForceParams(**values)
 
 
 @dataclass

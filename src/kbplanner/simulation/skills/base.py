@@ -41,7 +41,8 @@ class ExecSettings:
     joint_speed_rps: float = 0.6
     replan_after_s: float = 10.0  # blocked this long by a worker: plan around them
     give_up_after_s: float = 300.0  # blocked this long in one step: the step fails
-    resume_margin_m: float = 0.1  # a stopped robot goes on when the worker is this far past the stop distance
+    monitoring: str = "ssm"  # ISO/TS 15066 speed and separation monitoring; "off": none (what-if)
+    reactive_workers: bool = True  # workers yield (social force); False: scripted walks through
     nav_time_limit_s: float = 120.0  # safety cap per OMPL query; the work budget (motion checks) decides
     window_margins_m: tuple[float | None, ...] = (4.0, 10.0, None)  # planning windows; None: the whole map
     carry_margin_m: float = 0.5  # narrow carry kept this far before and after where the normal one is blocked

@@ -17,11 +17,14 @@ update:
   the first stretch ("carry_pose" event); before each narrow stretch the arm turns it on its side
   ("rotate_to_narrow", the base standing still) and after it back ("rotate_back"), at the arm's joint
   speed.
-- **Safety stop.** Every control period, when a worker is near, the lidar scans
-  (:func:`kbplanner.robot.lidar.scan`); if a worker is hit within ``safetyStopDistance`` the robot stops
-  ("stop": worker, distance) and goes on when the worker is clear by a margin ("resume"). Blocked for
-  ``replan_after_s``, it plans again around the worker (a disc of the worker's radius plus the stop
-  distance marked occupied; "replan"); blocked for ``give_up_after_s`` the step fails.
+- **Speed and separation monitoring** (ISO/TS 15066,
+  :mod:`kbplanner.simulation.separation_monitor`): every control period the lidar's view of people
+  sets how much of the timed trajectory the robot drives: full speed, slower ("slow" ... "slow_end",
+  with the time lost), or a protective stop ("stop" ... "resume"). Monitoring drives forwards only
+  (no reversing into the scanner's blind sector behind the robot). Stopped for ``replan_after_s``, it
+  plans again around the person (a disc of their radius plus ``safetyStopDistance`` marked occupied;
+  "replan"); stopped for ``give_up_after_s`` the step fails. ``ExecSettings.monitoring = "off"``
+  drives the trajectory regardless (to show what monitoring prevents).
 """
 
 from __future__ import annotations
@@ -39,14 +42,15 @@ from kbplanner.planning.carry import NARROW, NORMAL, CarryGeometry, geometry_fro
 from kbplanner.planning.manipulation import KIND_NAVIGATION, KIND_NAVIGATION_WITH_OBJECT
 from kbplanner.planning.plan_model import Pose2
 from kbplanner.planning.pose_frames import as_pose6_list
-from kbplanner.robot.lidar import LidarSpec, lidar_spec, scan
+from kbplanner.robot.lidar import LidarSpec, lidar_spec
 from kbplanner.simulation.base_trajectory import time_parameterize
 from kbplanner.simulation.carry_paths import CarryPlan, plan_with_carry_modes
 from kbplanner.simulation.nav_path import NavSettings
 from kbplanner.simulation.navigation import plan_path
+from kbplanner.simulation.separation_monitor import SeparationMonitor
 from kbplanner.simulation.skills.base import JointPath, Skill, Status
 from kbplanner.simulation.workers import WORKER_RADIUS_M
-from kbplanner.world.footprint import Footprint
+from kbplanner.world.footprint import Footprint, Rect
 from kbplanner.world.occupancy import OccupancyGrid
 
 log = logging.getLogger(__name__)
@@ -108,9 +112,16 @@ def _route_of(cp: CarryPlan) -> _Route:
 
 @dataclass
 class _Drive:
-    t: list[Pose2D]
+    t: list[Pose2D]  # timed poses at the control rate, the first one where the drive starts
     mode: str
-    i: int = 0
+    s: float = 0.0  # progress in samples (1 per control period at full speed)
+
+    def at(self, s: float) -> Pose2D:
+        i = min(int(s), len(self.t) - 2)
+        u = s - i
+        a, b = self.t[i], self.t[i + 1]
+        dyaw = math.atan2(math.sin(b[2] - a[2]), math.cos(b[2] - a[2]))
+        return (a[0] + u * (b[0] - a[0]), a[1] + u * (b[1] - a[1]), a[2] + u * dyaw)
 
 
 @dataclass
@@ -144,16 +155,21 @@ class NavigationSkill(Skill):
                              env.robot.spec.base.max_speed_mps)
         self.stop_m = float(params.get("safetyStopDistance", s.default_stop_distance_m))
         self.lidar: LidarSpec = lidar_spec(env.robot, s.lidar_step_deg)
+        self.monitor = SeparationMonitor(env, self.lidar, params, max_speed=self.max_speed,
+                                         enabled=s.monitoring != "off")
         self.queue: list[_Drive | _Turn] = []
         self.geo: CarryGeometry | None = None
         self.stopped_since: float | None = None
-        self.stop_limit: float | None = None  # after a replan: do not come closer than this to the worker
+        self.slow_since: float | None = None
+        self.slow_lost = 0.0
         self.blocked_s = 0.0
         self.replanned_at: float | None = None
         self.replans = 0
         self.stops = 0
+        self.slowdowns = 0
         self.driven_m = 0.0
         self.details.update({"planning_time_s": 0.0, "path_length_m": 0.0, "stops": 0, "stop_time_s": 0.0,
+                             "slowdowns": 0, "slow_time_s": 0.0, "time_lost_s": 0.0,
                              "replans": 0, "carry_modes": [], "narrow_length_m": 0.0, "planner": ""})
         if self.carrying:
             problem = self._carry_geometry()
@@ -202,7 +218,8 @@ class NavigationSkill(Skill):
 
     def _settings(self) -> NavSettings:
         seed = zlib.crc32(f"{self.c.seed}/{self.step.step}/{self.replans}".encode()) % (2**31 - 1) + 1
-        return NavSettings(time_limit_s=self.c.settings.nav_time_limit_s, seed=seed)
+        return NavSettings(time_limit_s=self.c.settings.nav_time_limit_s, seed=seed,
+                           allow_reverse=self.c.settings.monitoring == "off")
 
     def _leg(self, grid: OccupancyGrid, start: Pose2D, goal: Pose2D, fp: Footprint,
              narrow: Footprint | None) -> _Route | str:
@@ -327,7 +344,8 @@ class NavigationSkill(Skill):
             if len(piece) >= 2:
                 traj = time_parameterize(piece, self.max_speed, base.max_yaw_rate_rps, base.max_accel_mps2,
                                          base.max_yaw_accel_rps2, rate_hz=env.control_hz)
-                self.queue.append(_Drive(list(traj.poses[1:]), pmode))
+                if len(traj.poses) >= 2:
+                    self.queue.append(_Drive(list(traj.poses), pmode))
             first = False
 
     # ---- running -------------------------------------------------------------------------------------
@@ -350,85 +368,97 @@ class NavigationSkill(Skill):
                     self.c.carry_mode = head.mode or self.c.carry_mode
                     self.queue.pop(0)
                 return Status.RUNNING
-            if head.i >= len(head.t):
+            last = len(head.t) - 1
+            if head.s >= last - 1e-9:
                 self.queue.pop(0)
                 continue
-            if self._blocked():
-                if self.blocked_s >= self.c.settings.give_up_after_s:
-                    return self.fail(f"blocked by a worker for {self.blocked_s:.0f} s")
-                return Status.RUNNING
-            x0, y0, _ = env.base_pose()
-            x, y, yaw = head.t[head.i]
-            env.set_base_pose(x, y, yaw)
-            self.driven_m += math.hypot(x - x0, y - y0)
-            head.i += 1
+            here = head.at(head.s)
+            nxt = head.at(min(head.s + 1.0, last))
+            f = self._monitor(here, nxt)
+            if f < 0:
+                return self.fail(f"blocked by a worker for {self.blocked_s:.0f} s")
+            if f > 0:
+                head.s = min(head.s + f, last)
+                x, y, yaw = head.at(head.s)
+                env.set_base_pose(x, y, yaw)
+                self.driven_m += math.hypot(x - here[0], y - here[1])
             return Status.RUNNING
+        self._end_slow()
         self.details.update(driven_m=round(self.driven_m, 3), stops=self.stops, replans=self.replans,
-                            stop_time_s=round(self.details["stop_time_s"], 3))
+                            slowdowns=self.slowdowns, stop_time_s=round(self.details["stop_time_s"], 3),
+                            slow_time_s=round(self.details["slow_time_s"], 3),
+                            time_lost_s=round(self.details["time_lost_s"], 3))
         x, y, yaw = env.base_pose()
         err = math.hypot(x - self.goal[0], y - self.goal[1])
         if err > self.c.settings.pose_tol_m:
             return self.fail(f"ended {err:.3f} m from the base pose")
         return Status.SUCCESS
 
-    def _nearest_worker(self) -> tuple[str, float, float] | None:
+    def _rects(self) -> list[Rect]:
         env = self.c.env
-        if not env.workers:
-            return None
-        pos, _ = env.robot.link_pose(env.robot.lidar_link)
-        reach = self.stop_m + self.c.settings.resume_margin_m
-        near = False
-        for w in env.workers:
-            x, y, _ = w.motion.position(env.t)
-            if math.hypot(x - pos[0], y - pos[1]) - WORKER_RADIUS_M <= reach:
-                near = True
-                break
-        if not near:
-            return None
-        ignore = [env.held.body] if env.held is not None else []
-        bodies = {w.body: w.slug for w in env.workers}
-        return scan(env.robot, self.lidar, ignore=ignore).nearest(bodies)
+        if env.hazard is not None:
+            return list(env.hazard().rects)
+        return list(env.robot.spec.footprint().rects)
 
-    def _blocked(self) -> bool:
+    def _end_slow(self) -> None:
+        if self.slow_since is not None:
+            self.c.emit("slow_end", duration_s=round(self.c.env.t - self.slow_since, 3),
+                        time_lost_s=round(self.slow_lost, 3))
+            self.slow_since = None
+
+    def _monitor(self, here: Pose2D, nxt: Pose2D) -> float:
+        """Speed and separation monitoring for one period: the fraction of the step to drive (-1: give up)."""
         env = self.c.env
         s = self.c.settings
-        hit = self._nearest_worker()
-        if self.stopped_since is None:
-            limit = self.stop_m if self.stop_limit is None else self.stop_limit
-            if hit is None or hit[1] > self.stop_m + s.resume_margin_m:
-                self.stop_limit = None
-            if hit is not None and hit[1] <= limit:
+        d = self.monitor.decide(self._rects(), here, nxt)
+        f = d.fraction
+        dt = env.dt
+        if f < 1.0:
+            self.details["time_lost_s"] += (1.0 - f) * dt
+            if self.slow_since is None:
+                self.slow_since = env.t
+                self.slow_lost = 0.0
+                self.slowdowns += 1
+                self.c.emit("slow", worker=d.sensed.worker if d.sensed else None,
+                            separation_m=round(d.sensed.separation_m, 3) if d.sensed else None,
+                            protective_m=round(d.protective_m, 3), fraction=round(f, 3))
+            self.slow_lost += (1.0 - f) * dt
+            self.details["slow_time_s"] += dt
+        else:
+            self._end_slow()
+        self.details.update(stops=self.stops, replans=self.replans, slowdowns=self.slowdowns)
+        if d.stopped:
+            self.details["stop_time_s"] += dt
+            if self.stopped_since is None:
                 self.stopped_since = env.t
+                self.replanned_at = None
                 self.stops += 1
-                self.c.emit("stop", worker=hit[0], distance_m=round(hit[1], 3),
-                            bearing_deg=round(math.degrees(hit[2]), 1), stop_distance_m=self.stop_m)
-                self.blocked_s = 0.0
-                return True
-            return False
-        # stopped: go on when the worker is clear by the margin
-        if hit is None or hit[1] > self.stop_m + s.resume_margin_m:
-            waited = env.t - self.stopped_since
-            self.details["stop_time_s"] += waited
-            self.c.emit("resume", waited_s=round(waited, 3),
-                        distance_m=round(hit[1], 3) if hit is not None else None)
+                assert d.sensed is not None
+                self.c.emit("stop", worker=d.sensed.worker, separation_m=round(d.sensed.separation_m, 3),
+                            stop_distance_m=round(self.monitor.stop_m, 3),
+                            protective_m=round(d.protective_m, 3))
+            self.blocked_s = env.t - self.stopped_since
+            if self.blocked_s >= s.give_up_after_s:
+                return -1.0
+            if self.blocked_s >= s.replan_after_s and self.replanned_at is None and d.sensed is not None:
+                self.replanned_at = env.t
+                self._replan(d.sensed.worker, d.sensed.separation_m)
+            return 0.0
+        if self.stopped_since is not None:
+            self.c.emit("resume", waited_s=round(env.t - self.stopped_since, 3),
+                        separation_m=round(d.sensed.separation_m, 3) if d.sensed else None)
             self.stopped_since = None
-            self.replanned_at = None
-            return False
-        self.blocked_s = env.t - self.stopped_since
-        if self.blocked_s >= s.replan_after_s and self.replanned_at is None:
-            self.replanned_at = env.t
-            self._replan(hit)
-        return True
+        return f
 
-    def _replan(self, hit: tuple[str, float, float]) -> None:
+    def _replan(self, who: str, separation_m: float) -> None:
         env = self.c.env
         self.replans += 1
-        worker = next(w for w in env.workers if w.slug == hit[0])
-        wx, wy, _ = worker.motion.position(env.t)
+        k = next(i for i, w in enumerate(env.workers) if w.slug == who)
+        wx, wy = (float(v) for v in env.worker_xy()[k])
         disc = shapely.Point(wx, wy).buffer(WORKER_RADIUS_M + self.stop_m, quad_segs=8)
         result = self._plan(env.base_pose(), disc)
         if isinstance(result, str):
-            self.c.emit("replan", worker=hit[0], outcome="failed", reason=result)
+            self.c.emit("replan", worker=who, outcome="failed", reason=result)
             return
         keep: list[_Drive | _Turn] = []
         for q in self.queue:  # a carry turn already under way is finished first
@@ -437,13 +467,9 @@ class NavigationSkill(Skill):
                 break
         self.queue = keep
         self._enqueue(result, first=False)
-        self.c.emit("replan", worker=hit[0], outcome="ok", path_length_m=round(result.length_m, 3))
-        # The new path leads around the worker: drive on, but never closer to them than now.
-        self.stop_limit = max(0.0, hit[1] - 0.05)
-        self.stopped_since = None
-        self.details["stop_time_s"] += self.blocked_s
-        self.c.emit("resume", waited_s=round(self.blocked_s, 3), distance_m=round(hit[1], 3),
-                    after_replan=True)
+        self.details["replans"] = self.replans
+        self.c.emit("replan", worker=who, outcome="ok", path_length_m=round(result.length_m, 3),
+                    separation_m=round(separation_m, 3))
 
 
 class NavigationWithObjectSkill(NavigationSkill):

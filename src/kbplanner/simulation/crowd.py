@@ -1,0 +1,235 @@
+"""B5 reactive workers: people who walk their routes and yield to the robot and to each other.
+
+Takes the site's workers (:func:`kbplanner.simulation.workers.load_workers`: route stops, dwell times,
+walking speed, social-force parameters from the site Turtle) and the ground occupancy grid; gives a
+:class:`Crowd` that the simulation environment steps once per control period together with the
+robot. Each worker, as in the scripted model (:mod:`kbplanner.simulation.workers`), waits
+``kbp:dwellTime`` at a stop, then walks to the next stop along the shortest free path on the ground
+map (the same router, so people walk around buildings and fences) and repeats the route; the seed
+draws the same things (speed x0.9-1.1, dwell x0.8-1.2, where on the route a worker starts). Unlike
+the scripted model, the motion is not precomputed: the walking direction is the route's next
+waypoint and the velocity follows the social-force model (:mod:`kbplanner.simulation.social_force`),
+so workers slow down, step aside and wait for the robot and each other. A waiting worker stands at
+their stop and also steps aside when the robot comes close, then returns.
+
+Deterministic: per-worker random generators seeded by the run seed and the worker's IRI, numpy in
+a fixed order; the same inputs and seed give the same motion.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+from kbplanner.simulation.separation import WORKER_RADIUS_M, reach_m, rects_distance
+from kbplanner.simulation.social_force import Obstacle, SocialForceParams, accelerations, cap_speed
+from kbplanner.simulation.workers import WorkerSpec, _rng_for, _Router
+from kbplanner.world.occupancy import OccupancyGrid
+
+FloatArray = npt.NDArray[np.float64]
+
+STUCK_SPEED_MPS = 0.2  # a walking worker slower than this for STUCK_S looks for a way round the robot
+STUCK_S = 2.0
+WAYPOINT_REACHED_M = 0.35
+ARRIVED_M = 0.2
+CONTACT_MARGIN_M = 0.01  # a worker's own step keeps at least this much clear of the robot
+
+
+@dataclass
+class _Agent:
+    spec: WorkerSpec
+    params: SocialForceParams
+    rng: np.random.Generator
+    v0: float
+    k: int  # the stop the worker is at or walked from
+    walking: bool = False
+    until: float = 0.0  # end of the current wait
+    path: FloatArray = field(default_factory=lambda: np.zeros((0, 2)))
+    wp: int = 0
+    anchor: tuple[float, float] = (0.0, 0.0)
+    slow_s: float = 0.0  # how long the worker has made little headway on their walk
+
+
+class Crowd:
+    """The reactive workers of a run (see module docstring)."""
+
+    def __init__(
+        self, specs: Sequence[WorkerSpec], grid: OccupancyGrid | None, *, seed: int, control_hz: float = 10.0
+    ) -> None:
+        self.specs = tuple(specs)
+        self.router = _Router(grid, WORKER_RADIUS_M)
+        self.dt = 1.0 / control_hz
+        self.agents: list[_Agent] = []
+        pos = []
+        for s in self.specs:
+            rng = _rng_for(s, seed)
+            v0 = s.speed_mps * float(rng.uniform(0.9, 1.1))
+            a = _Agent(s, s.social or SocialForceParams(), rng, v0, 0)
+            if len(s.stops) > 1:
+                a.k = int(rng.integers(len(s.stops)))
+                done = float(rng.uniform(0.0, s.stops[a.k].dwell_s))
+                a.until = s.stops[a.k].dwell_s * float(rng.uniform(0.8, 1.2)) - done
+            else:
+                a.until = math.inf
+            stop = s.stops[a.k]
+            a.anchor = (stop.x, stop.y)
+            pos.append(a.anchor)
+            self.agents.append(a)
+        self.pos = np.array(pos, dtype=np.float64).reshape(-1, 2)
+        self.vel = np.zeros_like(self.pos)
+        self.heading = np.zeros(len(self.agents))
+        self.t = 0.0
+        delays = sorted({max(0, round(a.params.reaction_time_s * control_hz)) for a in self.agents})
+        self._delays = delays
+        self._history: deque[Obstacle | None] = deque(maxlen=(delays[-1] if delays else 0) + 1)
+
+    def __len__(self) -> int:
+        return len(self.agents)
+
+    # ---- route following ---------------------------------------------------------------------------
+    def _desired(self) -> FloatArray:
+        out = np.zeros_like(self.pos)
+        for i, a in enumerate(self.agents):
+            p = self.pos[i]
+            if not a.walking and self.t >= a.until:
+                here, there = a.spec.stops[a.k], a.spec.stops[(a.k + 1) % len(a.spec.stops)]
+                a.path = self.router.path((float(p[0]), float(p[1])), (there.x, there.y))
+                a.wp, a.walking = 1, True
+                del here
+            if a.walking:
+                while a.wp < len(a.path) - 1 and math.hypot(*(a.path[a.wp] - p)) < WAYPOINT_REACHED_M:
+                    a.wp += 1
+                goal = a.path[a.wp]
+                d = math.hypot(*(goal - p))
+                if a.wp == len(a.path) - 1 and d < ARRIVED_M:
+                    a.walking = False
+                    a.k = (a.k + 1) % len(a.spec.stops)
+                    stop = a.spec.stops[a.k]
+                    a.anchor = (stop.x, stop.y)
+                    a.until = self.t + stop.dwell_s * float(a.rng.uniform(0.8, 1.2))
+                else:
+                    out[i] = (goal - p) / max(d, 1e-9) * a.v0
+                    continue
+            # waiting: back to the stop, at walking pace at most
+            d_vec = np.array(a.anchor) - p
+            d = float(np.hypot(*d_vec))
+            if d > 0.05:
+                out[i] = d_vec / d * min(a.v0, d / a.params.relaxation_time_s)
+        return out
+
+    # ---- stepping ----------------------------------------------------------------------------------
+    def step(self, robot: Obstacle | None) -> None:
+        """Advance one control period with the robot where it is now (workers see it with a delay)."""
+        self._history.append(robot)
+        if robot is not None:
+            self._detours(robot)
+        desired = self._desired()
+        params = [a.params for a in self.agents]
+        v0 = np.array([a.v0 for a in self.agents])
+        active = np.ones(len(self.agents), dtype=bool)
+        acc = np.zeros_like(self.pos)
+        for delay in self._delays:
+            idx = len(self._history) - 1 - delay
+            seen = self._history[max(idx, 0)]
+            mask = np.array([round(a.params.reaction_time_s / self.dt) == delay for a in self.agents])
+            if mask.any():
+                a_all = accelerations(self.pos, self.vel, desired, params, seen, active)
+                acc[mask] = a_all[mask]
+        vel = cap_speed(self.vel + acc * self.dt, v0, params)
+        new = self.pos + vel * self.dt
+        for i in range(len(self.agents)):
+            new[i], vel[i] = self._constrain(self.pos[i], new[i], vel[i], robot)
+        moving = np.hypot(vel[:, 0], vel[:, 1]) > 0.05
+        self.heading = np.where(moving, np.arctan2(vel[:, 1], vel[:, 0]), self.heading)
+        self.pos, self.vel = new, vel
+        self.t += self.dt
+
+    def _detours(self, robot: Obstacle) -> None:
+        """A walking worker held up by the robot for STUCK_S walks round it: a via point beside the
+        robot's footprint (its reach plus the comfort distance, 16 bearings), the one that keeps the
+        walk shortest with both legs walkable and clear of the footprint."""
+
+        sp = np.hypot(self.vel[:, 0], self.vel[:, 1])
+        for i, a in enumerate(self.agents):
+            if not a.walking or sp[i] >= STUCK_SPEED_MPS:
+                a.slow_s = 0.0
+                continue
+            a.slow_s += self.dt
+            if a.slow_s < STUCK_S:
+                continue
+            a.slow_s = 0.0
+            p = self.pos[i]
+            goal = a.path[min(a.wp, len(a.path) - 1)]
+            radius = reach_m(robot.rects) + WORKER_RADIUS_M + a.params.comfort_distance_m
+            best: tuple[float, FloatArray] | None = None
+            for j in range(16):
+                ang = j * math.pi / 8
+                via = np.array(
+                    [robot.pose[0] + radius * math.cos(ang), robot.pose[1] + radius * math.sin(ang)]
+                )
+                if not (self._clear(p, via, robot) and self._clear(via, goal, robot)):
+                    continue
+                cost = float(np.hypot(*(via - p)) + np.hypot(*(goal - via)))
+                if best is None or cost < best[0]:
+                    best = (cost, via)
+            if best is not None:
+                a.path = np.vstack([a.path[: a.wp], best[1][None, :], a.path[a.wp :]])
+
+    def _clear(self, p: FloatArray, q: FloatArray, robot: Obstacle) -> bool:
+        n = max(2, int(np.hypot(*(q - p)) / 0.1) + 1)
+        f = np.linspace(0.0, 1.0, n)[:, None]
+        pts = p[None, :] + f * (q - p)[None, :]
+        d, _, _ = rects_distance(pts[:, 0], pts[:, 1], robot.pose, robot.rects)
+        if float(d.min()) < WORKER_RADIUS_M + 0.3:
+            return False
+        return all(self._walkable(pts[k - 1], pts[k]) for k in range(1, n))
+
+    def _constrain(
+        self, old: FloatArray, new: FloatArray, vel: FloatArray, robot: Obstacle | None
+    ) -> tuple[FloatArray, FloatArray]:
+        """A worker's own step never ends in the robot's footprint or in a wall (see module doc)."""
+        if robot is not None:
+            d, ux, uy = rects_distance(new[None, 0], new[None, 1], robot.pose, robot.rects)
+            if d[0] < WORKER_RADIUS_M + CONTACT_MARGIN_M:
+                n = np.array([ux[0], uy[0]])
+                into = float(vel @ n)
+                if into < 0 and (n != 0).any():
+                    vel = vel - into * n
+                cand = old + vel * self.dt
+                d2, _, _ = rects_distance(cand[None, 0], cand[None, 1], robot.pose, robot.rects)
+                d0, _, _ = rects_distance(old[None, 0], old[None, 1], robot.pose, robot.rects)
+                if d2[0] < WORKER_RADIUS_M + CONTACT_MARGIN_M and d2[0] <= d0[0]:
+                    return old.copy(), np.zeros(2)
+                new = cand
+        if not self._walkable(old, new):
+            for cand in (np.array([new[0], old[1]]), np.array([old[0], new[1]])):
+                if self._walkable(old, cand):
+                    return cand, (cand - old) / self.dt
+            return old.copy(), np.zeros(2)
+        return new, vel
+
+    def _walkable(self, old: FloatArray, new: FloatArray) -> bool:
+        free = self.router.free
+        g = self.router.grid
+        if free is None or g is None:
+            return True
+
+        def ok(p: FloatArray) -> bool:
+            ix = math.floor((p[0] - g.origin[0]) / g.resolution)
+            iy = math.floor((p[1] - g.origin[1]) / g.resolution)
+            return 0 <= iy < free.shape[0] and 0 <= ix < free.shape[1] and bool(free[iy, ix])
+
+        return ok(new) or not ok(old)
+
+    def positions(self) -> list[tuple[float, float, float]]:
+        """(x, y, heading) of every worker now."""
+        return [(float(p[0]), float(p[1]), float(h)) for p, h in zip(self.pos, self.heading, strict=True)]
+
+    def speeds(self) -> FloatArray:
+        """Walking speed (m/s) of every worker now."""
+        return np.asarray(np.hypot(self.vel[:, 0], self.vel[:, 1]), dtype=np.float64)

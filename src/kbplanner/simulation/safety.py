@@ -1,0 +1,216 @@
+"""B5 safety record: contact events while the run goes, and the safety summary of ``metrics.json``.
+
+**Contact is an event, never a distance.** :class:`ContactMonitor` checks every control period,
+once after the robot moved and once after the workers moved, whether a worker's disc overlaps the
+robot's hazard footprint (:mod:`kbplanner.simulation.separation`). The first period of an overlap is
+a ``collision`` event (worker, where, the robot's speed - its fastest footprint point - and the
+worker's speed, the carried element, and the cause: ``robot moved into the worker`` or ``worker
+walked into the robot``); its end a ``collision_end`` event with the duration.
+
+:func:`safety_summary` computes the run's safety figures from what ``trajectories.csv`` holds (the
+recorded, rounded values, so that an independent script reading the file gets the same numbers):
+per worker and overall the minimum separation, the time below 1 m and below the ISO/TS 15066
+protective separation distance S_p at the robot's recorded speed, plus the collisions, stops,
+slow-downs and time lost from the events and the navigation steps.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from kbplanner.simulation.separation import (
+    MODE_RECT,
+    WORKER_RADIUS_M,
+    SsmParameters,
+    distance_at_poses,
+    rects_distance,
+)
+from kbplanner.simulation.sim_env import SimEnv
+from kbplanner.simulation.social_force import Obstacle
+from kbplanner.world.footprint import Rect
+
+FIXED_THRESHOLD_M = 1.0
+
+
+class ContactMonitor:
+    """Overlap of workers with the robot's hazard footprint, as events (see module docstring)."""
+
+    def __init__(
+        self,
+        env: SimEnv,
+        hazard: Callable[[], Obstacle],
+        emit: Callable[..., None],
+        carried: Callable[[], str],
+    ) -> None:
+        self.env = env
+        self.hazard = hazard
+        self.emit = emit
+        self.carried = carried
+        self.inside: dict[str, float] = {}
+        self.count = 0
+        self._prev_pose = env.base_pose()
+        self._prev_xy = env.worker_xy()
+        self._robot_speed = 0.0
+
+    def after_robot(self) -> None:
+        """Check after the robot's move in this period."""
+        pose = self.env.base_pose()
+        hz = self.env.control_hz
+        obs = self.hazard()
+        reach = max(float(np.max(np.hypot(*r.corners().T))) for r in obs.rects)
+        dyaw = math.atan2(math.sin(pose[2] - self._prev_pose[2]), math.cos(pose[2] - self._prev_pose[2]))
+        self._robot_speed = (
+            math.hypot(pose[0] - self._prev_pose[0], pose[1] - self._prev_pose[1]) + abs(dyaw) * reach
+        ) * hz
+        self._prev_pose = pose
+        self._check(obs, "robot moved into the worker")
+
+    def after_workers(self) -> None:
+        """Check after the workers' move in this period."""
+        self._check(self.hazard(), "worker walked into the robot")
+        self._prev_xy = self.env.worker_xy()
+
+    def _check(self, obs: Obstacle, cause: str) -> None:
+        env = self.env
+        if not env.workers:
+            return
+        xy = env.worker_xy()
+        d, _, _ = rects_distance(xy[:, 0], xy[:, 1], obs.pose, obs.rects)
+        for k, w in enumerate(env.workers):
+            overlap = float(d[k]) < WORKER_RADIUS_M
+            if overlap and w.slug not in self.inside:
+                self.inside[w.slug] = env.t
+                self.count += 1
+                wv = (
+                    float(np.hypot(*(xy[k] - self._prev_xy[k]))) * env.control_hz
+                    if len(self._prev_xy) > k
+                    else 0.0
+                )
+                self.emit(
+                    "collision",
+                    worker=w.slug,
+                    cause=cause,
+                    robot_speed_mps=round(self._robot_speed, 3),
+                    worker_speed_mps=round(wv, 3),
+                    penetration_m=round(WORKER_RADIUS_M - float(d[k]), 3),
+                    x=round(float(xy[k, 0]), 3),
+                    y=round(float(xy[k, 1]), 3),
+                    carried=self.carried(),
+                )
+            elif not overlap and w.slug in self.inside and cause.startswith("worker"):
+                t0 = self.inside.pop(w.slug)
+                self.emit("collision_end", worker=w.slug, duration_s=round(env.t - t0, 3))
+
+
+def _rects_of(footprints: Mapping[str, Any]) -> tuple[list[Rect], dict[str, dict[str, Rect]]]:
+    def rect(d: Mapping[str, Any]) -> Rect:
+        return Rect(
+            float(d["cx"]), float(d["cy"]), float(d["length"]), float(d["width"]), float(d.get("yaw", 0))
+        )
+
+    robot = [rect(r) for r in footprints.get("robot", [])]
+    elements = {
+        gid: {m: rect(r) for m, r in modes.items()} for gid, modes in footprints.get("elements", {}).items()
+    }
+    return robot, elements
+
+
+def separations(
+    csv_text: str, footprints: Mapping[str, Any], dz_m: float
+) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+    """(t, robot speed, {worker: separation per sample}) from a trajectories.csv text."""
+    rows = list(csv.reader(io.StringIO(csv_text)))
+    header, body = rows[0], rows[1:]
+    col = {c: i for i, c in enumerate(header)}
+    t = np.array([float(r[col["t_s"]]) for r in body])
+    x = np.array([float(r[col["x"]]) for r in body])
+    y = np.array([float(r[col["y"]]) for r in body])
+    yaw = np.array([float(r[col["yaw"]]) for r in body])
+    robot, elements = _rects_of(footprints)
+    keys = []
+    for r in body:
+        gid, mode = r[col["carried"]], r[col["carry_mode"]]
+        key = MODE_RECT.get(mode)
+        keys.append((gid, key) if gid and key and key in elements.get(gid, {}) else ("", ""))
+    speed = np.zeros(len(t))
+    if len(t) > 1:
+        dt = np.diff(t)
+        dt[dt <= 0] = np.inf
+        speed[1:] = np.hypot(np.diff(x), np.diff(y)) / dt
+    workers = [c[:-2] for c in header if c.endswith("_x") and c[:-2] + "_y" in col and c != "x"]
+    out: dict[str, np.ndarray] = {}
+    for w in workers:
+        wx = np.array([float(r[col[w + "_x"]]) for r in body])
+        wy = np.array([float(r[col[w + "_y"]]) for r in body])
+        sep = np.empty(len(t))
+        for carry in sorted(set(keys)):
+            idx = np.array([i for i, k in enumerate(keys) if k == carry], dtype=np.int64)
+            rects = robot if not carry[0] else [*robot, elements[carry[0]][carry[1]]]
+            d = distance_at_poses(wx[idx], wy[idx], x[idx], y[idx], yaw[idx], rects)
+            sep[idx] = np.maximum(np.hypot(d, dz_m) - WORKER_RADIUS_M, 0.0)
+        out[w] = sep
+    return t, speed, out
+
+
+def safety_summary(
+    csv_text: str,
+    footprints: Mapping[str, Any],
+    dz_m: float,
+    ssm: SsmParameters,
+    events: Sequence[Mapping[str, Any]],
+    navigation: Sequence[Mapping[str, Any]],
+    monitoring: str,
+) -> dict[str, Any]:
+    """The ``safety`` section of metrics.json (see module docstring)."""
+    t, speed, seps = separations(csv_text, footprints, dz_m)
+    dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    sp = ssm.separation_m(speed)
+    per_worker = {}
+    for w, s in sorted(seps.items()):
+        k = int(np.argmin(s)) if len(s) else 0
+        per_worker[w] = {
+            "min_separation_m": round(float(s[k]), 3) if len(s) else None,
+            "t_min_s": round(float(t[k]), 2) if len(s) else None,
+            "time_below_1m_s": round(float(np.count_nonzero(s < FIXED_THRESHOLD_M)) * dt, 2),
+            "time_below_protective_s": round(float(np.count_nonzero(s < sp)) * dt, 2),
+        }
+    allmin = min(
+        (v["min_separation_m"] for v in per_worker.values() if v["min_separation_m"] is not None),
+        default=None,
+    )
+    anyw = np.zeros(len(t), dtype=bool)
+    anyp = np.zeros(len(t), dtype=bool)
+    for s in seps.values():
+        anyw |= s < FIXED_THRESHOLD_M
+        anyp |= s < sp
+    collisions = [
+        {"t_s": e["t_s"], **{k: v for k, v in e["details"].items()}}
+        for e in events
+        if e["kind"] == "collision"
+    ]
+    return {
+        "monitoring": monitoring,
+        "collisions": len(collisions),
+        "collision_events": collisions,
+        "min_separation_m": allmin,
+        "time_below_1m_s": round(float(np.count_nonzero(anyw)) * dt, 2),
+        "time_below_protective_s": round(float(np.count_nonzero(anyp)) * dt, 2),
+        "stops": sum(int(n.get("stops", 0)) for n in navigation),
+        "stop_time_s": round(sum(float(n.get("stop_time_s", 0.0)) for n in navigation), 2),
+        "slowdowns": sum(int(n.get("slowdowns", 0)) for n in navigation),
+        "time_lost_s": round(sum(float(n.get("time_lost_s", 0.0)) for n in navigation), 2),
+        "replans": sum(int(n.get("replans", 0)) for n in navigation),
+        "per_worker": per_worker,
+        "ssm": ssm.as_dict(),
+        "dz_m": round(dz_m, 4),
+        "worker_radius_m": WORKER_RADIUS_M,
+        "fixed_threshold_m": FIXED_THRESHOLD_M,
+        "definition": "separation: footprint (base + carried element's carry-mode rectangle; lifted/placing: "
+        "normal) to the worker disc, per recorded sample; time below = samples x period",
+    }

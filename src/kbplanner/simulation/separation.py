@@ -1,0 +1,209 @@
+"""B5 safety geometry: the robot's hazard footprint, distances to people, ISO/TS 15066 S_p.
+
+One definition of "separation" for the whole pipeline (the executor's contact check and safety
+metrics, the reactive workers' repulsion, the analysis and ``benchmarks/safety_check.py``):
+
+- the robot's **hazard footprint** is the base rectangle plus, while it holds an element, the
+  element's rectangle of its carry mode (``normal``/``narrow``; while it is ``lifted`` or being
+  ``placed`` the normal carry rectangle stands for it), all in the robot frame (``footprints.json``);
+- a worker is a disc of radius ``WORKER_RADIUS_M`` around their recorded position;
+- **separation** = distance from the footprint to the disc (0 when they overlap), plus the storeys
+  between the robot's floor and the ground the workers walk on;
+- **contact** = the disc overlaps the footprint (separation 0 and penetration > 0).
+
+ISO/TS 15066 (clause 5.5.4) protective separation distance for a robot moving at ``v``::
+
+    S_p(v) = v_h (T_r + T_s(v)) + v T_r + v^2 / (2 a_s) + C + Z,   T_s(v) = v / a_s
+
+with ``v_h`` the human approach speed, ``T_r`` the robot's reaction time (sensor latency and control),
+``a_s`` its braking deceleration, ``C`` the ISO 13855 intrusion distance of the sensor and ``Z`` the
+position uncertainties of sensor and robot. :meth:`SsmParameters.allowed_speed` inverts it: the
+largest speed whose S_p fits a measured separation.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from kbplanner.world.footprint import Rect
+
+FloatArray = npt.NDArray[np.float64]
+
+WORKER_RADIUS_M = 0.25
+MODE_RECT = {"normal": "normal", "narrow": "narrow", "lifted": "normal", "placing": "normal"}
+
+
+@dataclass(frozen=True)
+class SsmParameters:
+    """Constants of the ISO/TS 15066 protective separation distance (SI units).
+
+    Defaults are the knowledge base's NV-1/NV-2 skill defaults (``ontology/kb/skills.ttl``):
+    v_h 1.6 m/s (ISO 13855), T_r 0.14 s (one 25 Hz scan + one 10 Hz control period), a_s 1.0 m/s^2,
+    C 1.08 m (ISO 13855 for a scanner plane at 0.3 m), Z 0.1 m.
+    """
+
+    human_speed_mps: float = 1.6
+    reaction_time_s: float = 0.14
+    deceleration_mps2: float = 1.0
+    intrusion_m: float = 1.08
+    uncertainty_m: float = 0.1
+
+    @classmethod
+    def from_parameters(cls, params: Mapping[str, object]) -> SsmParameters:
+        """From a skill call's effective parameters (kind local names), defaults where absent."""
+        d = cls()
+
+        def num(key: str, default: float) -> float:
+            v = params.get(key)
+            return float(v) if isinstance(v, (int, float)) and math.isfinite(float(v)) else default
+
+        out = cls(
+            num("humanApproachSpeed", d.human_speed_mps),
+            num("reactionTime", d.reaction_time_s),
+            num("brakingDeceleration", d.deceleration_mps2),
+            num("intrusionDistance", d.intrusion_m),
+            num("positionUncertainty", d.uncertainty_m),
+        )
+        if (
+            out.deceleration_mps2 <= 0
+            or min(out.human_speed_mps, out.reaction_time_s, out.intrusion_m, out.uncertainty_m) < 0
+        ):
+            from kbplanner.core.errors import KbplannerError
+
+            raise KbplannerError(
+                f"speed and separation monitoring parameters out of range: {out}",
+                element="NV-1/NV-2 skill parameters",
+                fix="give a positive kbp:brakingDeceleration and non-negative "
+                "kbp:humanApproachSpeed, kbp:reactionTime, kbp:intrusionDistance, "
+                "kbp:positionUncertainty",
+            )
+        return out
+
+    def separation_m(self, v: FloatArray | float) -> FloatArray:
+        """S_p for robot speed(s) ``v`` (m/s).
+
+        Example:
+            >>> round(float(SsmParameters().separation_m(0.0)), 3)
+            1.404
+        """
+        v = np.abs(np.asarray(v, dtype=np.float64))
+        a = self.deceleration_mps2
+        s_h = self.human_speed_mps * (self.reaction_time_s + v / a)
+        return np.asarray(
+            s_h + v * self.reaction_time_s + v * v / (2 * a) + self.intrusion_m + self.uncertainty_m,
+            dtype=np.float64,
+        )
+
+    def allowed_speed(self, separation_m: float) -> float:
+        """The largest speed v >= 0 with S_p(v) <= ``separation_m`` (0 when even S_p(0) is larger).
+
+        Example:
+            >>> p = SsmParameters()
+            >>> v = p.allowed_speed(2.0); round(float(p.separation_m(v)), 6)
+            2.0
+        """
+        a = self.deceleration_mps2
+        c0 = (
+            self.human_speed_mps * self.reaction_time_s + self.intrusion_m + self.uncertainty_m - separation_m
+        )
+        if c0 >= 0:
+            return 0.0
+        qa, qb = 1.0 / (2 * a), self.human_speed_mps / a + self.reaction_time_s
+        return float((-qb + math.sqrt(qb * qb - 4 * qa * c0)) / (2 * qa))
+
+    def as_dict(self) -> dict[str, float]:
+        """The constants, for metrics.json."""
+        return {
+            "human_speed_mps": self.human_speed_mps,
+            "reaction_time_s": self.reaction_time_s,
+            "deceleration_mps2": self.deceleration_mps2,
+            "intrusion_m": self.intrusion_m,
+            "uncertainty_m": self.uncertainty_m,
+        }
+
+
+def rects_distance(
+    px: FloatArray, py: FloatArray, pose: tuple[float, float, float], rects: Sequence[Rect]
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Distance from points to the union of robot-frame rectangles at one robot pose, and the unit
+    direction (site frame) from the nearest footprint point to each point (zero inside).
+
+    Example:
+        >>> d, ux, uy = rects_distance(np.array([2.0]), np.array([0.0]), (0.0, 0.0, 0.0),
+        ...                            [Rect(0.0, 0.0, 1.0, 0.6)])
+        >>> float(d[0]), float(ux[0]), float(uy[0])
+        (1.5, 1.0, 0.0)
+    """
+    px, py = np.asarray(px, dtype=np.float64), np.asarray(py, dtype=np.float64)
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    dx, dy = px - pose[0], py - pose[1]
+    lx, ly = c * dx + s * dy, -s * dx + c * dy
+    best = np.full(px.shape, np.inf)
+    bx, by = np.zeros(px.shape), np.zeros(px.shape)
+    for r in rects:
+        cr, sr = math.cos(r.yaw), math.sin(r.yaw)
+        qx, qy = lx - r.cx, ly - r.cy
+        ux, uy = cr * qx + sr * qy, -sr * qx + cr * qy
+        ex = np.sign(ux) * np.maximum(np.abs(ux) - r.length / 2, 0.0)
+        ey = np.sign(uy) * np.maximum(np.abs(uy) - r.width / 2, 0.0)
+        d = np.hypot(ex, ey)
+        better = d < best
+        best = np.where(better, d, best)
+        # back to the robot frame, then to the site frame
+        vx, vy = cr * ex - sr * ey, sr * ex + cr * ey
+        bx = np.where(better, vx, bx)
+        by = np.where(better, vy, by)
+    n = np.where(best > 0, best, 1.0)
+    gx, gy = (c * bx - s * by) / n, (s * bx + c * by) / n
+    return best, np.where(best > 0, gx, 0.0), np.where(best > 0, gy, 0.0)
+
+
+def distance_at_poses(
+    px: FloatArray, py: FloatArray, rx: FloatArray, ry: FloatArray, ryaw: FloatArray, rects: Sequence[Rect]
+) -> FloatArray:
+    """Distance from points to the footprint at one robot pose per point (vectorised over samples)."""
+    c, s = np.cos(ryaw), np.sin(ryaw)
+    dx, dy = np.asarray(px) - rx, np.asarray(py) - ry
+    lx, ly = c * dx + s * dy, -s * dx + c * dy
+    best = np.full(np.shape(lx), np.inf)
+    for r in rects:
+        cr, sr = math.cos(r.yaw), math.sin(r.yaw)
+        qx, qy = lx - r.cx, ly - r.cy
+        ux, uy = cr * qx + sr * qy, -sr * qx + cr * qy
+        best = np.minimum(
+            best,
+            np.hypot(np.maximum(np.abs(ux) - r.length / 2, 0.0), np.maximum(np.abs(uy) - r.width / 2, 0.0)),
+        )
+    return np.asarray(best, dtype=np.float64)
+
+
+def hazard_rects(robot: Sequence[Rect], element_rects: Mapping[str, Rect] | None, mode: str) -> list[Rect]:
+    """The hazard footprint: the base plus the held element's rectangle for ``mode`` (see module doc)."""
+    key = MODE_RECT.get(mode)
+    if element_rects is None or key is None or key not in element_rects:
+        return list(robot)
+    return [*robot, element_rects[key]]
+
+
+def separation(
+    px: FloatArray,
+    py: FloatArray,
+    pose: tuple[float, float, float],
+    rects: Sequence[Rect],
+    *,
+    dz_m: float = 0.0,
+    radius_m: float = WORKER_RADIUS_M,
+) -> FloatArray:
+    """Separation (m) of worker discs at (px, py) from the hazard footprint (0 on contact)."""
+    d, _, _ = rects_distance(px, py, pose, rects)
+    return np.asarray(np.maximum(np.hypot(d, dz_m) - radius_m, 0.0), dtype=np.float64)
+
+
+def reach_m(rects: Sequence[Rect]) -> float:
+    """The farthest footprint corner from the base centre (m)."""
+    return max(float(np.max(np.hypot(*r.corners().T))) for r in rects)

@@ -1,0 +1,166 @@
+"""B5 speed and separation monitoring (ISO/TS 15066) for the navigation skills NV-1 and NV-2.
+
+Each control period while the base drives, the monitor measures the separation between the robot's
+hazard footprint (base plus carried element, :mod:`kbplanner.simulation.separation`) and the people
+its 2D lidar sees, and scales the robot's speed so that the protective separation distance
+S_p(v) fits the measured separation:
+
+- **Sensing, honestly.** Only the lidar's own hits count: its field of view (270 degrees), minimum
+  and maximum range (0.5-20 m), angular step, scan plane, and occlusion (each ray reports its first
+  hit: the robot's own body, the carried element, a wall or another person hide what is behind). A
+  person's separation is the smallest distance from their hit points to the hazard footprint. The
+  scan is skipped while every worker is farther from the footprint than S_p at full speed, where it
+  could not change the outcome.
+- **Human speed.** A person seen in consecutive scans is tracked (the centroid of their hits): v_h is
+  their measured speed towards the robot, at least ``TRACKED_SPEED_FLOOR_MPS``; a person seen for the
+  first time approaches at ``humanApproachSpeed`` (ISO 13855's 1.6 m/s), as ISO/TS 15066 prescribes
+  for an operator whose speed is not monitored.
+- **Speed.** The speed that matters is the fastest point of the footprint: translation plus yaw rate
+  times the footprint's reach from the base centre (a turning 2.4 m frame sweeps at its ends). The
+  allowed speed is the largest v with S_p(v) <= separation (:meth:`SsmParameters.allowed_speed`);
+  the trajectory is slowed by ``allowed / nominal``. Below the skill's ``minSpeed``, or with the
+  separation at or under ``max(safetyStopDistance, S_p(0) of a tracked person)``, the robot stops
+  (protective stop).
+- **Moving away is allowed.** Stopped, the robot may still make a step (at ``minSpeed``) that takes
+  the footprint farther from every sensed point, never closer.
+
+The parameters are the step's effective skill parameters (knowledge base defaults, jobsite
+overrides): ``maxSpeed``, ``minSpeed``, ``safetyStopDistance``, ``humanApproachSpeed``,
+``reactionTime``, ``brakingDeceleration``, ``intrusionDistance``, ``positionUncertainty``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from kbplanner.robot.lidar import LidarSpec, scan
+from kbplanner.simulation.separation import SsmParameters, reach_m, rects_distance
+from kbplanner.simulation.sim_env import SimEnv
+from kbplanner.world.footprint import Rect
+
+Pose2D = tuple[float, float, float]
+TRACKED_SPEED_FLOOR_MPS = 0.3  # a tracked person's approach speed is taken as at least this
+
+
+@dataclass(frozen=True)
+class Sensed:
+    """The nearest person the lidar sees: who, separation (m), and their hit points (site x, y)."""
+
+    worker: str
+    separation_m: float
+    points: np.ndarray
+    approach_mps: float = 1.6  # v_h used for this person
+
+
+@dataclass(frozen=True)
+class Decision:
+    """What the monitor allows for one control period."""
+
+    fraction: float  # of the nominal trajectory speed: 1 full, 0 stopped
+    sensed: Sensed | None
+    protective_m: float  # S_p at the nominal speed
+    stopped: bool
+
+
+class SeparationMonitor:
+    """Speed and separation monitoring of one navigation step (see module docstring)."""
+
+    def __init__(
+        self,
+        env: SimEnv,
+        lidar: LidarSpec,
+        params: Mapping[str, object],
+        *,
+        max_speed: float,
+        enabled: bool = True,
+    ) -> None:
+        self.env = env
+        self.lidar = lidar
+        self.ssm = SsmParameters.from_parameters(params)
+        self.enabled = enabled
+        self.max_speed = max_speed
+        stop = params.get("safetyStopDistance", 0.5)
+        lo = params.get("minSpeed", 0.05)
+        self.stop_m = max(
+            float(stop) if isinstance(stop, (int, float)) else 0.5,
+            float(replace(self.ssm, human_speed_mps=TRACKED_SPEED_FLOOR_MPS).separation_m(0.0)),
+        )
+        self.min_speed = float(lo) if isinstance(lo, (int, float)) else 0.05
+        self._tracks: dict[str, tuple[float, np.ndarray]] = {}
+
+    def sense(self, rects: Sequence[Rect], *, horizon_m: float) -> list[Sensed]:
+        """The people the lidar sees, with separation and approach speed (none beyond ``horizon_m``)."""
+        env = self.env
+        if not env.workers:
+            return []
+        pose = env.base_pose()
+        xy = env.worker_xy()
+        true_d, _, _ = rects_distance(xy[:, 0], xy[:, 1], pose, rects)
+        if float(np.min(true_d)) - 0.25 > horizon_m:
+            self._tracks.clear()
+            return []  # nobody could be seen within the horizon: the scan would change nothing
+        ignore = [env.held.body] if env.held is not None else []
+        s = scan(env.robot, self.lidar, ignore=ignore)
+        assert s.points is not None
+        out: list[Sensed] = []
+        tracks: dict[str, tuple[float, np.ndarray]] = {}
+        for w in env.workers:
+            mask = s.bodies == w.body
+            if not mask.any():
+                continue
+            pts = s.points[mask]
+            d, ux, uy = rects_distance(pts[:, 0], pts[:, 1], pose, rects)
+            k = int(np.argmin(d))
+            centroid = pts.mean(axis=0)
+            v_h = self.ssm.human_speed_mps
+            last = self._tracks.get(w.slug)
+            if last is not None and 0 < env.t - last[0] <= 0.25:
+                vel = (centroid - last[1]) / (env.t - last[0])
+                v_h = max(TRACKED_SPEED_FLOOR_MPS, -float(vel[0] * ux[k] + vel[1] * uy[k]))
+            tracks[w.slug] = (env.t, centroid)
+            out.append(Sensed(w.slug, float(d[k]), pts, v_h))
+        self._tracks = tracks
+        return out
+
+    def decide(self, rects: Sequence[Rect], here: Pose2D, nxt: Pose2D) -> Decision:
+        """How much of the step from ``here`` to ``nxt`` (one control period at full speed) to make."""
+        hz = self.env.control_hz
+        lin = math.hypot(nxt[0] - here[0], nxt[1] - here[1]) * hz
+        turn = abs(math.atan2(math.sin(nxt[2] - here[2]), math.cos(nxt[2] - here[2]))) * hz
+        v_nom = lin + turn * reach_m(rects)
+        protective = float(self.ssm.separation_m(v_nom))
+        if not self.enabled or v_nom <= 1e-9:
+            return Decision(1.0, None, protective, False)
+        horizon = float(self.ssm.separation_m(max(v_nom, self.max_speed))) + 0.5
+        seen = self.sense(rects, horizon_m=horizon)
+        if not seen:
+            return Decision(1.0, None, protective, False)
+        allowed, sensed = min(
+            (
+                (replace(self.ssm, human_speed_mps=s.approach_mps).allowed_speed(s.separation_m), s)
+                for s in seen
+            ),
+            key=lambda a: (a[0], a[1].separation_m),
+        )
+        protective = float(replace(self.ssm, human_speed_mps=sensed.approach_mps).separation_m(v_nom))
+        if allowed >= v_nom:
+            return Decision(1.0, sensed, protective, False)
+        if sensed.separation_m > self.stop_m and allowed >= min(self.min_speed, v_nom):
+            return Decision(min(1.0, allowed / v_nom), sensed, protective, False)
+        # protective stop, unless the step takes the footprint away from every sensed point
+        f = min(1.0, self.min_speed / v_nom)
+        step = (
+            here[0] + f * (nxt[0] - here[0]),
+            here[1] + f * (nxt[1] - here[1]),
+            here[2] + f * math.atan2(math.sin(nxt[2] - here[2]), math.cos(nxt[2] - here[2])),
+        )
+        pts = sensed.points
+        d0, _, _ = rects_distance(pts[:, 0], pts[:, 1], here, rects)
+        d1, _, _ = rects_distance(pts[:, 0], pts[:, 1], step, rects)
+        if bool(np.all(d1 > d0 + 1e-6)):
+            return Decision(f, sensed, protective, False)
+        return Decision(0.0, sensed, protective, True)

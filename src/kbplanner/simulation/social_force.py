@@ -1,0 +1,138 @@
+"""B5 reactive workers: a small social-force model (Helbing & Molnar 1995) for people on a site.
+
+Each worker is a disc (radius 0.25 m) with a position and a velocity, stepped once per control
+period (explicit Euler) together with the robot. Per unit mass, the acceleration is
+
+    dv/dt = (v0 e - v) / tau                                        driving term (desired velocity)
+          + sum_j  w(phi_ij) (A_p / B_p) exp(-(d_ij - 2r - s_p) / B_p) n_ij    other workers
+          + w(phi_iR) (A_r / B_r) exp(-(d_iR - r - s_c) / B_r) n_iR            the robot and its load
+
+with ``e`` the direction to the next waypoint of the worker's route and ``v0`` their walking speed,
+``tau`` the relaxation time, ``d_ij`` the centre distance to another worker, ``d_iR`` the distance
+from the worker's centre to the robot's hazard footprint (:mod:`kbplanner.simulation.separation`),
+``s_p`` the personal distance kept from other workers and ``s_c`` the comfort distance kept from the
+robot (both shift the exponential repulsion outwards), ``n`` the unit vector away from the other
+party, and ``w(phi) = lam + (1 - lam) (1 + cos phi) / 2`` the anisotropy (what is ahead matters more
+than what is behind; phi between the walking direction and the other party). A worker sees the
+robot as it was ``reaction_time_s`` ago (perception delay). Speeds are capped at 1.3 v0 (Helbing et
+al. 2000). Two rules make the model usable on a site, documented as additions to it:
+
+- **Pass on the right.** Repulsion from an obstacle ahead is turned 20 degrees to the worker's right
+  (pedestrians' side preference; Helbing & Molnar 1995, section 3), which breaks head-on deadlocks.
+- **No contact by the worker's own step.** A step that would bring the worker's disc into the robot's
+  footprint, another worker or an occupied cell of the walking map is cut back (the component into
+  the obstacle removed, else no move): people do not walk into a machine or a wall they see. Contact
+  can then only come from the robot's own motion, which speed and separation monitoring must
+  prevent (:mod:`kbplanner.simulation.separation_monitor`).
+
+Parameters (defaults, overridable per worker in the site Turtle): ``tau`` 0.5 s, ``A_p`` 2.1 m^2/s^2
+and ``B_p`` 0.3 m (Helbing & Molnar 1995: V0 = 2.1 m^2/s^2, sigma = 0.3 m), robot repulsion
+``A_r`` 10 m^2/s^2 and ``B_r`` 0.2 m (their obstacle potential U0 = 10 m^2/s^2, R = 0.2 m), ``lam``
+0.5 (anisotropy, Helbing et al. 2000), personal distance 0.45 m (Hall 1966, the edge of intimate
+space), comfort distance to the robot 1.2 m (the outer edge of Hall's 0.45-1.2 m personal zone;
+Pacchierotti et al. 2006 found people prefer a passing robot to keep to that zone's edge or beyond),
+reaction time 0.5 s. The anisotropy applies among people only: a moving machine is heard all round.
+
+Helbing, D. & Molnar, P. (1995) Social force model for pedestrian dynamics. Phys. Rev. E 51, 4282.
+Helbing, D., Farkas, I. & Vicsek, T. (2000) Simulating dynamical features of escape panic. Nature 407.
+Hall, E. T. (1966) The Hidden Dimension. Pacchierotti, E., Christensen, H. I. & Jensfelt, P. (2006)
+Evaluation of passing distance for social robots. IEEE RO-MAN.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from kbplanner.simulation.separation import WORKER_RADIUS_M, rects_distance
+from kbplanner.world.footprint import Rect
+
+FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
+
+_RIGHT = math.radians(-20.0)
+_COS_R, _SIN_R = math.cos(_RIGHT), math.sin(_RIGHT)
+
+
+@dataclass(frozen=True)
+class SocialForceParams:
+    """The social-force constants of one worker (see module docstring; SI units)."""
+
+    relaxation_time_s: float = 0.5
+    personal_distance_m: float = 0.45
+    comfort_distance_m: float = 1.2
+    reaction_time_s: float = 0.5
+    a_people: float = 2.1
+    b_people: float = 0.3
+    a_robot: float = 10.0
+    b_robot: float = 0.2
+    anisotropy: float = 0.5
+    max_speed_factor: float = 1.3
+
+
+@dataclass
+class Obstacle:
+    """The robot as the workers see it: a pose and its hazard footprint (robot frame)."""
+
+    pose: tuple[float, float, float]
+    rects: Sequence[Rect]
+
+
+def _weight(vx: FloatArray, vy: FloatArray, nx: FloatArray, ny: FloatArray, lam: FloatArray) -> FloatArray:
+    """Anisotropy: ``n`` points from the other party to the worker, so it is ahead when -n . v > 0."""
+    sp = np.hypot(vx, vy)
+    cos_phi = np.where(sp > 1e-9, -(nx * vx + ny * vy) / np.maximum(sp, 1e-9), 1.0)
+    return np.asarray(lam + (1 - lam) * (1 + cos_phi) / 2, dtype=np.float64)
+
+
+def accelerations(pos: FloatArray, vel: FloatArray, desired: FloatArray, params: Sequence[SocialForceParams],
+                  seen: Obstacle | None, active: BoolArray) -> FloatArray:
+    """The social-force acceleration (n, 2) of every worker (inactive ones: none)."""
+    n = len(pos)
+    tau = np.array([p.relaxation_time_s for p in params])
+    acc = (desired - vel) / tau[:, None]
+    lam = np.array([p.anisotropy for p in params])
+    if n > 1:
+        d = pos[:, None, :] - pos[None, :, :]
+        dist = np.hypot(d[..., 0], d[..., 1])
+        np.fill_diagonal(dist, np.inf)
+        nx, ny = d[..., 0] / np.where(dist > 0, dist, 1), d[..., 1] / np.where(dist > 0, dist, 1)
+        a_p = np.array([p.a_people for p in params])[:, None]
+        b_p = np.array([p.b_people for p in params])[:, None]
+        s_p = np.array([p.personal_distance_m for p in params])[:, None]
+        mag = a_p / b_p * np.exp(-np.maximum(dist - 2 * WORKER_RADIUS_M - s_p, -s_p) / b_p)
+        mag = np.where(np.isfinite(dist) & active[None, :], mag, 0.0)
+        w = _weight(vel[:, 0:1], vel[:, 1:2], nx, ny, lam[:, None])
+        fx, fy = mag * w * nx, mag * w * ny
+        acc[:, 0] += fx.sum(axis=1)
+        acc[:, 1] += fy.sum(axis=1)
+    if seen is not None:
+        dr, ux, uy = rects_distance(pos[:, 0], pos[:, 1], seen.pose, seen.rects)
+        # inside the footprint (ux = uy = 0): away from the robot's centre
+        inside = (ux == 0) & (uy == 0)
+        cx, cy = pos[:, 0] - seen.pose[0], pos[:, 1] - seen.pose[1]
+        cn = np.maximum(np.hypot(cx, cy), 1e-9)
+        ux, uy = np.where(inside, cx / cn, ux), np.where(inside, cy / cn, uy)
+        a_r = np.array([p.a_robot for p in params])
+        b_r = np.array([p.b_robot for p in params])
+        s_c = np.array([p.comfort_distance_m for p in params])
+        mag = a_r / b_r * np.exp(-np.maximum(dr - WORKER_RADIUS_M - s_c, -s_c) / b_r)
+        w_robot = 1.0  # a moving machine is heard all round: no anisotropy for the robot
+        ahead = -(ux * vel[:, 0] + uy * vel[:, 1]) > 0
+        rx = np.where(ahead, _COS_R * ux - _SIN_R * uy, ux)
+        ry = np.where(ahead, _SIN_R * ux + _COS_R * uy, uy)
+        acc[:, 0] += mag * w_robot * rx
+        acc[:, 1] += mag * w_robot * ry
+    return np.where(active[:, None], acc, 0.0)
+
+
+def cap_speed(vel: FloatArray, v0: FloatArray, params: Sequence[SocialForceParams]) -> FloatArray:
+    """Velocities limited to ``max_speed_factor`` times each worker's walking speed."""
+    vmax = v0 * np.array([p.max_speed_factor for p in params])
+    sp = np.hypot(vel[:, 0], vel[:, 1])
+    f = np.where(sp > vmax, vmax / np.maximum(sp, 1e-12), 1.0)
+    return np.asarray(vel * f[:, None], dtype=np.float64)

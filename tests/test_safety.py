@@ -1,0 +1,141 @@
+"""Human-robot safety: reactive workers, speed and separation monitoring, contact as events."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from kbplanner.simulation.crowd import Crowd
+from kbplanner.simulation.executor import simulate
+from kbplanner.simulation.separation import WORKER_RADIUS_M, SsmParameters, rects_distance
+from kbplanner.simulation.skills import ExecSettings
+from kbplanner.simulation.social_force import Obstacle
+from kbplanner.simulation.workers import RouteStop, WorkerMotion, WorkerSpec
+from kbplanner.world.footprint import Rect
+from sim_project_factory import load_sim_case
+
+REPO = Path(__file__).resolve().parents[1]
+ROBOT = [Rect(0.0, 0.0, 0.99, 0.67), Rect(0.0, 0.0, 0.72, 2.4)]  # base + a frame carried across it
+
+
+def test_protective_separation_distance_and_its_inverse() -> None:
+    p = SsmParameters()
+    assert float(p.separation_m(0.0)) == pytest.approx(1.6 * 0.14 + 1.08 + 0.1)
+    for sep in (1.5, 2.0, 3.0):
+        assert float(p.separation_m(p.allowed_speed(sep))) == pytest.approx(sep)
+    assert p.allowed_speed(1.0) == 0.0
+
+
+def _walker(seed_iri: str, a: tuple[float, float], b: tuple[float, float]) -> WorkerSpec:
+    return WorkerSpec(
+        seed_iri,
+        "Walker",
+        "carpenter",
+        1.2,
+        (RouteStop("a", "A", a[0], a[1], 1.0), RouteStop("b", "B", b[0], b[1], 1.0)),
+    )
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_a_worker_walking_straight_at_the_robot_walks_round_it_never_into_it(seed: int) -> None:
+    crowd = Crowd([_walker("urn:w", (-6.0, 0.1), (6.0, -0.1))], None, seed=seed)
+    robot = Obstacle((0.0, 0.0, 0.0), ROBOT)
+    closest, xs = math.inf, []
+    for _ in range(600):
+        crowd.step(robot)
+        d, _, _ = rects_distance(crowd.pos[:, 0], crowd.pos[:, 1], robot.pose, robot.rects)
+        closest = min(closest, float(d[0]))
+        xs.append(float(crowd.pos[0, 0]))
+    assert closest >= WORKER_RADIUS_M
+    assert max(xs) > 3.0 or min(xs) < -3.0  # they got past (or were walking the other way first)
+
+
+def test_the_crowd_is_deterministic_and_a_worker_s_draws_do_not_depend_on_the_others() -> None:
+    specs = [_walker("urn:w1", (-6.0, 0.0), (6.0, 0.0)), _walker("urn:w2", (0.0, -6.0), (0.0, 6.0))]
+    runs = []
+    for _ in range(2):
+        c = Crowd(specs, None, seed=4)
+        for _ in range(300):
+            c.step(Obstacle((0.0, 0.0, 0.0), ROBOT))
+        runs.append(c.pos.copy())
+    assert np.array_equal(runs[0], runs[1])
+    alone = Crowd(specs[:1], None, seed=4)
+    both = Crowd(specs, None, seed=4)
+    assert alone.agents[0].v0 == both.agents[0].v0 and alone.agents[0].k == both.agents[0].k
+
+
+@pytest.fixture(scope="module")
+def case(tmp_path_factory: pytest.TempPathFactory):  # type: ignore[no-untyped-def]
+    c = load_sim_case(tmp_path_factory.mktemp("safety") / "p", high_panel=False)
+    c.refined.keep_first(1)
+    return c
+
+
+def _run(case, out: Path, **kw):  # type: ignore[no-untyped-def]
+    workers = kw.pop("workers", None)
+    return simulate(
+        case.project,
+        case.refined,
+        seed=kw.pop("seed", 3),
+        out_dir=out,
+        world=case.world,
+        grid=case.grid,
+        settings=ExecSettings(keyframes=False, **kw),
+        workers=workers,
+    )
+
+
+@pytest.mark.parametrize("seed", [3, 11])
+def test_with_monitoring_the_reactive_worker_crossing_the_robot_s_way_is_never_touched(
+    case, tmp_path: Path, seed: int
+) -> None:  # type: ignore[no-untyped-def]
+    r = _run(case, tmp_path / "run", seed=seed)
+    s = r.metrics["safety"]
+    assert s["collisions"] == 0 and not [e for e in r.events if e["kind"] == "collision"]
+    assert s["min_separation_m"] is not None and s["min_separation_m"] > 0
+    assert r.all_installed
+    check = subprocess.run(
+        [sys.executable, str(REPO / "benchmarks" / "safety_check.py"), str(tmp_path / "run")],
+        capture_output=True,
+        text=True,
+    )
+    assert check.returncode == 0, check.stdout
+
+
+def _standing(x: float, y: float) -> WorkerMotion:
+    spec = WorkerSpec("urn:test:stander", "Stander", "carpenter", 1.0, (RouteStop("s", "S", x, y, 1e6),))
+    return WorkerMotion(spec, [(0.0, 1e6, np.array([[x, y]]), np.zeros(1))])
+
+
+def test_without_monitoring_driving_into_a_worker_is_a_collision_event_and_counted(
+    case, tmp_path: Path
+) -> None:  # type: ignore[no-untyped-def]
+    # a worker standing (not yielding) on the way the robot drives alone, 2 m from its start
+    free = _run(case, tmp_path / "free", monitoring="off", workers=[])
+    row = next(
+        line.split(",")
+        for line in (tmp_path / "free" / "trajectories.csv").read_text().splitlines()[1:]
+        if float(line.split(",")[0]) >= 10.0
+        and (float(line.split(",")[1]) - 6.5) ** 2 + (float(line.split(",")[2]) + 5.0) ** 2 > 4.0
+    )
+    wx, wy = float(row[1]), float(row[2])
+    del free
+    r = _run(case, tmp_path / "off", monitoring="off", workers=[_standing(wx, wy)])
+    hits = [e for e in r.events if e["kind"] == "collision"]
+    assert hits, "the robot drove through the worker without a collision event"
+    d = hits[0]["details"]
+    assert d["worker"] == "stander" and d["cause"] == "robot moved into the worker"
+    assert "robot_speed_mps" in d and "worker_speed_mps" in d and hits[0]["t_s"] > 0
+    assert r.metrics["safety"]["collisions"] == len(hits)
+    assert r.metrics["safety"]["min_separation_m"] == 0.0
+    on = _run(case, tmp_path / "on", workers=[_standing(wx, wy)])
+    assert on.metrics["safety"]["collisions"] == 0
+    assert on.metrics["safety"]["stops"] + on.metrics["safety"]["slowdowns"] > 0
+    metrics = json.loads((tmp_path / "off" / "metrics.json").read_text())
+    assert metrics["safety"]["collision_events"][0]["worker"] == "stander"
