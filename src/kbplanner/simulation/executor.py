@@ -1,3 +1,4 @@
+# Over 500 lines: B5 run loop plus its safety bookkeeping (collisions, monitoring totals); next to split.
 """B5, plan execution: the robot does the refined plan in PyBullet; everything is recorded.
 
 Takes a loaded :class:`~kbplanner.model.project_data.ProjectData`, a plan refined by B4
