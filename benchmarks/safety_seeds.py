@@ -16,6 +16,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+# Runs that installed nothing (B4 found no feasible first element) are counted, not averaged in.
 FIGURES = (  # (key in metrics.json "safety", worst is the max (True) or the min (False))
     ("min_separation_m", False),
     ("time_below_1m_s", True),
@@ -40,9 +41,15 @@ def summary(runs: list[Path]) -> dict[str, Any]:
         row["installed"] = f"{metrics['totals']['installed']}/{metrics['totals']['elements']}"
         per.setdefault(scenario, []).append(row)
     out: dict[str, Any] = {}
-    for scenario, rows in sorted(per.items()):
-        fig: dict[str, Any] = {"runs": len(rows), "seeds": sorted(r["seed"] for r in rows),
-                               "installed": sorted({r["installed"] for r in rows})}
+    for scenario, all_rows in sorted(per.items()):
+        rows = [r for r in all_rows if r["duration_min"]]  # a run that moved nothing has no figures
+        fig: dict[str, Any] = {"runs": len(all_rows), "seeds": sorted(r["seed"] for r in all_rows),
+                               "installed": sorted(f"seed {r['seed']}: {r['installed']}" for r in all_rows),
+                               "nothing_simulated": sorted(r["seed"] for r in all_rows
+                                                          if not r["duration_min"])}
+        if not rows:
+            out[scenario] = fig
+            continue
         for key, worst_is_max in FIGURES:
             vals = [float(r[key]) for r in rows]
             fig[key] = {"median": round(statistics.median(vals), 3),
