@@ -32,8 +32,9 @@ from kbplanner.knowledge.knowledge_base import load_kb
 from kbplanner.knowledge.robot_selection import select_robots
 from kbplanner.knowledge.task_specs import task_specification
 from kbplanner.planning.element_order import element_order
-from kbplanner.planning.planner import plan_task, resolve_task
+from kbplanner.planning.planner import plan_task
 from kbplanner.planning.skill_inputs import resolve_inputs
+from kbplanner.planning.task_and_robot import resolve_task
 from kbplanner.project import Calendar, Manifest, Project
 from kbplanner.world.build import build_world
 

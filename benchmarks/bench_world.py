@@ -1,7 +1,7 @@
 """Benchmark of A6, the world at a date: world build, occupancy map, exports and PyBullet load.
 
 Cases: the case study (both scenarios, at the manifest's simulation date) and generated projects
-(tests/test_world_support.py) of growing size. Each case runs in a fresh subprocess so that its peak
+(tests/world_project_factory.py) of growing size. Each case runs in a fresh subprocess so that its peak
 resident memory (``ru_maxrss``) is its own. Prints a table and writes ``benchmarks/results/world.json``.
 
     .venv/bin/python benchmarks/bench_world.py [--quick]
@@ -96,7 +96,7 @@ def main() -> int:
         return 0
 
     sys.path.insert(0, str(REPO / "tests"))
-    from test_world_support import DATE, make_world_project
+    from world_project_factory import DATE, make_world_project
 
     cases: list[tuple[str, Path, str | None, str | None]] = []
     if (CASE_STUDY / "project.toml").is_file():

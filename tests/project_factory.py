@@ -8,24 +8,13 @@ from __future__ import annotations
 from pathlib import Path
 
 from ifc_factory import TestBuilding, write_test_building
-from project_parts import project_toml
+from project_parts import layout_ttl, prefixes, project_toml, site_object_ttl, write_texts
 
-SITE_TTL = """@prefix kbp: <https://w3id.org/kbplanner/ontology#> .
-@prefix rdfs: <http://www.w3.org/2000/01/rdf-schema#> .
-@prefix site: <https://w3id.org/kbplanner/data/testproj/site/> .
-
-site:layout a kbp:SiteLayout ;
-    kbp:siteExtent site:extent ;
-    kbp:robotStart site:robot-start .
-site:extent a kbp:Box ; kbp:minX -10.0 ; kbp:minY -10.0 ; kbp:minZ -1.0 ;
-    kbp:maxX 20.0 ; kbp:maxY 16.0 ; kbp:maxZ 10.0 .
-site:robot-start a kbp:Pose ; kbp:x -3.0 ; kbp:y -3.0 ; kbp:z 0.0 ;
-    kbp:roll 0.0 ; kbp:pitch 0.0 ; kbp:yaw 0.0 .
-site:office a kbp:SiteOffice ; rdfs:label "Site office" ;
-    kbp:installedPose site:office-pose ; kbp:sizeX 3.0 ; kbp:sizeY 2.4 ; kbp:sizeZ 2.6 .
-site:office-pose a kbp:Pose ; kbp:x -6.0 ; kbp:y 10.0 ; kbp:z 0.0 ;
-    kbp:roll 0.0 ; kbp:pitch 0.0 ; kbp:yaw 0.0 .
-"""
+BASE = "https://w3id.org/kbplanner/data/testproj/"
+SITE_TTL = (prefixes(BASE)
+            + layout_ttl((-10.0, -10.0, 20.0, 16.0), (-3.0, -3.0, 0.0), start_name="robot-start")
+            + site_object_ttl("office", "SiteOffice", "Site office", (3.0, 2.4, 2.6), (-6.0, 10.0),
+                              obstructs=None))
 
 SCHEDULE_CSV = """task_id,name,start,finish,predecessors,elements,robotized,task_specification
 T1,Slabs,2022-03-01,2022-03-10,,class=IfcSlab,false,
@@ -40,7 +29,6 @@ def make_project(directory: Path, *, name: str = "testproj", schema: str = "IFC4
     """Write a project (IFC, project.toml, schedule.csv, site layout) into ``directory``."""
     directory.mkdir(parents=True, exist_ok=True)
     building = write_test_building(directory / "model.ifc", schema=schema, unit_mm=unit_mm)  # type: ignore[arg-type]
-    (directory / "site.ttl").write_text(SITE_TTL)
-    (directory / "schedule.csv").write_text(SCHEDULE_CSV)
-    (directory / "project.toml").write_text(project_toml(name, "https://w3id.org/kbplanner/data/testproj/"))
+    write_texts(directory, {"site.ttl": SITE_TTL, "schedule.csv": SCHEDULE_CSV,
+                            "project.toml": project_toml(name, BASE)})
     return building

@@ -1,6 +1,9 @@
-"""Shared parts of the test projects (tests/project_factory.py, sim_project_factory.py,
-test_world_support.py): deterministic GlobalIds, stud-frame-like panels added to an IFC with
-ifcopenshell.api, Turtle for poses, site layouts and storages, and project.toml text.
+"""The shared factory of the test projects: every part that tests/project_factory.py (make_project),
+sim_project_factory.py (make_sim_project) and world_project_factory.py (make_world_project) build
+alike: deterministic GlobalIds, stud-frame-like panels added to an IFC with ifcopenshell.api, Turtle
+for poses, site layouts, site objects, workers, storages and their stacks, project.toml text, and
+writing the files. The three modules keep only what makes their project different (its building,
+schedule and site). No tests live here.
 """
 
 from __future__ import annotations
@@ -18,6 +21,8 @@ import ifcopenshell.api.root
 import ifcopenshell.api.spatial
 import ifcopenshell.guid
 import numpy as np
+
+from kbplanner.core.iris import element_iri
 
 
 def guid(key: str) -> str:
@@ -92,14 +97,40 @@ def prefixes(base: str) -> str:
             f"@prefix site: <{base}site/> .\n\n")
 
 
-def layout_ttl(extent: tuple[float, float, float, float], start: tuple[float, float, float]) -> str:
-    """The site layout: extent (x0, y0, x1, y1; z -1..10 m) and robot start (x, y, yaw)."""
+def layout_ttl(extent: tuple[float, float, float, float], start: tuple[float, float, float], *,
+               start_name: str = "start") -> str:
+    """The site layout: extent (x0, y0, x1, y1; z -1..10 m), robot start (x, y, yaw) ``site:{start_name}``."""
     x0, y0, x1, y1 = extent
     sx, sy, syaw = start
-    return ("site:layout a kbp:SiteLayout ; kbp:siteExtent site:extent ; kbp:robotStart site:start .\n"
+    return ("site:layout a kbp:SiteLayout ; kbp:siteExtent site:extent ;"
+            f" kbp:robotStart site:{start_name} .\n"
             f"site:extent a kbp:Box ; kbp:minX {x0!r} ; kbp:minY {y0!r} ; kbp:minZ -1.0 ;\n"
             f"    kbp:maxX {x1!r} ; kbp:maxY {y1!r} ; kbp:maxZ 10.0 .\n"
-            + pose_ttl("start", sx, sy, 0.0, syaw))
+            + pose_ttl(start_name, sx, sy, 0.0, syaw))
+
+
+def site_object_ttl(name: str, cls: str, label: str, size: tuple[float, float, float],
+                    at: tuple[float, float], *, obstructs: bool | None) -> str:
+    """A site object ``site:{name}`` of class ``kbp:{cls}`` (office, workspace, no-go zone, fence), its
+    size (x, y, z) and pose ``site:{name}-pose`` at (x, y) on the ground; ``kbp:obstructs`` unless None."""
+    sx, sy, sz = size
+    flag = "" if obstructs is None else f" ; kbp:obstructs {str(obstructs).lower()}"
+    return (f"site:{name} a kbp:{cls} ; rdfs:label \"{label}\"{flag} ;\n"
+            f"    kbp:sizeX {sx!r} ; kbp:sizeY {sy!r} ; kbp:sizeZ {sz!r} ;\n"
+            f"    kbp:installedPose site:{name}-pose .\n"
+            + pose_ttl(f"{name}-pose", at[0], at[1], 0.0))
+
+
+def worker_ttl(speed: float, stops: Sequence[tuple[str, float]]) -> str:
+    """The carpenter ``site:worker`` walking at ``speed`` (m/s) between site objects: (``site:`` name of
+    the location, dwell time in s) per route stop ``site:stop-N``."""
+    names = " , ".join(f"site:stop-{n}" for n in range(1, len(stops) + 1))
+    text = ("site:worker a kbp:Worker ; rdfs:label \"Carpenter\" ; kbp:role \"carpenter\" ;\n"
+            f"    kbp:walkingSpeed {speed!r} ; kbp:routeStop {names} .\n")
+    for n, (location, dwell) in enumerate(stops, start=1):
+        text += (f"site:stop-{n} a kbp:RouteStop ; kbp:order {n} ; kbp:location site:{location} ;"
+                 f" kbp:dwellTime {dwell!r} .\n")
+    return text
 
 
 def storage_head_ttl(pose: tuple[float, float, float, float], size: tuple[float, float, float],
@@ -112,6 +143,12 @@ def storage_head_ttl(pose: tuple[float, float, float, float], size: tuple[float,
             f"    kbp:sizeX {sx!r} ; kbp:sizeY {sy!r} ; kbp:sizeZ {sz!r} ;\n"
             "    kbp:installedPose site:storage-pose ; kbp:pickupLocation site:pickup .\n"
             + pose_ttl("storage-pose", x, y, z, yaw) + pose_ttl("pickup", px, py, pz, pyaw))
+
+
+def stacked_ttl(base: str, global_id: str, stack_index: int, more: str = "") -> str:
+    """An element stored on ``site:storage`` at ``stack_index`` (0 = bottom), with ``more`` predicates."""
+    text = f"<{element_iri(base, global_id)}> kbp:storedIn site:storage ; kbp:stackIndex {stack_index}"
+    return text + (f" ;\n    {more}" if more else "") + " .\n"
 
 
 def project_toml(name: str, base: str, *, seed: int | None = None, site: Iterable[str] = ("site.ttl",),
@@ -129,3 +166,9 @@ def project_toml(name: str, base: str, *, seed: int | None = None, site: Iterabl
         text += (f'[scenarios.{sc}]\ndescription = "{description}"\n'
                  f"overlays = [{', '.join(chr(34) + o + chr(34) for o in overlays)}]\n")
     return text
+
+
+def write_texts(directory: Path, files: Mapping[str, str]) -> None:
+    """Write each text file (name relative to ``directory``: its content) as UTF-8."""
+    for name, text in files.items():
+        (directory / name).write_text(text, encoding="utf-8")

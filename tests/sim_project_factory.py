@@ -43,7 +43,11 @@ from project_parts import (
     pose_ttl,
     prefixes,
     project_toml,
+    site_object_ttl,
+    stacked_ttl,
     storage_head_ttl,
+    worker_ttl,
+    write_texts,
 )
 
 BASE = "https://w3id.org/kbplanner/data/simtest/"
@@ -91,41 +95,26 @@ def _add_panels(ifc_path: Path, names: tuple[str, ...]) -> dict[str, str]:
     return {s.name: s.global_id for s in specs}
 
 
-_pose = pose_ttl
-_PREFIXES = prefixes(BASE)
-
-
 def _site_ttl() -> str:
-    text = _PREFIXES + layout_ttl(EXTENT, ROBOT_START)
+    text = prefixes(BASE) + layout_ttl(EXTENT, ROBOT_START)
     for name, bx, by in BENCHES:
-        text += (f"site:{name} a kbp:Workspace ; rdfs:label \"{name}\" ; kbp:obstructs false ;\n"
-                 "    kbp:sizeX 1.0 ; kbp:sizeY 1.0 ; kbp:sizeZ 1.0 ;\n"
-                 f"    kbp:installedPose site:{name}-pose .\n" + _pose(f"{name}-pose", bx, by, 0.0))
-    text += ("site:worker a kbp:Worker ; rdfs:label \"Carpenter\" ; kbp:role \"carpenter\" ;\n"
-             "    kbp:walkingSpeed 1.0 ; kbp:routeStop site:stop-1 , site:stop-2 .\n"
-             "site:stop-1 a kbp:RouteStop ; kbp:order 1 ; kbp:location site:west-bench ;\n"
-             "    kbp:dwellTime 20.0 .\n"
-             "site:stop-2 a kbp:RouteStop ; kbp:order 2 ; kbp:location site:east-bench ;\n"
-             "    kbp:dwellTime 20.0 .\n")
-    return text
+        text += site_object_ttl(name, "Workspace", name, (1.0, 1.0, 1.0), (bx, by), obstructs=False)
+    return text + worker_ttl(1.0, [("west-bench", 20.0), ("east-bench", 20.0)])
 
 
 def _storage_ttl(panels: dict[str, str], walled: bool) -> str:
-    text = _PREFIXES + storage_head_ttl(STORAGE, STORAGE_SIZE, PICKUP)
+    text = prefixes(BASE) + storage_head_ttl(STORAGE, STORAGE_SIZE, PICKUP)
     order = sorted(panels)  # P1 first: top of the stack
     for n, name in enumerate(order):
-        iri = element_iri(BASE, panels[name])
-        text += (f"<{iri}> kbp:storedIn site:storage ; kbp:stackIndex {len(order) - 1 - n} ;\n"
-                 f"    kbp:workSequence {n + 1} ; kbp:graspPoint site:grasp-{name} .\n"
-                 + _pose(f"grasp-{name}", 0.0, 0.0, PANEL_SIZE[2] / 2))
+        text += (stacked_ttl(BASE, panels[name], len(order) - 1 - n,
+                             f"kbp:workSequence {n + 1} ; kbp:graspPoint site:grasp-{name}")
+                 + pose_ttl(f"grasp-{name}", 0.0, 0.0, PANEL_SIZE[2] / 2))
     if walled:  # a closed ring of fences 0.1 m thick around storage and pickup location
         cx, cy, w, h = 2.5, -3.0, 4.6, 3.6
         for name, fx, fy, fsx, fsy in (("s", cx, cy - h / 2, w, 0.1), ("n", cx, cy + h / 2, w, 0.1),
                                        ("w", cx - w / 2, cy, 0.1, h), ("e", cx + w / 2, cy, 0.1, h)):
-            text += (f"site:fence-{name} a kbp:SafetyFence ; rdfs:label \"Fence {name}\" ;\n"
-                     f"    kbp:obstructs true ; kbp:sizeX {fsx!r} ; kbp:sizeY {fsy!r} ; kbp:sizeZ 1.8 ;\n"
-                     f"    kbp:installedPose site:fence-{name}-pose .\n"
-                     + _pose(f"fence-{name}-pose", fx, fy, 0.0))
+            text += site_object_ttl(f"fence-{name}", "SafetyFence", f"Fence {name}", (fsx, fsy, 1.8),
+                                    (fx, fy), obstructs=True)
     return text
 
 
@@ -136,16 +125,13 @@ def make_sim_project(directory: Path, *, high_panel: bool = True) -> SimProject:
                         front_door_width_m=DOOR_WIDTH_M)
     names = ("P1", "P2", "P3") if high_panel else ("P1", "P2")
     panels = _add_panels(directory / "model.ifc", names)
-    (directory / "schedule.csv").write_text(SCHEDULE, encoding="utf-8")
-    (directory / "site.ttl").write_text(_site_ttl(), encoding="utf-8")
-    (directory / "stored.ttl").write_text(_storage_ttl(panels, walled=False), encoding="utf-8")
-    (directory / "walled.ttl").write_text(_storage_ttl(panels, walled=True), encoding="utf-8")
-    (directory / "project.toml").write_text(
-        project_toml("simtest", BASE, seed=3, simulation={"task": "T5", "date": DATE}, scenarios={
+    write_texts(directory, {
+        "schedule.csv": SCHEDULE, "site.ttl": _site_ttl(),
+        "stored.ttl": _storage_ttl(panels, walled=False), "walled.ttl": _storage_ttl(panels, walled=True),
+        "project.toml": project_toml(
+            "simtest", BASE, seed=3, simulation={"task": "T5", "date": DATE}, scenarios={
             "stored": ("panels stacked on a storage in the yard", ["stored.ttl"]),
-            "walled": ("the same storage, fenced in all round", ["walled.ttl"])}),
-        encoding="utf-8",
-    )
+            "walled": ("the same storage, fenced in all round", ["walled.ttl"])})})
     return SimProject(directory, panels)
 
 

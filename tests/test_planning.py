@@ -18,7 +18,8 @@ from kbplanner.core.vocab import BOT, KBP
 from kbplanner.knowledge.knowledge_base import load_kb
 from kbplanner.planning.element_order import RULE_GLOBAL_ID, RULE_NEAREST, RULE_SEQUENCE, element_order
 from kbplanner.planning.plan_model import Plan, Pose2
-from kbplanner.planning.planner import PlanningError, PoseChoice, assign_poses, plan_task
+from kbplanner.planning.planner import PoseChoice, assign_poses, plan_task
+from kbplanner.planning.task_and_robot import PlanningError
 from kbplanner.project import Calendar, Manifest, Project
 from kbplanner.world.world_types import pose_matrix
 

@@ -17,7 +17,8 @@ from kbplanner.core.errors import KnowledgeBaseError
 from kbplanner.core.iris import mint
 from kbplanner.core.vocab import KBP
 from kbplanner.knowledge.knowledge_base import load_kb
-from kbplanner.knowledge.requirements import MISSING, WRONG_TYPE, derive_requirements
+from kbplanner.knowledge.requirement_rows import MISSING, WRONG_TYPE
+from kbplanner.knowledge.requirements import derive_requirements
 
 EXTENSION = Path(__file__).parent / "kb_extension" / "fixing_point.ttl"
 

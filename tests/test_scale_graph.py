@@ -19,7 +19,8 @@ from kbplanner.core.errors import WorldError
 from kbplanner.core.vocab import KBP
 from kbplanner.knowledge.task_specs import robotized_tasks
 from kbplanner.model.schedule_model import query_text
-from kbplanner.planning.planner import PlanningError, plan_task, plan_tasks
+from kbplanner.planning.planner import plan_task, plan_tasks
+from kbplanner.planning.task_and_robot import PlanningError
 from kbplanner.project import Project
 from kbplanner.scale.building_generator import generate_building
 from kbplanner.scale.building_plan import SCENARIO

@@ -1,4 +1,4 @@
-"""A6 world at a date, on the small generated project (tests/test_world_support.py)."""
+"""A6 world at a date, on the small generated project (tests/world_project_factory.py)."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from kbplanner.project import Project
 from kbplanner.world.build import build_world
 from kbplanner.world.meshes import element_mesh
 from kbplanner.world.world_types import BUILT, IN_PROGRESS, NOT_STARTED, World
-from test_world_support import DATE, STORAGE, STORAGE_SIZE, WorldProject, make_world_project
+from world_project_factory import DATE, STORAGE, STORAGE_SIZE, WorldProject, make_world_project
 
 
 @pytest.fixture(scope="module")

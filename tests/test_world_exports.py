@@ -21,7 +21,7 @@ from kbplanner.world.exports import export_world, write_element_sdf, write_world
 from kbplanner.world.maps import MapSettings, StoreyMap, storey_map
 from kbplanner.world.occupancy import OccupancyGrid
 from kbplanner.world.world_types import World
-from test_world_support import DATE, EXTENT, NO_GO, WORKSPACE, WorldProject, make_world_project
+from world_project_factory import DATE, EXTENT, NO_GO, WORKSPACE, WorldProject, make_world_project
 
 
 @pytest.fixture(scope="module")

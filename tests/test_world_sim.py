@@ -14,7 +14,7 @@ from kbplanner.project import Project
 from kbplanner.simulation.sim_world import SimWorld, element_frame, load_world, settle
 from kbplanner.world.build import build_world
 from kbplanner.world.world_types import World, pose_matrix
-from test_world_support import DATE, WorldProject, make_world_project
+from world_project_factory import DATE, WorldProject, make_world_project
 
 
 @pytest.fixture(scope="module")

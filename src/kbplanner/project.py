@@ -14,18 +14,14 @@ from typing import TYPE_CHECKING
 from kbplanner.core.errors import ProjectError
 from kbplanner.model.project_data import (
     CACHE_ENV,
-    MANIFEST,
-    Calendar,
-    Manifest,
     ProgressFn,
     ProjectData,
     ProjectInfo,
-    Scenario,
     cache_root,
     file_sha256,
     import_cached,
-    read_manifest,
 )
+from kbplanner.model.project_manifest import MANIFEST, Calendar, Manifest, Scenario, read_manifest
 
 if TYPE_CHECKING:
     from kbplanner.knowledge.requirements import RequirementsResult

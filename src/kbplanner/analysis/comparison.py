@@ -291,7 +291,7 @@ def compare(
         >>> print(comp.text())  # doctest: +SKIP
     """
     from kbplanner.core.outputs import run_directory
-    from kbplanner.model.project_data import read_manifest
+    from kbplanner.model.project_manifest import read_manifest
 
     project_dir, out_dir = Path(project_dir), Path(out_dir)
     manifest = read_manifest(project_dir)

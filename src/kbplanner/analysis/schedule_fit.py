@@ -22,7 +22,7 @@ from rdflib import RDF, XSD, Graph, Literal, Namespace, URIRef
 
 from kbplanner.core.errors import ProjectError
 from kbplanner.core.vocab import KBP
-from kbplanner.model.project_data import Calendar
+from kbplanner.model.project_manifest import Calendar
 
 PROV = Namespace("http://www.w3.org/ns/prov#")
 _DAYS = ("Mon", "Tue", "Wed", "Thu", "Fri", "Sat", "Sun")

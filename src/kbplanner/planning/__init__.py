@@ -5,13 +5,17 @@ action-level plan with its robot, and arm/base poses plus carry modes refined by
 import importlib
 from typing import Any
 
+# The modules that held 0.1's flat ``kbplanner.planning`` module (planner.py, then split along its steps).
+_FLAT = ("planner", "task_and_robot", "plan_steps", "plan_elements")
+
 
 def __getattr__(name: str) -> Any:
-    """``from kbplanner.planning import X`` as with 0.1's flat module: X of :mod:`.planner`."""
+    """``from kbplanner.planning import X`` as with 0.1's flat module: X of :mod:`.planner` (or the
+    modules split from it)."""
     if name.startswith("__"):
         raise AttributeError(name)
-    module = importlib.import_module("kbplanner.planning.planner")
-    try:
-        return getattr(module, name)
-    except AttributeError:
-        raise AttributeError(f"module 'kbplanner.planning' has no attribute {name!r}") from None
+    for short in _FLAT:
+        module = importlib.import_module(f"kbplanner.planning.{short}")
+        if hasattr(module, name):
+            return getattr(module, name)
+    raise AttributeError(f"module 'kbplanner.planning' has no attribute {name!r}")

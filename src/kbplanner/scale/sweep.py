@@ -94,7 +94,7 @@ def build_variants(spec: SweepSpec, *, base: StorageInfo | None = None, grid: Oc
     ``base`` and ``grid`` (the base scenario's storage and its free-ground map) are needed for moved
     and grid candidates (:func:`prepare_base` gives them).
     """
-    from kbplanner.model.project_data import read_manifest
+    from kbplanner.model.project_manifest import read_manifest
 
     manifest = read_manifest(spec.project_dir)
     scen = _base_scenario(spec, manifest)
@@ -153,7 +153,8 @@ def _base_scenario(spec: SweepSpec, manifest: Any) -> str:
 
 def prepare_base(spec: SweepSpec) -> tuple[StorageInfo, OccupancyGrid] | None:
     """The base scenario's storage and free-ground map, when moved or grid candidates need them."""
-    from kbplanner.model.project_data import ProjectData, read_manifest
+    from kbplanner.model.project_data import ProjectData
+    from kbplanner.model.project_manifest import read_manifest
     from kbplanner.world.build import world_of
 
     manifest = read_manifest(spec.project_dir)

@@ -1,5 +1,7 @@
 """A small project for the world tests (A6): the ifc_factory building plus panels to install.
 
+Shared parts come from tests/project_parts.py.
+
 ``make_world_project(dir)`` writes: the two-storey, two-bay test building with one table per space,
 three IfcMember panels (0.6 x 0.09 x 2.4 m, wood) standing in bay 1 of Level 1, a CSV schedule, a
 site layout (extent, robot start, an office, a no-go zone, a workspace, a worker) and a scenario
@@ -26,10 +28,13 @@ from project_parts import (
     add_panels,
     guid,
     layout_ttl,
-    pose_ttl,
     prefixes,
     project_toml,
+    site_object_ttl,
+    stacked_ttl,
     storage_head_ttl,
+    worker_ttl,
+    write_texts,
 )
 
 BASE = "https://w3id.org/kbplanner/data/worldtest/"
@@ -77,29 +82,15 @@ def _add_panels(ifc_path: Path) -> tuple[str, ...]:
     return tuple(s.global_id for s in specs)
 
 
-_pose = pose_ttl
-
-
 def _site_ttl() -> str:
     ox, oy, osx, osy, osz = OFFICE
     return (
         prefixes(BASE) + layout_ttl(EXTENT, (-3.0, -2.0, 0.0))
-        + "site:office a kbp:SiteOffice ; rdfs:label \"Office\" ; kbp:obstructs true ;\n"
-        f"    kbp:sizeX {osx!r} ; kbp:sizeY {osy!r} ; kbp:sizeZ {osz!r} ;\n"
-        "    kbp:installedPose site:office-pose .\n"
-        + _pose("office-pose", ox, oy, 0.0)
-        + "site:no-go a kbp:NoGoZone ; rdfs:label \"No-go\" ; kbp:obstructs false ;\n"
-        f"    kbp:sizeX {NO_GO[2]!r} ; kbp:sizeY {NO_GO[3]!r} ; kbp:sizeZ 3.0 ;\n"
-        "    kbp:installedPose site:no-go-pose .\n"
-        + _pose("no-go-pose", NO_GO[0], NO_GO[1], 0.0)
-        + "site:work a kbp:Workspace ; rdfs:label \"Work area\" ; kbp:obstructs false ;\n"
-        f"    kbp:sizeX {WORKSPACE[2]!r} ; kbp:sizeY {WORKSPACE[3]!r} ; kbp:sizeZ 2.0 ;\n"
-        "    kbp:installedPose site:work-pose .\n"
-        + _pose("work-pose", WORKSPACE[0], WORKSPACE[1], 0.0)
-        + "site:worker a kbp:Worker ; rdfs:label \"Carpenter\" ; kbp:role \"carpenter\" ;\n"
-        "    kbp:walkingSpeed 1.2 ; kbp:routeStop site:stop-1 , site:stop-2 .\n"
-        "site:stop-1 a kbp:RouteStop ; kbp:order 1 ; kbp:location site:work ; kbp:dwellTime 30.0 .\n"
-        "site:stop-2 a kbp:RouteStop ; kbp:order 2 ; kbp:location site:office ; kbp:dwellTime 10.0 .\n"
+        + site_object_ttl("office", "SiteOffice", "Office", (osx, osy, osz), (ox, oy), obstructs=True)
+        + site_object_ttl("no-go", "NoGoZone", "No-go", (NO_GO[2], NO_GO[3], 3.0), NO_GO[:2], obstructs=False)
+        + site_object_ttl("work", "Workspace", "Work area", (WORKSPACE[2], WORKSPACE[3], 2.0), WORKSPACE[:2],
+                          obstructs=False)
+        + worker_ttl(1.2, [("work", 30.0), ("office", 10.0)])
     )
 
 
@@ -107,7 +98,7 @@ def _storage_ttl(panels: tuple[str, ...], stack: dict[str, int]) -> str:
     x, y, _, _ = STORAGE
     text = prefixes(BASE) + storage_head_ttl(STORAGE, STORAGE_SIZE, (x - 1.4, y, 0.0, 0.0))
     for gid in panels:
-        text += f"<{element_iri(BASE, gid)}> kbp:storedIn site:storage ; kbp:stackIndex {stack[gid]} .\n"
+        text += stacked_ttl(BASE, gid, stack[gid])
     return text
 
 
@@ -119,12 +110,9 @@ def make_world_project(directory: Path, *, storeys: int = 2, bays: int = 2) -> W
                                    storeys=storeys, bays=bays)
     panels = _add_panels(directory / "model.ifc")
     stack = {gid: len(panels) - 1 - n for n, gid in enumerate(panels)}  # P1, installed first, on top
-    (directory / "schedule.csv").write_text(SCHEDULE, encoding="utf-8")
-    (directory / "site.ttl").write_text(_site_ttl(), encoding="utf-8")
-    (directory / "storage.ttl").write_text(_storage_ttl(panels, stack), encoding="utf-8")
-    (directory / "project.toml").write_text(
-        project_toml("worldtest", BASE, simulation={"task": "T5", "date": DATE},
-                     scenarios={"stored": ("panels on a storage in the yard", ["storage.ttl"])}),
-        encoding="utf-8",
-    )
+    write_texts(directory, {
+        "schedule.csv": SCHEDULE, "site.ttl": _site_ttl(), "storage.ttl": _storage_ttl(panels, stack),
+        "project.toml": project_toml(
+            "worldtest", BASE, simulation={"task": "T5", "date": DATE},
+            scenarios={"stored": ("panels on a storage in the yard", ["storage.ttl"])})})
     return WorldProject(directory, building, panels, stack)
