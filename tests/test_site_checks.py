@@ -59,3 +59,24 @@ def test_simulate_stops_with_exit_2(tmp_path: Path) -> None:
     assert proc.returncode == 2, proc.stderr
     assert "off the site" in proc.stderr and "Traceback" not in proc.stderr
     assert not (tmp_path / "run").exists()
+
+
+def test_a_pickup_walled_off_from_the_robot_start_is_unreachable(tmp_path: Path) -> None:
+    import dataclasses
+
+    from kbplanner.world.site_checks import pickup_problem
+
+    make_sim_project(tmp_path / "p")
+    project = Project.load(tmp_path / "p", scenario="stored")
+    world = build_world(project, parse_date(DATE))
+    grid = storey_map(world).grid
+    storage = next(o for o in world.site_objects if o.pickup is not None)
+    assert world.robot_start is not None and storage.pickup is not None
+    assert pickup_problem(world, grid, storage) is None
+    occ = grid.occupied.copy()
+    ix, iy = grid.cell_of(storage.pickup.x, storage.pickup.y)
+    occ[iy - 2:iy + 3, ix - 2:ix + 3] = True  # a closed ring of occupied cells around the pickup
+    occ[iy - 1:iy + 2, ix - 1:ix + 2] = False
+    walled = dataclasses.replace(grid, occupied=occ)
+    problem = pickup_problem(world, walled, storage)
+    assert problem is not None and "unreachable" in problem and "robot start" in problem

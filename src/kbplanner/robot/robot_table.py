@@ -15,6 +15,7 @@ Example:
 
 from __future__ import annotations
 
+import math
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -155,6 +156,31 @@ def _floats(value: Any, n: int | None, where: str, file: Path) -> tuple[float, .
                              fix="use numbers only") from exc
 
 
+def _finite_everywhere(value: Any, where: str, file: Path) -> None:
+    """The numeric rule (docs/numeric_rule.md): TOML allows ``nan`` and ``inf``; no robot has them."""
+    if isinstance(value, dict):
+        for k, v in value.items():
+            _finite_everywhere(v, f"{where}.{k}" if where else str(k), file)
+    elif isinstance(value, list):
+        for i, v in enumerate(value):
+            _finite_everywhere(v, f"{where}[{i}]", file)
+    elif isinstance(value, float) and not math.isfinite(value):
+        raise InputFileError(f"{where} = {value!r} is not a finite number", file=file, element=where,
+                             fix="give a finite number in its physical range")
+
+
+# base values that may be 0 (the rest are sizes, masses, speeds, rates: > 0)
+_MAY_BE_ZERO = {"ground_clearance_m", "bumper_height_m"}
+
+
+def _in_range(values: dict[str, float], where: str, file: Path) -> None:
+    for k, v in values.items():
+        if v < 0 or (v == 0 and k not in _MAY_BE_ZERO):
+            op = ">= 0" if k in _MAY_BE_ZERO else "> 0"
+            raise InputFileError(f"{where}.{k} = {v!r} is out of range (must be {op})", file=file,
+                                 element=f"{where}.{k}", fix=f"give {k} a finite number {op}")
+
+
 def _xyz(value: Any, where: str, file: Path) -> tuple[float, float, float]:
     x, y, z = _floats(value, 3, where, file)
     return (x, y, z)
@@ -188,6 +214,7 @@ def _base(name: str, t: dict[str, Any], file: Path) -> BaseSpec:
         "plate_mass_kg", "max_speed_mps", "max_yaw_rate_rps", "max_accel_mps2", "max_yaw_accel_rps2",
     ]
     values = {k: float(_get(t, k, where, file)) for k in scalars}
+    _in_range(values, where, file)
     return BaseSpec(
         name=name,
         description=str(t.get("description", "")),
@@ -242,6 +269,7 @@ def load_robot_specs(path: Path | None = None) -> dict[str, RobotSpec]:
                              fix="pass the path of a robots.toml") from exc
     except tomllib.TOMLDecodeError as exc:
         raise InputFileError(f"not valid TOML: {exc}", file=file, fix="fix the TOML syntax") from exc
+    _finite_everywhere(data, "", file)
     bases = {n: _base(n, t, file) for n, t in sorted(data.get("base", {}).items())}
     arms = {n: _arm(n, t, file) for n, t in sorted(data.get("arm", {}).items())}
     robots: dict[str, RobotSpec] = {}
