@@ -5,7 +5,7 @@ turns in place to face it (at :data:`TURN_RPS`, under speed and separation monit
 motion), then holds the view for the dwell time (the ``kbp:DwellTimeRole`` input, else the skill's
 ``dwellTime`` parameter, default 2 s). The view is a ray in PyBullet from the camera (simplified:
 above the base's centre, :data:`CAMERA_ABOVE_PLATE_M` over the top plate) to the target; a hit on a
-body more than :data:`TARGET_TOL_M` before the target means the view is blocked, and a target beyond
+body other than the step's element more than :data:`TARGET_TOL_M` before the target means the view is blocked, and a target beyond
 the skill's ``viewDistance`` parameter (default 5 m) is too far: both fail the step. Recorded:
 ``distance_m``, ``dwell_s``, event ``inspect``.
 """
@@ -75,9 +75,10 @@ class InspectSkill(Skill):
         env = self.c.env
         d = math.dist(self.eye, self.target)
         hits = pb.rayTest(self.eye, self.target, physicsClientId=env.client)
+        own = env.world_bodies.element_bodies.get(self.step.element)
         for body, _link, frac, _pos, _n in hits:
-            if body < 0 or body == env.robot.body:
-                continue
+            if body < 0 or body == env.robot.body or body == own:
+                continue  # nothing, the robot itself, or the element being inspected
             if frac * d < d - TARGET_TOL_M:
                 return _name(env.world_bodies, body)
         return None
