@@ -327,7 +327,10 @@ def test_the_framing_task_selector_matches_exactly_the_eleven_frames(ifc: Any) -
 
 
 def test_the_schedule_builds_every_element_exactly_once(ifc: Any) -> None:
-    built = Counter(e.GlobalId for row in schedule_rows() for e in task_elements(ifc, row))
+    # the layout-marking task works on the partitions (marks their axes) but does not build them
+    marking = EXPECTED["schedule"]["marking_task"]
+    built = Counter(e.GlobalId for row in schedule_rows() if row["task_id"] != marking
+                    for e in task_elements(ifc, row))
     assert sorted(built) == sorted(e.GlobalId for e in building_elements(ifc))
     assert set(built.values()) == {1}
     assert sum(built.values()) == EXPECTED["schedule"]["scheduled_elements"]

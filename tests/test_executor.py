@@ -13,7 +13,6 @@ from typing import Any
 import numpy as np
 import pytest
 
-from kbplanner.core.vocab import KBP
 from kbplanner.planning.carry import transform
 from kbplanner.planning.manipulation import refine_plan
 from kbplanner.planning.plan_model import Plan

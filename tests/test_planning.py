@@ -287,8 +287,8 @@ def test_a_robotized_task_without_elements_gives_an_empty_plan_with_a_note(tmp_p
 
 @pytest.mark.parametrize(("old", "new", "words"), [
     ("kbp:skillKind kbp:Fasten", "kbp:skillKind t:Screwing",
-     ["skill SC-1 has kind t:Screwing, which the executor does not implement", "kbp:Fasten, kbp:FollowToolPath",
-      "kbp:Inspect"]),
+     ["skill SC-1 has kind t:Screwing, which the executor does not implement",
+      "kbp:Fasten, kbp:FollowToolPath", "kbp:Inspect"]),
     ("kbp:inputRole kbp:TargetPoseRole", "kbp:inputRole kbp:ToolPathRole",
      ["input 'screw point' of skill SC-1 has role kbp:ToolPathRole", "cannot use",
       "kbp:ContactForceRole, kbp:DwellTimeRole"]),
@@ -298,8 +298,8 @@ def test_a_robotized_task_without_elements_gives_an_empty_plan_with_a_note(tmp_p
 def test_a_kind_outside_the_set_or_an_unusable_role_is_an_error_before_planning(
         tmp_path: Path, old: str, new: str, words: list[str]) -> None:
     spec = _screw_spec(tmp_path)
-    spec.write_text(spec.read_text().replace(old, new).replace(
-        't:torque a owl:DatatypeProperty ;', 't:Screwing a kbp:SkillKind .\nt:torque a owl:DatatypeProperty ;'))
+    kind = "t:Screwing a kbp:SkillKind .\n"
+    spec.write_text(spec.read_text().replace(old, new).replace("t:torque a owl:", kind + "t:torque a owl:"))
     g = make_model(2, spec_id="SCREW-#1")
     with pytest.raises(KnowledgeBaseError) as err:
         plan_task(small_project(tmp_path, g, kb_extra=(spec,)))

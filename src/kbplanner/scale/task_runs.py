@@ -68,7 +68,8 @@ class TaskFigures:
         return [self.task_id, self.label, self.world_date, self.installed, self.elements,
                 round(self.sim_time_s / 60.0, 2),
                 None if self.per_element_min is None else round(self.per_element_min, 2),
-                round(self.min_separation_m, 2), round(self.below_threshold_s, 1), self.worker_stops, self.work]
+                round(self.min_separation_m, 2), round(self.below_threshold_s, 1), self.worker_stops,
+                self.work]
 
 
 @dataclass

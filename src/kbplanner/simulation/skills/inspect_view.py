@@ -1,12 +1,12 @@
 """B5 skill kind kbp:Inspect: view a target from where the robot stands (quality check, progress photo).
 
 The target is the position of the step's ``kbp:ViewTargetRole`` input (a pose, site frame). The base
-turns in place to face it (at :data:`TURN_RPS`, under speed and separation monitoring like any
-motion), then holds the view for the dwell time (the ``kbp:DwellTimeRole`` input, else the skill's
-``dwellTime`` parameter, default 2 s). The view is a ray in PyBullet from the camera (simplified:
-above the base's centre, :data:`CAMERA_ABOVE_PLATE_M` over the top plate) to the target; a hit on a
-body other than the step's element more than :data:`TARGET_TOL_M` before the target means the view is blocked, and a target beyond
-the skill's ``viewDistance`` parameter (default 5 m) is too far: both fail the step. Recorded:
+turns in place to face it (at :data:`TURN_RPS`), then holds the view for the dwell time (the
+``kbp:DwellTimeRole`` input, else the skill's ``dwellTime`` parameter, default 2 s). The view is a
+ray in PyBullet from the camera (simplified: above the base's centre, :data:`CAMERA_ABOVE_PLATE_M`
+over the top plate) to the target; a hit on a body other than the robot and the step's element more
+than :data:`TARGET_TOL_M` before the target means the view is blocked, and a target beyond the
+skill's ``viewDistance`` parameter (default 5 m) is too far: both fail the step. Recorded:
 ``distance_m``, ``dwell_s``, event ``inspect``.
 """
 
