@@ -26,12 +26,17 @@ G = 9.81
 
 
 def number(value: object, default: float) -> float:
-    """A finite float from a step value, else ``default``."""
-    try:
-        v = float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
+    """A float from a step value; ``default`` when the value is absent (None).
+
+    A value that is not a number becomes NaN, so that the caller's range check fails the step with
+    the value named, rather than using the default silently.
+    """
+    if value is None:
         return default
-    return v if math.isfinite(v) else default
+    try:
+        return float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return math.nan
 
 
 class FastenSkill(Skill):
@@ -54,8 +59,9 @@ class FastenSkill(Skill):
         self.dwell_s = number(call.by_role(local(KBP.DwellTimeRole)),
                               number(p.get("dwellTime"), DEFAULT_DWELL_S))
         force = number(call.by_role(local(KBP.ContactForceRole)), number(p.get("contactForce"), 0.0))
-        if self.dwell_s < 0 or force < 0:
-            self.fail(f"dwell time {self.dwell_s} s and contact force {force} N must not be negative")
+        if not (math.isfinite(self.dwell_s) and self.dwell_s >= 0 and math.isfinite(force) and force >= 0):
+            self.fail(f"dwell time {self.dwell_s} s and contact force {force} N must be finite numbers >= 0 "
+                      "(kbp:dwellTime, kbp:contactForce)")
             return
         payload = arm.payload_kg
         if force / G > payload:

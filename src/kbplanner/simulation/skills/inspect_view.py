@@ -54,6 +54,11 @@ class InspectSkill(Skill):
         self.dwell_s = number(call.by_role(local(KBP.DwellTimeRole)),
                               number(p.get("dwellTime"), DEFAULT_DWELL_S))
         max_view = number(p.get("viewDistance"), DEFAULT_VIEW_M)
+        if not (math.isfinite(self.dwell_s) and self.dwell_s >= 0
+                and math.isfinite(max_view) and max_view > 0):
+            self.fail(f"dwell time {self.dwell_s} s must be a finite number >= 0 and view distance "
+                      f"{max_view} m > 0 (kbp:dwellTime, kbp:viewDistance)")
+            return
         x, y, _ = env.base_pose()
         self.eye = (x, y, env.robot_floor_z + env.robot.spec.base.height_m + CAMERA_ABOVE_PLATE_M)
         dist = math.dist(self.eye, self.target)

@@ -31,7 +31,9 @@ from kbplanner.planning.pose_frames import as_pose6_list
 from kbplanner.robot.lidar import lidar_spec
 from kbplanner.simulation.separation_monitor import SeparationMonitor
 from kbplanner.simulation.skills.base import Skill, Status
+from kbplanner.simulation.skills.fasten import number
 
+DEFAULT_TOOL_SPEED = 0.2  # m/s, when the skill has no kbp:toolSpeed parameter
 MAX_APPROACH_M = 1.5  # the base drives at most this far tool-up to reach the start of the line
 SAMPLE_M = 0.02  # spacing of the free-footprint test along the line
 TURN_RPS = 0.5  # turning in place before the tool goes down
@@ -133,8 +135,8 @@ class ToolPathSkill(Skill):
         self.queue += [("turn", yaw, self.p0), ("mark", yaw, self.p1)]
         params = call.parameters
         top = env.robot.spec.base.max_speed_mps
-        self.speed = min(float(params.get("toolSpeed", 0.2)), top)
-        if not self.speed > 0:
+        self.speed = min(number(params.get("toolSpeed"), DEFAULT_TOOL_SPEED), top)
+        if not (math.isfinite(self.speed) and self.speed > 0):
             self.fail(f"tool speed {self.speed} m/s: it must be positive (kbp:toolSpeed)")
             return
         self.details["tool_speed_mps"] = round(self.speed, 3)
