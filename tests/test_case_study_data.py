@@ -364,8 +364,9 @@ def test_on_the_simulation_date_roof_and_framing_are_in_progress_and_level_1_par
             assert span(r)[1] < at
     partitions = {w.GlobalId for w in ifc.by_type("IfcWall") if storeys_of(w) == {"Level 1"}
                   and "Interior - Partition" in w.Name}
-    for r in rows:
-        if partitions & {e.GlobalId for e in task_elements(ifc, r)}:
+    for r in rows:  # the layout marking only marks them (the day before): it builds nothing
+        if r["task_id"] != EXPECTED["schedule"]["marking_task"] and partitions & {
+                e.GlobalId for e in task_elements(ifc, r)}:
             assert r["task_id"] == EXPECTED["schedule"]["level1_interior_walls_task"]
             assert span(r)[0] > at
 
