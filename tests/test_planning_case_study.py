@@ -72,7 +72,7 @@ def test_the_robot_is_chosen_by_the_ranking_with_every_robot_and_reason_listed(
     _, plan = outside
     assert (plan.robot_id, plan.robot_urdf) == ("husky-ur16e", "husky_ur16e.urdf")
     by_id = {r["robot_id"]: r for r in plan.selection}
-    assert set(by_id) == {"husky-ur16e", "husky-ur5", "jackal"}
+    assert set(by_id) == {"husky-ur16e", "husky-ur5", "jackal", "jackal-marker"}
     assert by_id["husky-ur16e"]["chosen"] and by_id["husky-ur16e"]["rank"] == 1
     assert any("payload 5 kg below" in r for r in by_id["husky-ur5"]["reasons"])  # the paper's robot
     assert not by_id["jackal"]["fit"]

@@ -50,6 +50,7 @@ class SkillInput:
     value_class: URIRef | None
     source: URIRef | None
     description: str
+    role: URIRef | None = None  # kbp:inputRole: what the executor binds the input by (the name is a label)
 
     @property
     def from_model(self) -> bool:
@@ -82,6 +83,10 @@ class Skill:
     def input(self, name: str) -> SkillInput | None:
         """The input called ``name``."""
         return next((i for i in self.inputs if i.name == name), None)
+
+    def input_with_role(self, role: URIRef) -> SkillInput | None:
+        """The input whose kbp:inputRole is ``role``."""
+        return next((i for i in self.inputs if i.role == role), None)
 
 
 @dataclass(frozen=True)
@@ -220,7 +225,8 @@ def load_skill(kb: Graph, skill: URIRef) -> Skill:
         inputs.append(SkillInput(iri=inp, name=str(r["name"]),
                                  value_class=vc if isinstance(vc, URIRef) else None,
                                  source=src if isinstance(src, URIRef) else None,
-                                 description=str(r["description"] or "")))
+                                 description=str(r["description"] or ""),
+                                 role=r["role"] if isinstance(r["role"], URIRef) else None))
     params = []
     for r in select(kb, "skill_parameters", skill=skill):
         p, kind = r["parameter"], r["kind"]
