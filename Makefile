@@ -18,7 +18,7 @@ setup: $(STAMP)
 
 ## The main job: the full pipeline on the bundled case study.
 run: $(STAMP)
-	$(BIN)/kbplanner run data/case_study --out runs/case_study
+	$(BIN)/kbplanner run data/case_study --out runs/case_study --tasks all
 
 ## The tests: lint, types, then the default (fast) test suite.
 test: check

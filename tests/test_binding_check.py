@@ -29,9 +29,11 @@ kb:X-a1 a kbp:Action ; kbp:order 1 ; rdfs:label "go" ; kbp:usesSkill kb:NV-1 ; k
 MALFORMED = {
     "two paths": ("kbp:bindsInput kb:NV-1-destination ; kbp:bindingPath kbp:installedPose , kbp:markingStart",
                   "has 2 kbp:bindingPath values", "keep one kbp:bindingPath"),
-    "two list paths": ("kbp:bindsInput kb:NV-1-destination ; kbp:bindingPath ( kbp:storedIn kbp:pickupLocation ) "
-                       ", ( kbp:installedPose )", "has 2 kbp:bindingPath values", "keep one kbp:bindingPath"),
-    "unknown property": ("kbp:bindsInput kb:NV-1-destination ; kbp:bindingPath ( kbp:storedIn ext:pickupSpot )",
+    "two list paths": ("kbp:bindsInput kb:NV-1-destination ; "
+                       "kbp:bindingPath ( kbp:storedIn kbp:pickupLocation ) , ( kbp:installedPose )",
+                       "has 2 kbp:bindingPath values", "keep one kbp:bindingPath"),
+    "unknown property": ("kbp:bindsInput kb:NV-1-destination ; "
+                         "kbp:bindingPath ( kbp:storedIn ext:pickupSpot )",
                          "undeclared property ext:pickupSpot", "declare ext:pickupSpot"),
     "empty path": ("kbp:bindsInput kb:NV-1-destination ; kbp:bindingPath ()", "binding path is an empty list",
                    "give at least one property"),

@@ -501,7 +501,7 @@ def test_each_scenario_stacks_every_frame_once_in_one_storage_with_a_grasp_point
     boards = {element_iri(BASE, p.GlobalId) for p in gypsum_boards(ifc)}
     named = {o for t in g for o in (t[0], t[2])
              if isinstance(o, URIRef) and str(o).startswith(f"{BASE}element/")}
-    assert named == frames | boards  # every element named by the overlays is a frame panel or board of the IFC
+    assert named == frames | boards  # every element the overlays name is a frame panel or board of the IFC
     storages = {g.value(f, KBP.storedIn) for f in frames | boards}
     assert len(storages) == 1  # the boards use the frames' storage once the frames are installed
     storage = storages.pop()

@@ -62,10 +62,11 @@ def test_bad_input_exits_2_with_a_message_and_no_traceback(two_panels: Path, tmp
     assert not (tmp_path / "run").exists()
 
 
-def test_max_elements_simulates_the_first_elements_and_names_the_rest(two_panels: Path, tmp_path: Path) -> None:
+def test_max_elements_simulates_the_first_elements_and_names_the_rest(two_panels: Path,
+                                                                      tmp_path: Path) -> None:
     out = tmp_path / "run"
-    res = kbplanner("simulate", str(two_panels), "--scenario", "stored", "--max-elements", "1", "--out", str(out),
-                    "--no-keyframes")
+    res = kbplanner("simulate", str(two_panels), "--scenario", "stored", "--max-elements", "1",
+                    "--out", str(out), "--no-keyframes")
     assert res.returncode == 0, res.stdout + res.stderr
     assert "installed 1 of 1" in res.stdout and "Panel P1" in res.stdout and "Panel P2" not in res.stdout
     assert "simulating 1 of 2 elements; left out: Panel P2" in " ".join(res.stderr.split())

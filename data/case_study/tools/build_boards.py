@@ -96,7 +96,8 @@ def room_centre(f: Any) -> np.ndarray:
     settings = ifcopenshell.geom.settings()
     settings.set("use-world-coords", True)
     space = next(s for s in f.by_type("IfcSpace") if s.Name == ROOM)
-    v = np.array(ifcopenshell.geom.create_shape(settings, space).geometry.verts, dtype=float).reshape(-1, 3)
+    shape: Any = ifcopenshell.geom.create_shape(settings, space)
+    v = np.array(shape.geometry.verts, dtype=float).reshape(-1, 3)
     return np.asarray((v.min(axis=0) + v.max(axis=0)) / 2)
 
 

@@ -1,4 +1,4 @@
-"""``kbplanner simulate PROJECT [--scenario S] [--seed N] [--task ID] [--robot R] [--max-elements N] --out DIR``.
+"""``kbplanner simulate PROJECT [--scenario S] [--seed N] [--task ID] [--robot R] [--max-elements N] ...``.
 
 Builds the world at the project's ``[simulation] date``, the action-level plan (B1-B3,
 :func:`kbplanner.planning.planner.plan_task`), refines it with arm and base poses (B4,
