@@ -303,6 +303,20 @@ def test_rebuilding_frames_and_scenarios_reproduces_the_checked_in_files(tmp_pat
         assert (tmp_path / rel).read_bytes() == (CASE / rel).read_bytes(), rel
 
 
+def test_the_readme_table_is_printed_from_comparison_csv_in_the_readme_format(tmp_path: Path) -> None:
+    readme_table = load_tool("readme_table")
+    (tmp_path / "comparison.csv").write_text(
+        "scenario,installed,first frame (min),per frame (min),total (min),min separation (m),time < 1 m (s),"
+        "time < ISO/TS 15066 S_p (s),stops for workers,stopped (s),slow-downs,time lost to monitoring (s),"
+        "collisions\nstorage-inside,11/11,1.910,1.200,13.170,1.490,0.000,18.600,0,0.000,2,0.220,0\n",
+        encoding="utf-8")
+    lines = readme_table.table(tmp_path).splitlines()
+    readme = (CASE.parents[1] / "README.md").read_text(encoding="utf-8")
+    assert lines[0] in readme and lines[1] in readme  # the README's header
+    assert lines[2] == ("| storage inside | 11/11 | 1.9 min | 1.2 min | 13.2 min | 1.49 m | 0 s | 18.6 s | "
+                        "2 (0.2 s) | 0 |")
+
+
 def test_expected_counts_match_the_ifc(ifc: Any) -> None:
     exp = EXPECTED["ifc"]
     storeys = sorted(ifc.by_type("IfcBuildingStorey"), key=lambda s: s.Elevation)
