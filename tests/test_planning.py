@@ -114,7 +114,7 @@ def test_a_complete_small_model_gives_one_step_per_element_and_action_with_input
     assert plan.steps[1].inputs == {"grasp point": [0.0, 0.0, 1.2, 0.0, 0.0, 0.0],
                                     "object": str(_frames(3)[0])}
     nv2 = plan.steps[2].parameters
-    assert (nv2["maxSpeed"], nv2["minSpeed"]) == (0.4, 0.1)  # the jobsite limit for NV-2 replaces defaults
+    assert (nv2["maxSpeed"], nv2["minSpeed"]) == (0.3, 0.1)  # the limit caps the 0.3 default, sets the min.
     assert nv2["safetyStopDistance"] == 1.0  # skill default above the site minimum 0.8
     assert plan.steps[0].parameters["safetyStopDistance"] == 0.8  # site minimum above the 0.5 default
     assert plan.steps[0].parameters["armPose"] == [0.0, -2.9, 2.7, -1.4, -1.5708, 0.0]

@@ -37,6 +37,9 @@ def test_robots_text_names_the_heaviest_frame_and_the_simulation_task_is_the_def
     assert out.returncode == 0, out.stderr
     assert "Task T-FRAME" in out.stdout and "heaviest element:" in out.stdout
     assert out.stdout.count("- Clearpath") == 4
+    boards = run("robots", str(CASE), "--task", "T-BOARD")
+    assert boards.returncode == 0 and "Task T-BOARD" in boards.stdout
+    assert "14.62 kg" in boards.stdout and "Gypsum board" in boards.stdout
 
 
 def test_an_unknown_task_exits_2_naming_the_robotized_tasks() -> None:
