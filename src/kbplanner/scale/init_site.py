@@ -24,7 +24,8 @@ from kbplanner.scale.init_ifc import FrameRecord
 
 START_DATE = date(2024, 3, 4)  # a Monday: the scaffold's week 0
 FRAME_TASK = "T-FRAME"
-STORAGE_SIZE = (2.6, 0.8, 0.1)  # bearers the frames lie on, as in the case study
+STORAGE_SIZE = (2.6, 0.8, 0.1)
+DOOR_CLEARANCE = 0.1  # m free on each side of the robot in a door (jobsite.ttl)  # bearers the frames lie on, as in the case study
 
 
 @dataclass(frozen=True)
@@ -141,7 +142,7 @@ def jobsite(base: str) -> str:
         '    rdfs:label "Jobsite parameters (kbplanner init)" ;',
         "    kbp:maxRobotWidth 0.9e0 ; kbp:maxRobotLength 1.4e0 ; kbp:maxRobotHeight 1.9e0 ;",
         "    kbp:maxRobotMass 150.0e0 ; kbp:maxSpeed 1.0e0 ; kbp:safetyStopDistance 0.5e0 ;",
-        "    kbp:doorClearance 0.1e0 ;",
+        f"    kbp:doorClearance {_num(DOOR_CLEARANCE)} ;",
         f"    kbp:hasActionLimit <{base}jobsite/nv-1> , <{base}jobsite/nv-2> .",
         f'<{base}jobsite/nv-1> a kbp:ActionLimit ; rdfs:label "unloaded navigation" ;',
         "    kbp:appliesTo kb:NV-1 ; kbp:minSpeed 0.1e0 ; kbp:maxSpeed 0.8e0 .",

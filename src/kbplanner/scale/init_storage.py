@@ -25,9 +25,9 @@ from kbplanner.world.occupancy import OccupancyGrid
 
 PICKUP_STANDOFF = 1.15  # m from the stack's centre line: the Husky's half length + a cell of margin
 STORAGE = (2.6, 0.8)
-MARGIN = 0.3  # free ground around a storage
+MARGIN = 0.2  # free ground around a storage
 ROBOT_ROOM = 0.5  # clearance of the pickup cell (the robot's half width + margin)
-PANEL_KEEP = 1.2  # storage and pickup at least this far from an install location
+PANEL_KEEP = 0.9  # storage and pickup at least this far from an install location
 STEP = 0.2
 
 

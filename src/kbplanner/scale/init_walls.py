@@ -286,3 +286,50 @@ def axis_reason(axis: WallAxis) -> str:
     if axis.height < MIN_HEIGHT_M:
         return f"lower than {MIN_HEIGHT_M} m ({axis.height:.2f} m)"
     return ""
+
+
+# ---------------------------------------------------------------------------------------------
+# Room doors (the robot selection's door rule, applied before the panels are written)
+
+
+@dataclass(frozen=True)
+class RoomDoors:
+    """Spaces (plan boxes) of the task storey with the width and name of their widest door."""
+
+    spaces: list[tuple[tuple[float, float, float, float], float, str]]
+
+    def widest_near(self, x: float, y: float, margin: float) -> tuple[float, str] | None:
+        """The best door of the spaces whose box comes within ``margin`` of (x, y) (None: no such space)."""
+        near = [(w, d) for (x0, y0, x1, y1), w, d in self.spaces
+                if x0 - margin <= x <= x1 + margin and y0 - margin <= y <= y1 + margin]
+        return max(near) if near else None
+
+
+def room_doors(spaces: Sequence[trimesh.Trimesh], doors: Sequence[tuple[trimesh.Trimesh, float, str]],
+               tolerance: float) -> RoomDoors:
+    """Each space with its widest door (a door belongs to a space when their boxes overlap within
+    ``tolerance``, as in :mod:`kbplanner.knowledge.robot_selection`); spaces without a door are left out."""
+    out = []
+    for s in spaces:
+        (sx0, sy0, _sz0), (sx1, sy1, _sz1) = s.bounds
+        best: tuple[float, str] | None = None
+        for m, width, name in doors:
+            (dx0, dy0, _a), (dx1, dy1, _b) = m.bounds
+            if sx0 - tolerance <= dx1 and dx0 <= sx1 + tolerance and sy0 - tolerance <= dy1 and dy0 <= sy1 + tolerance:
+                best = max(best or (width, name), (width, name))
+        if best is not None:
+            out.append(((float(sx0), float(sy0), float(sx1), float(sy1)), best[0], best[1]))
+    return RoomDoors(out)
+
+
+def door_reason(choice: WallChoice, rooms: RoomDoors, need: float, margin: float, robot: str) -> str:
+    """Why the robot cannot reach the wall's panels through the rooms' doors ('' when it can)."""
+    worst: tuple[float, str] | None = None
+    for p in choice.panels:
+        best = rooms.widest_near(p.x, p.y, margin)
+        if best is not None and best[0] < need and (worst is None or best < worst):
+            worst = best
+    if worst is None:
+        return ""
+    return (f"in a room whose widest door is {worst[0]:.3f} m ({worst[1]}): the robot needs {need:.2f} m "
+            f"({robot})")

@@ -36,6 +36,7 @@ from kbplanner.core.errors import KbplannerError
 from kbplanner.core.output_dirs import check_output_dir, output_options, run_directory
 from kbplanner.core.vocab import KBP
 from kbplanner.knowledge.knowledge_base import load_kb
+from kbplanner.knowledge.robot_selection import SPACE_MARGIN_M, WALL_TOLERANCE_M, load_robots
 from kbplanner.model.ifc_geometry import build_meshes, site_matrix
 from kbplanner.model.ifc_open import open_ifc, unit_scales
 from kbplanner.model.project_data import ProjectData
@@ -47,10 +48,12 @@ from kbplanner.scale.init_walls import (
     StoreyRef,
     WallChoice,
     axis_reason,
+    door_reason,
     footprint,
     opening_products,
     panel_spots,
     property_reason,
+    room_doors,
     storey_of,
     storeys,
     wall_axis,
@@ -63,6 +66,7 @@ Say = Callable[[str], None]
 TASK_TYPES = {"frame-interior-walls": "InteriorWallFraming"}  # init's task types -> KB task kind
 MAX_STACK = 8  # frames per stack: the top one stays within the arm's reach
 START_OUT_M = 4.0  # robot start in front of the entrance door
+PANEL_MAX_KG = 14.0  # panels of at most 0.75 m weigh about 9-14 kg
 
 
 @dataclass
@@ -217,7 +221,13 @@ def init_project(ifc_path: Path, out: Path, *, task: str = "frame-interior-walls
                 if not e.is_a("IfcFeatureElement") and _same(storey_of(e), task_st.entity)]
     openings: dict[str, list[Any]] = {str(w.GlobalId): opening_products(w) for w in task_st.walls}
     extra = [o for os_ in openings.values() for o in os_ if o.is_a("IfcOpeningElement")]
-    meshes = build_meshes(f, products + extra, world_to_site=to_site).meshes
+    spaces = [s for s in f.by_type("IfcSpace") if _same(storey_of(s), task_st.entity)]
+    meshes = build_meshes(f, products + extra + spaces, world_to_site=to_site).meshes
+    space_meshes = [meshes.pop(str(s.GlobalId)) for s in spaces if str(s.GlobalId) in meshes]
+    rooms = room_doors(space_meshes, [(meshes[str(d.GlobalId)], _door_width(d, meshes, units.length_m),
+                                       f"{d.Name or d.GlobalId} ({d.GlobalId})")
+                                      for d in task_st.doors if str(d.GlobalId) in meshes], WALL_TOLERANCE_M)
+    need, robot = _door_need()
     wall_meshes = [meshes[str(w.GlobalId)] for w in task_st.walls if str(w.GlobalId) in meshes]
     if not wall_meshes:
         result.notes.append(f"storey {task_st.ref.name} has no wall with geometry")
@@ -255,6 +265,8 @@ def init_project(ifc_path: Path, out: Path, *, task: str = "frame-interior-walls
         obstacles = [m for k, m in meshes.items() if k not in skip]
         own = [meshes[str(o.GlobalId)] for o in openings.get(gid, []) if str(o.GlobalId) in meshes]
         panel_spots(c, own, obstacles, placed)
+        if c.panels and (why := door_reason(c, rooms, need, SPACE_MARGIN_M, robot)):
+            c.reason, c.panels = why, []
         if c.panels:
             chosen.append((dist, c))
             placed += c.panels
@@ -272,6 +284,26 @@ def init_project(ifc_path: Path, out: Path, *, task: str = "frame-interior-walls
     _write(result, f, path, Path(out), task_st, hull, entrance, seed, force, say)
     result.seconds = round(time.perf_counter() - t0, 2)
     return result
+
+
+def _door_width(door: Any, meshes: dict[str, Any], length_m: float) -> float:
+    """OverallWidth in metres, else the long side of the door's footprint."""
+    w = getattr(door, "OverallWidth", None)
+    if isinstance(w, (int, float)) and w > 0:
+        return round(float(w) * length_m, 4)
+    rect = footprint(meshes[str(door.GlobalId)]).minimum_rotated_rectangle
+    pts = np.asarray(rect.exterior.coords)[:3]
+    return round(float(max(np.linalg.norm(pts[1] - pts[0]), np.linalg.norm(pts[2] - pts[1]))), 4)
+
+
+def _door_need() -> tuple[float, str]:
+    """The narrowest door the narrowest KB robot with an arm passes (its width + the proposed clearance)."""
+    arms = [r for r in load_robots(load_kb()) if r.payload_kg is not None and r.payload_kg >= PANEL_MAX_KG]
+    if not arms:
+        return (0.0, "no robot of the knowledge base lifts a panel")
+    r = min(arms, key=lambda r: (r.width_m, r.label))
+    return (round(r.width_m + 2 * site.DOOR_CLEARANCE, 4),
+            f"{r.label}: {r.width_m:.2f} m + 2 x {site.DOOR_CLEARANCE} m door clearance")
 
 
 def _same(a: Any, b: Any) -> bool:
