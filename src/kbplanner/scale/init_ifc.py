@@ -146,10 +146,8 @@ def _deterministic(f: ifcopenshell.file, first_new: int, history: Any) -> None:
     for h in new_histories:
         if not f.get_inverse(h):
             f.remove(h)
-    for rel in f.by_type("IfcRelationship"):
-        if rel.id() < first_new:
-            continue
+    for rel in f.by_type("IfcRelationship"):  # the API keeps related objects as sets: a stable order
         for attr in ("RelatedObjects", "RelatedElements"):
             items = getattr(rel, attr, None)
-            if isinstance(items, tuple) and len(items) > 1:
+            if isinstance(items, tuple) and len(items) > 1 and max(e.id() for e in items) >= first_new:
                 setattr(rel, attr, sorted(items, key=lambda e: e.id()))
