@@ -15,10 +15,10 @@ from pathlib import Path
 import ifcopenshell
 import ifcopenshell.util.element
 import pytest
-from ifc_factory import write_test_building
-from ifc_traits import write_mass_unit, write_traits, write_unnamed_sets
 from rdflib import Literal
 
+from ifc_factory import write_test_building
+from ifc_traits import write_mass_unit, write_traits, write_unnamed_sets
 from kbplanner.cli import main
 from kbplanner.core.vocab import KBP
 from kbplanner.model.project_data import ProjectData
@@ -32,8 +32,11 @@ def _sha(path: Path) -> str:
 
 
 def _files(root: Path) -> dict[str, bytes]:
-    return {str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob("*"))
-            if p.is_file() and ".kbplanner-cache" not in p.parts and p.name != ".kbplanner-run"}
+    return {
+        str(p.relative_to(root)): p.read_bytes()
+        for p in sorted(root.rglob("*"))
+        if p.is_file() and ".kbplanner-cache" not in p.parts and p.name != ".kbplanner-run"
+    }
 
 
 @pytest.fixture(scope="module")
@@ -46,8 +49,9 @@ def building(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str, InitR
     return ifc, before, result
 
 
-def test_init_writes_a_project_whose_scenarios_validate(building: tuple[Path, str, InitResult],
-                                                        capsys: pytest.CaptureFixture[str]) -> None:
+def test_init_writes_a_project_whose_scenarios_validate(
+    building: tuple[Path, str, InitResult], capsys: pytest.CaptureFixture[str]
+) -> None:
     ifc, before, r = building
     assert r.written and _sha(ifc) == before  # the input IFC is only read
     assert [w.name for w in r.chosen] == ["Interior partition L1 p1"]
@@ -63,7 +67,9 @@ def test_init_writes_a_project_whose_scenarios_validate(building: tuple[Path, st
     assert all(w.reason for w in r.walls if not w.chosen)
 
 
-def test_frames_are_in_the_ifc_copy_with_mass_and_grasp_points(building: tuple[Path, str, InitResult]) -> None:
+def test_frames_are_in_the_ifc_copy_with_mass_and_grasp_points(
+    building: tuple[Path, str, InitResult],
+) -> None:
     _ifc, _before, r = building
     copy = ifcopenshell.open(str(next((r.directory / "model").glob("*_frames.ifc"))))
     members = {m.GlobalId: m for m in copy.by_type("IfcMember")}
@@ -87,15 +93,22 @@ def test_init_is_deterministic(building: tuple[Path, str, InitResult], tmp_path:
     assert _files(again.directory) == _files(r.directory)
 
 
-@pytest.mark.parametrize(("args", "words"), [
-    (["--task", "paint-walls"], ["frame-interior-walls", "I-W-F-#1"]),
-    (["--task", "L-M-#1"], ["frame-interior-walls", "no derivation"]),
-    (["--storey", "Level 9"], ["Level 1", "Level 2"]),
-    (["--walls", "No such wall"], ["--walls", "No such wall"]),
-])
-def test_bad_options_exit_2_naming_the_fix(building: tuple[Path, str, InitResult], tmp_path: Path,
-                                           capsys: pytest.CaptureFixture[str], args: list[str],
-                                           words: list[str]) -> None:
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["--task", "paint-walls"], ["frame-interior-walls", "I-W-F-#1"]),
+        (["--task", "L-M-#1"], ["frame-interior-walls", "no derivation"]),
+        (["--storey", "Level 9"], ["Level 1", "Level 2"]),
+        (["--walls", "No such wall"], ["--walls", "No such wall"]),
+    ],
+)
+def test_bad_options_exit_2_naming_the_fix(
+    building: tuple[Path, str, InitResult],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    args: list[str],
+    words: list[str],
+) -> None:
     ifc = building[0]
     assert main(["init", str(ifc), "--out", str(tmp_path / "p"), *args]) == 2
     err = capsys.readouterr().err
@@ -103,8 +116,9 @@ def test_bad_options_exit_2_naming_the_fix(building: tuple[Path, str, InitResult
     assert not (tmp_path / "p").exists()
 
 
-def test_a_foreign_folder_is_refused(building: tuple[Path, str, InitResult], tmp_path: Path,
-                                     capsys: pytest.CaptureFixture[str]) -> None:
+def test_a_foreign_folder_is_refused(
+    building: tuple[Path, str, InitResult], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     out = tmp_path / "mine"
     out.mkdir()
     (out / "notes.txt").write_text("keep me")
@@ -113,8 +127,9 @@ def test_a_foreign_folder_is_refused(building: tuple[Path, str, InitResult], tmp
     assert "fix:" in capsys.readouterr().err
 
 
-def test_no_qualifying_wall_exits_1_with_reasons_and_writes_nothing(tmp_path: Path,
-                                                                   capsys: pytest.CaptureFixture[str]) -> None:
+def test_no_qualifying_wall_exits_1_with_reasons_and_writes_nothing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     ifc = tmp_path / "one_bay.ifc"
     write_test_building(ifc, bays=1, storeys=1)  # four exterior walls, no partition
     assert main(["init", str(ifc), "--out", str(tmp_path / "p")]) == 1
@@ -123,11 +138,15 @@ def test_no_qualifying_wall_exits_1_with_reasons_and_writes_nothing(tmp_path: Pa
     assert "Negative result" in out and not (tmp_path / "p").exists()
 
 
-@pytest.mark.parametrize("writer", [
-    lambda p: write_unnamed_sets(p, "IFC2X3"),  # unnamed psets, IFC2X3
-    lambda p: write_mass_unit(p, "gram", 13630.0),  # mass in grams
-    write_traits,  # split-level slab, door without host wall, storey without spaces, stairs
-], ids=["unnamed-psets-ifc2x3", "gram", "traits"])
+@pytest.mark.parametrize(
+    "writer",
+    [
+        lambda p: write_unnamed_sets(p, "IFC2X3"),  # unnamed psets, IFC2X3
+        lambda p: write_mass_unit(p, "gram", 13630.0),  # mass in grams
+        write_traits,  # split-level slab, door without host wall, storey without spaces, stairs
+    ],
+    ids=["unnamed-psets-ifc2x3", "gram", "traits"],
+)
 def test_traits_give_a_valid_project(tmp_path: Path, writer: Callable[[Path], object]) -> None:
     ifc = tmp_path / "t.ifc"
     writer(ifc)
@@ -136,8 +155,12 @@ def test_traits_give_a_valid_project(tmp_path: Path, writer: Callable[[Path], ob
     name = next(iter(r.scenarios))
     assert main(["validate", str(r.directory), "--scenario", name]) == 0
     data = ProjectData.load(r.directory, scenario=name)
-    masses = sorted(float(data.model.value(data.model.value(predicate=KBP.globalId, object=Literal(f.global_id)),
-                                           KBP.mass)) for f in r.frames)
+    masses = sorted(
+        float(
+            data.model.value(data.model.value(predicate=KBP.globalId, object=Literal(f.global_id)), KBP.mass)
+        )
+        for f in r.frames
+    )
     assert masses == pytest.approx(sorted(f.mass_kg for f in r.frames), abs=0.01)  # kilograms, any unit
 
 
@@ -153,8 +176,9 @@ def test_duplex(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
 
 @pytest.mark.slow
 @pytest.mark.parametrize("model", ["IfcOpenHouse_IFC4.ifc", "example.ifc"])
-def test_public_models_without_partitions_exit_1_with_reasons(tmp_path: Path, model: str,
-                                                              capsys: pytest.CaptureFixture[str]) -> None:
+def test_public_models_without_partitions_exit_1_with_reasons(
+    tmp_path: Path, model: str, capsys: pytest.CaptureFixture[str]
+) -> None:
     path = SHARED / "public" / model
     if not path.is_file():
         pytest.skip(f"{path} not present")

@@ -22,17 +22,29 @@ SHOWN = 20  # walls not chosen listed one by one; the rest summarised by reason
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    p = sub.add_parser("init", help="set up a complete project (frames, site, schedule, scenarios) from an IFC file")
+    p = sub.add_parser(
+        "init", help="set up a complete project (frames, site, schedule, scenarios) from an IFC file"
+    )
     p.add_argument("ifc", type=Path, help="the IFC model (IFC2X3, IFC4, IFC4X3); it is only read")
     p.add_argument("--out", type=Path, required=True, help="project directory to write (new or empty)")
-    p.add_argument("--task", default="frame-interior-walls",
-                   help=f"task type ({', '.join(TASK_TYPES)}) or a task specification id of that kind "
-                        "(default frame-interior-walls)")
-    p.add_argument("--storey", help="the storey to frame (name or GlobalId; default: the lowest storey with "
-                                    "qualifying walls and a door)")
+    p.add_argument(
+        "--task",
+        default="frame-interior-walls",
+        help=f"task type ({', '.join(TASK_TYPES)}) or a task specification id of that kind "
+        "(default frame-interior-walls)",
+    )
+    p.add_argument(
+        "--storey",
+        help="the storey to frame (name or GlobalId; default: the lowest storey with "
+        "qualifying walls and a door)",
+    )
     p.add_argument("--walls", help="only these walls (GlobalIds or names, comma-separated)")
-    p.add_argument("--max-walls", type=int_at_least(1, 1000), default=8,
-                   help="at most this many walls, nearest the entrance first (default 8)")
+    p.add_argument(
+        "--max-walls",
+        type=int_at_least(1, 1000),
+        default=8,
+        help="at most this many walls, nearest the entrance first (default 8)",
+    )
     p.add_argument("--seed", type=seed_int, default=0, help="the project's simulation seed (default 0)")
     add_force(p)
     p.set_defaults(func=run)
@@ -40,12 +52,19 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 def report(r: InitResult) -> list[str]:
     """The console lines of a result."""
-    lines = [f"{r.source.name}: task {r.task} ({r.specification}), storey {r.storey}"
-             + (f", entrance {r.entrance}" if r.entrance else "")]
+    lines = [
+        f"{r.source.name}: task {r.task} ({r.specification}), storey {r.storey}"
+        + (f", entrance {r.entrance}" if r.entrance else "")
+    ]
     chosen = r.chosen
-    lines.append(f"  walls chosen: {len(chosen)} of {len(r.walls)}; frames: {len(r.frames)}"
-                 + (f" ({min(f.mass_kg for f in r.frames):.1f}-{max(f.mass_kg for f in r.frames):.1f} kg)"
-                    if r.frames else ""))
+    lines.append(
+        f"  walls chosen: {len(chosen)} of {len(r.walls)}; frames: {len(r.frames)}"
+        + (
+            f" ({min(f.mass_kg for f in r.frames):.1f}-{max(f.mass_kg for f in r.frames):.1f} kg)"
+            if r.frames
+            else ""
+        )
+    )
     for w in chosen:
         lost = f", {w.lost_m:.2f} m left in short pieces" if w.lost_m > 0.005 else ""
         lines.append(f"    {w.global_id} {w.name!r}: {len(w.panels)} panels{lost}")
@@ -71,20 +90,34 @@ def _kind(reason: str) -> str:
 def run(args: argparse.Namespace) -> int:
     check_out(args.out)
     walls = [w.strip() for w in (args.walls or "").split(",") if w.strip()]
-    r = init_project(args.ifc, args.out, task=args.task, storey=args.storey, walls=walls,
-                     max_walls=args.max_walls, seed=args.seed, force=args.force,
-                     progress=lambda m: print(m, file=sys.stderr) if args.verbose else None)
+    r = init_project(
+        args.ifc,
+        args.out,
+        task=args.task,
+        storey=args.storey,
+        walls=walls,
+        max_walls=args.max_walls,
+        seed=args.seed,
+        force=args.force,
+        progress=lambda m: print(m, file=sys.stderr) if args.verbose else None,
+    )
     lines = report(r)
     if not r.written:
-        lines.append(f"Negative result: no wall of {r.source.name} qualifies for {r.task}; nothing written "
-                     "(the reasons are above; choose walls with --walls or another --storey)")
+        lines.append(
+            f"Negative result: no wall of {r.source.name} qualifies for {r.task}; nothing written "
+            "(the reasons are above; choose walls with --walls or another --storey)"
+        )
         sys.stdout.write("\n".join(lines) + "\n")
         return 1
-    lines += [f"  wrote {r.directory} ({len(r.files)} files) in {r.seconds:.1f} s",
-              f"  next: kbplanner requirements {r.directory}"]
+    lines += [
+        f"  wrote {r.directory} ({len(r.files)} files) in {r.seconds:.1f} s",
+        f"  next: kbplanner requirements {r.directory}",
+    ]
     if r.scenarios:
         first = next(iter(r.scenarios))
-        lines += [f"        kbplanner validate {r.directory} --scenario {first}",
-                  f"        kbplanner run {r.directory} --scenario {first}"]
+        lines += [
+            f"        kbplanner validate {r.directory} --scenario {first}",
+            f"        kbplanner run {r.directory} --scenario {first}",
+        ]
     sys.stdout.write("\n".join(lines) + "\n")
     return 0

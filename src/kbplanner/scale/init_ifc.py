@@ -61,13 +61,17 @@ def body_context(f: ifcopenshell.file) -> Any:
     subs = [c for c in f.by_type("IfcGeometricRepresentationSubContext") if c.ContextIdentifier == "Body"]
     if subs:
         return sorted(subs, key=lambda c: c.id())[0]
-    models = [c for c in f.by_type("IfcGeometricRepresentationContext")
-              if not c.is_a("IfcGeometricRepresentationSubContext") and c.ContextType == "Model"]
+    models = [
+        c
+        for c in f.by_type("IfcGeometricRepresentationContext")
+        if not c.is_a("IfcGeometricRepresentationSubContext") and c.ContextType == "Model"
+    ]
     if models:
         return sorted(models, key=lambda c: c.id())[0]
     model = ifcopenshell.api.context.add_context(f, context_type="Model")
-    return ifcopenshell.api.context.add_context(f, context_type="Model", context_identifier="Body",
-                                                target_view="MODEL_VIEW", parent=model)
+    return ifcopenshell.api.context.add_context(
+        f, context_type="Model", context_identifier="Body", target_view="MODEL_VIEW", parent=model
+    )
 
 
 def _boxes(f: ifcopenshell.file, context: Any, spot: PanelSpot, unit: float) -> Any:
@@ -77,16 +81,30 @@ def _boxes(f: ifcopenshell.file, context: Any, spot: PanelSpot, unit: float) -> 
     solids = []
     for p in stud_frame(spot.length, spot.height).pieces:
         centre = f.createIfcCartesianPoint((round((p.x_min + p.x_max) / 2 / unit, 6), 0.0))
-        profile = f.createIfcRectangleProfileDef("AREA", None, f.createIfcAxis2Placement2D(centre, None),
-                                                 round((p.x_max - p.x_min) / unit, 6), round(STUD_DEPTH / unit, 6))
-        position = f.createIfcAxis2Placement3D(f.createIfcCartesianPoint((0.0, 0.0, round(p.z_min / unit, 6))),
-                                               z_dir, x_dir)
-        solids.append(f.createIfcExtrudedAreaSolid(profile, position, z_dir, round((p.z_max - p.z_min) / unit, 6)))
+        profile = f.createIfcRectangleProfileDef(
+            "AREA",
+            None,
+            f.createIfcAxis2Placement2D(centre, None),
+            round((p.x_max - p.x_min) / unit, 6),
+            round(STUD_DEPTH / unit, 6),
+        )
+        position = f.createIfcAxis2Placement3D(
+            f.createIfcCartesianPoint((0.0, 0.0, round(p.z_min / unit, 6))), z_dir, x_dir
+        )
+        solids.append(
+            f.createIfcExtrudedAreaSolid(profile, position, z_dir, round((p.z_max - p.z_min) / unit, 6))
+        )
     return f.createIfcShapeRepresentation(context, "Body", "SweptSolid", solids)
 
 
-def write_frames(f: ifcopenshell.file, spots: list[tuple[PanelSpot, Any]], *, site: np.ndarray,
-                 length_m: float, mass_kg: float) -> list[FrameRecord]:
+def write_frames(
+    f: ifcopenshell.file,
+    spots: list[tuple[PanelSpot, Any]],
+    *,
+    site: np.ndarray,
+    length_m: float,
+    mass_kg: float,
+) -> list[FrameRecord]:
     """Write one ``IfcMember`` per (spot, storey entity), in the given (install) order.
 
     ``site``: the IfcSite placement in metres (site frame -> IFC world); ``length_m`` and ``mass_kg``:
@@ -106,28 +124,61 @@ def write_frames(f: ifcopenshell.file, spots: list[tuple[PanelSpot, Any]], *, si
         m.GlobalId = guid(f"{spot.wall}/{spot.index}")
         m.ObjectType = "Interior stud frame panel"
         m.Tag = pid
-        m.Description = (f"Prefabricated wood stud frame {spot.length:.3f} x {spot.height:.2f} m, "
-                         f"{frame.studs} studs 38x89 mm SPF, {mass:.1f} kg")
+        m.Description = (
+            f"Prefabricated wood stud frame {spot.length:.3f} x {spot.height:.2f} m, "
+            f"{frame.studs} studs 38x89 mm SPF, {mass:.1f} kg"
+        )
         ifcopenshell.api.spatial.assign_container(f, products=[m], relating_structure=storey)
         world = site @ matrix(spot.x, spot.y, spot.z, spot.yaw)
         ifcopenshell.api.geometry.edit_object_placement(f, product=m, matrix=world, is_si=True)
-        ifcopenshell.api.geometry.assign_representation(f, product=m,
-                                                        representation=_boxes(f, context, spot, length_m))
+        ifcopenshell.api.geometry.assign_representation(
+            f, product=m, representation=_boxes(f, context, spot, length_m)
+        )
         pset = ifcopenshell.api.pset.add_pset(f, product=m, name="Pset_MemberCommon")
-        ifcopenshell.api.pset.edit_pset(f, pset=pset, properties={"Reference": pid, "IsExternal": False,
-                                                                  "LoadBearing": False})
+        ifcopenshell.api.pset.edit_pset(
+            f, pset=pset, properties={"Reference": pid, "IsExternal": False, "LoadBearing": False}
+        )
         pset = ifcopenshell.api.pset.add_pset(f, product=m, name="Kbplanner_StudFramePanel")
-        ifcopenshell.api.pset.edit_pset(f, pset=pset, properties={
-            "PanelId": pid, "HostWallGlobalId": spot.wall, "InstallOrder": n, "StudCount": frame.studs,
-            "StudSection": "38 x 89 mm", "AssumedDensity": DENSITY, "MassKg": float(mass),
-            "GraspPointX": round(com_x, 6) + 0.0, "GraspPointY": 0.0, "GraspPointZ": round(com_z, 6)})
+        ifcopenshell.api.pset.edit_pset(
+            f,
+            pset=pset,
+            properties={
+                "PanelId": pid,
+                "HostWallGlobalId": spot.wall,
+                "InstallOrder": n,
+                "StudCount": frame.studs,
+                "StudSection": "38 x 89 mm",
+                "AssumedDensity": DENSITY,
+                "MassKg": float(mass),
+                "GraspPointX": round(com_x, 6) + 0.0,
+                "GraspPointY": 0.0,
+                "GraspPointZ": round(com_z, 6),
+            },
+        )
         qto = ifcopenshell.api.pset.add_qto(f, product=m, name="BaseQuantities")
-        ifcopenshell.api.pset.edit_qto(f, qto=qto, properties={
-            "Length": round(spot.length / length_m, 6), "Height": round(spot.height / length_m, 6),
-            "Width": round(STUD_DEPTH / length_m, 6), "NetVolume": round(frame.volume_m3 / length_m**3, 9),
-            "NetWeight": round(mass / mass_kg, 6)})
-        records.append(FrameRecord(pid, str(m.GlobalId), spot, str(storey.Name or storey.GlobalId), n,
-                                   frame.studs, mass, (round(com_x, 6) + 0.0, 0.0, round(com_z, 6))))
+        ifcopenshell.api.pset.edit_qto(
+            f,
+            qto=qto,
+            properties={
+                "Length": round(spot.length / length_m, 6),
+                "Height": round(spot.height / length_m, 6),
+                "Width": round(STUD_DEPTH / length_m, 6),
+                "NetVolume": round(frame.volume_m3 / length_m**3, 9),
+                "NetWeight": round(mass / mass_kg, 6),
+            },
+        )
+        records.append(
+            FrameRecord(
+                pid,
+                str(m.GlobalId),
+                spot,
+                str(storey.Name or storey.GlobalId),
+                n,
+                frame.studs,
+                mass,
+                (round(com_x, 6) + 0.0, 0.0, round(com_z, 6)),
+            )
+        )
     _deterministic(f, first_new, history)
     return records
 

@@ -48,9 +48,16 @@ def _rect_cells(grid: OccupancyGrid, x: float, y: float, hx: float, hy: float) -
     return (slice(iy0, iy1 + 1), slice(ix0, ix1 + 1))
 
 
-def place_storages(grid: OccupancyGrid, count: int, *, start: tuple[float, float],
-                   panels: Sequence[tuple[float, float]], footprint: Polygon, inside: bool,
-                   near: tuple[float, float]) -> list[Spot]:
+def place_storages(
+    grid: OccupancyGrid,
+    count: int,
+    *,
+    start: tuple[float, float],
+    panels: Sequence[tuple[float, float]],
+    footprint: Polygon,
+    inside: bool,
+    near: tuple[float, float],
+) -> list[Spot]:
     """Up to ``count`` storage spots (fewer when the map has no more room; the caller reports it)."""
     occupied = grid.occupied.copy()
     res = grid.resolution
@@ -59,8 +66,11 @@ def place_storages(grid: OccupancyGrid, count: int, *, start: tuple[float, float
         ix, iy = grid.cell_of(px, py)
         if 0 <= iy < occupied.shape[0] and 0 <= ix < occupied.shape[1]:
             panel_mask[iy, ix] = True
-    panel_dist = (ndimage.distance_transform_edt(~panel_mask) * res if panel_mask.any()
-                  else np.full(occupied.shape, np.inf))
+    panel_dist = (
+        ndimage.distance_transform_edt(~panel_mask) * res
+        if panel_mask.any()
+        else np.full(occupied.shape, np.inf)
+    )
     sx, sy = grid.cell_of(*start)
     out: list[Spot] = []
     inner = footprint.buffer(-0.3)
@@ -73,16 +83,19 @@ def place_storages(grid: OccupancyGrid, count: int, *, start: tuple[float, float
         region = labels[sy, sx]
         x0, y0 = grid.origin
         ny, nx = occupied.shape
-        gx, gy = np.meshgrid(np.arange(x0 + 1.5, x0 + nx * res - 1.5, STEP),
-                             np.arange(y0 + 1.5, y0 + ny * res - 1.5, STEP))
-        gx, gy = gx.ravel(), gy.ravel()
-        keep = contains_xy(inner, gx, gy) if inside else ~contains_xy(outer, gx, gy)
-        gx, gy = gx[keep], gy[keep]
+        mx, my = np.meshgrid(
+            np.arange(x0 + 1.5, x0 + nx * res - 1.5, STEP), np.arange(y0 + 1.5, y0 + ny * res - 1.5, STEP)
+        )
+        fx, fy = mx.ravel(), my.ravel()
+        keep = contains_xy(inner, fx, fy) if inside else ~contains_xy(outer, fx, fy)
+        gx, gy = fx[keep], fy[keep]
         dist = np.hypot(gx - near[0], gy - near[1])
         best: Spot | None = None
         for k in np.lexsort((np.round(gx, 6), np.round(gy, 6), np.round(dist, 6))):
             for yaw in (0.0, math.pi / 2):
-                best = _try(grid, occupied, clearance, labels, region, panel_dist, float(gx[k]), float(gy[k]), yaw)
+                best = _try(
+                    grid, occupied, clearance, labels, region, panel_dist, float(gx[k]), float(gy[k]), yaw
+                )
                 if best is not None:
                     break
             if best is not None:
@@ -103,8 +116,17 @@ def place_storages(grid: OccupancyGrid, count: int, *, start: tuple[float, float
     return out
 
 
-def _try(grid: OccupancyGrid, occupied: np.ndarray, clearance: np.ndarray, labels: np.ndarray, region: int,
-         panel_dist: np.ndarray, x: float, y: float, yaw: float) -> Spot | None:
+def _try(
+    grid: OccupancyGrid,
+    occupied: np.ndarray,
+    clearance: np.ndarray,
+    labels: np.ndarray,
+    region: int,
+    panel_dist: np.ndarray,
+    x: float,
+    y: float,
+    yaw: float,
+) -> Spot | None:
     hx, hy = (STORAGE[0] / 2, STORAGE[1] / 2) if yaw == 0.0 else (STORAGE[1] / 2, STORAGE[0] / 2)
     cells = _rect_cells(grid, x, y, hx + MARGIN, hy + MARGIN)
     if cells is None or occupied[cells].any() or float(panel_dist[cells].min()) < PANEL_KEEP:

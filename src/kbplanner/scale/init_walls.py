@@ -85,8 +85,14 @@ class WallAxis:
         """The rectangle of ``width`` centred on the axis."""
         c, s = math.cos(self.yaw), math.sin(self.yaw)
         n = (-s * width / 2, c * width / 2)
-        return Polygon([(self.x0 + n[0], self.y0 + n[1]), (self.x1 + n[0], self.y1 + n[1]),
-                        (self.x1 - n[0], self.y1 - n[1]), (self.x0 - n[0], self.y0 - n[1])])
+        return Polygon(
+            [
+                (self.x0 + n[0], self.y0 + n[1]),
+                (self.x1 + n[0], self.y1 + n[1]),
+                (self.x1 - n[0], self.y1 - n[1]),
+                (self.x0 - n[0], self.y0 - n[1]),
+            ]
+        )
 
 
 @dataclass(frozen=True)
@@ -104,9 +110,15 @@ class PanelSpot:
 
     def footprint(self) -> Polygon:
         half = self.length / 2
-        axis = WallAxis(self.x - math.cos(self.yaw) * half, self.y - math.sin(self.yaw) * half,
-                        self.x + math.cos(self.yaw) * half, self.y + math.sin(self.yaw) * half,
-                        self.z, self.height, STUD_DEPTH)
+        axis = WallAxis(
+            self.x - math.cos(self.yaw) * half,
+            self.y - math.sin(self.yaw) * half,
+            self.x + math.cos(self.yaw) * half,
+            self.y + math.sin(self.yaw) * half,
+            self.z,
+            self.height,
+            STUD_DEPTH,
+        )
         return axis.band(STUD_DEPTH)
 
 
@@ -135,7 +147,9 @@ class WallChoice:
 def storey_of(product: Any) -> Any | None:
     """The storey that contains ``product`` (through a space or an element it is part of)."""
     seen = 0
-    node = ifcopenshell.util.element.get_container(product) or ifcopenshell.util.element.get_aggregate(product)
+    node = ifcopenshell.util.element.get_container(product) or ifcopenshell.util.element.get_aggregate(
+        product
+    )
     while node is not None and seen < 10:
         if node.is_a("IfcBuildingStorey"):
             return node
@@ -196,9 +210,15 @@ def wall_axis(mesh: trimesh.Trimesh, floor_z: float) -> WallAxis:
         start, end = end, start
     z0, z1 = float(mesh.bounds[0][2]), float(mesh.bounds[1][2])
     base = max(z0, floor_z) if z0 < floor_z + 0.5 else z0
-    return WallAxis(round(float(start[0]), 4), round(float(start[1]), 4), round(float(end[0]), 4),
-                    round(float(end[1]), 4), round(base, 4), round(z1 - base, 4),
-                    round(float(np.linalg.norm(e2)), 4))
+    return WallAxis(
+        round(float(start[0]), 4),
+        round(float(start[1]), 4),
+        round(float(end[0]), 4),
+        round(float(end[1]), 4),
+        round(base, 4),
+        round(z1 - base, 4),
+        round(float(np.linalg.norm(e2)), 4),
+    )
 
 
 def opening_products(wall: Any) -> list[Any]:
@@ -233,8 +253,12 @@ def _interval(axis: WallAxis, poly: Any) -> tuple[float, float] | None:
     return (float(s.min()) - GAP_M, float(s.max()) + GAP_M)
 
 
-def panel_spots(choice: WallChoice, openings: Sequence[trimesh.Trimesh],
-                obstacles: Sequence[trimesh.Trimesh], placed: Sequence[PanelSpot]) -> None:
+def panel_spots(
+    choice: WallChoice,
+    openings: Sequence[trimesh.Trimesh],
+    obstacles: Sequence[trimesh.Trimesh],
+    placed: Sequence[PanelSpot],
+) -> None:
     """Fill ``choice.panels`` (or its reason): the axis cut around openings, obstacles and ``placed``."""
     axis = choice.axis
     assert axis is not None
@@ -258,7 +282,9 @@ def panel_spots(choice: WallChoice, openings: Sequence[trimesh.Trimesh],
             iv = _interval(axis, fp.intersection(band))
             if iv is not None:
                 cuts.append(iv)
-    pieces = segments(axis.length, [(max(0.0, a), min(axis.length, b)) for a, b in cuts if b > 0 and a < axis.length])
+    pieces = segments(
+        axis.length, [(max(0.0, a), min(axis.length, b)) for a, b in cuts if b > 0 and a < axis.length]
+    )
     n = 0
     for a, b in pieces:
         if b - a < MIN_PANEL_M:
@@ -269,18 +295,32 @@ def panel_spots(choice: WallChoice, openings: Sequence[trimesh.Trimesh],
         for i in range(count):
             n += 1
             x, y = axis.point(a + (i + 0.5) * length)
-            choice.panels.append(PanelSpot(choice.global_id, n, round(x, 4), round(y, 4), axis.base_z,
-                                           axis.yaw, round(length, 4), round(height, 4)))
+            choice.panels.append(
+                PanelSpot(
+                    choice.global_id,
+                    n,
+                    round(x, 4),
+                    round(y, 4),
+                    axis.base_z,
+                    axis.yaw,
+                    round(length, 4),
+                    round(height, 4),
+                )
+            )
     if not choice.panels:
-        choice.reason = (f"no free piece of its axis is {MIN_PANEL_M} m long (openings, crossing walls or "
-                         "other elements take it)")
+        choice.reason = (
+            f"no free piece of its axis is {MIN_PANEL_M} m long (openings, crossing walls or "
+            "other elements take it)"
+        )
 
 
 def axis_reason(axis: WallAxis) -> str:
     """Why a wall's shape rules it out ('' when it does not)."""
     if axis.thickness > MAX_THICKNESS_M:
-        return (f"not a straight partition: its footprint is {axis.thickness:.2f} m thick "
-                f"(at most {MAX_THICKNESS_M} m)")
+        return (
+            f"not a straight partition: its footprint is {axis.thickness:.2f} m thick "
+            f"(at most {MAX_THICKNESS_M} m)"
+        )
     if axis.length < MIN_WALL_M:
         return f"shorter than {MIN_WALL_M} m ({axis.length:.2f} m)"
     if axis.height < MIN_HEIGHT_M:
@@ -300,13 +340,17 @@ class RoomDoors:
 
     def widest_near(self, x: float, y: float, margin: float) -> tuple[float, str] | None:
         """The best door of the spaces whose box comes within ``margin`` of (x, y) (None: no such space)."""
-        near = [(w, d) for (x0, y0, x1, y1), w, d in self.spaces
-                if x0 - margin <= x <= x1 + margin and y0 - margin <= y <= y1 + margin]
+        near = [
+            (w, d)
+            for (x0, y0, x1, y1), w, d in self.spaces
+            if x0 - margin <= x <= x1 + margin and y0 - margin <= y <= y1 + margin
+        ]
         return max(near) if near else None
 
 
-def room_doors(spaces: Sequence[trimesh.Trimesh], doors: Sequence[tuple[trimesh.Trimesh, float, str]],
-               tolerance: float) -> RoomDoors:
+def room_doors(
+    spaces: Sequence[trimesh.Trimesh], doors: Sequence[tuple[trimesh.Trimesh, float, str]], tolerance: float
+) -> RoomDoors:
     """Each space with its widest door (a door belongs to a space when their boxes overlap within
     ``tolerance``, as in :mod:`kbplanner.knowledge.robot_selection`); spaces without a door are left out."""
     out = []
@@ -315,7 +359,12 @@ def room_doors(spaces: Sequence[trimesh.Trimesh], doors: Sequence[tuple[trimesh.
         best: tuple[float, str] | None = None
         for m, width, name in doors:
             (dx0, dy0, _a), (dx1, dy1, _b) = m.bounds
-            if sx0 - tolerance <= dx1 and dx0 <= sx1 + tolerance and sy0 - tolerance <= dy1 and dy0 <= sy1 + tolerance:
+            if (
+                sx0 - tolerance <= dx1
+                and dx0 <= sx1 + tolerance
+                and sy0 - tolerance <= dy1
+                and dy0 <= sy1 + tolerance
+            ):
                 best = max(best or (width, name), (width, name))
         if best is not None:
             out.append(((float(sx0), float(sy0), float(sx1), float(sy1)), best[0], best[1]))
@@ -331,5 +380,7 @@ def door_reason(choice: WallChoice, rooms: RoomDoors, need: float, margin: float
             worst = best
     if worst is None:
         return ""
-    return (f"in a room whose widest door is {worst[0]:.3f} m ({worst[1]}): the robot needs {need:.2f} m "
-            f"({robot})")
+    return (
+        f"in a room whose widest door is {worst[0]:.3f} m ({worst[1]}): the robot needs {need:.2f} m "
+        f"({robot})"
+    )

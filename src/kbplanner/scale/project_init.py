@@ -29,22 +29,23 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from rdflib import Literal
-from shapely.geometry import MultiPoint, Polygon
+from shapely.geometry import Polygon
 
 from kbplanner.core.errors import KbplannerError
 from kbplanner.core.output_dirs import check_output_dir, output_options, run_directory
 from kbplanner.core.vocab import KBP
 from kbplanner.knowledge.knowledge_base import load_kb
-from kbplanner.knowledge.robot_selection import SPACE_MARGIN_M, WALL_TOLERANCE_M, load_robots
+from kbplanner.knowledge.robot_selection import SPACE_MARGIN_M, WALL_TOLERANCE_M
 from kbplanner.model.ifc_geometry import build_meshes, site_matrix
 from kbplanner.model.ifc_open import open_ifc, unit_scales
 from kbplanner.model.project_data import ProjectData
+from kbplanner.scale import init_layout as L
 from kbplanner.scale import init_site as site
 from kbplanner.scale.init_ifc import FrameRecord, write_frames
 from kbplanner.scale.init_storage import place_storages
 from kbplanner.scale.init_walls import (
     InitError,
+    PanelSpot,
     StoreyRef,
     WallChoice,
     axis_reason,
@@ -65,8 +66,6 @@ from kbplanner.world.site_checks import check_pickup_locations
 Say = Callable[[str], None]
 TASK_TYPES = {"frame-interior-walls": "InteriorWallFraming"}  # init's task types -> KB task kind
 MAX_STACK = 8  # frames per stack: the top one stays within the arm's reach
-START_OUT_M = 4.0  # robot start in front of the entrance door
-PANEL_MAX_KG = 14.0  # panels of at most 0.75 m weigh about 9-14 kg
 
 
 @dataclass
@@ -93,7 +92,7 @@ class InitResult:
 
 
 def task_specification(task: str) -> str:
-    """The KB specification of an init task type or specification id (else :class:`InitError` listing them)."""
+    """The KB specification of an init task type or specification id (else :class:`InitError`)."""
     kb = load_kb()
     specs: dict[str, str] = {}  # spec id -> kind local name
     for spec, sid in kb.subject_objects(KBP.specificationId):
@@ -106,13 +105,21 @@ def task_specification(task: str) -> str:
             return ids[0]
     elif specs.get(task) in supported:
         return task
-    names = [f"{t} (specifications {', '.join(sorted(s for s, k in specs.items() if k == kind))})"
-             for t, kind in TASK_TYPES.items()]
+    names = [
+        f"{t} (specifications {', '.join(sorted(s for s, k in specs.items() if k == kind))})"
+        for t, kind in TASK_TYPES.items()
+    ]
     other = sorted(s for s, k in specs.items() if k not in supported)
-    raise InitError(f"unknown task type {task!r} for init", element="--task",
-                    fix=f"give one of: {'; '.join(names)}"
-                        + (f"; the knowledge base's other specifications ({', '.join(other)}) have no "
-                           "derivation in init yet" if other else ""))
+    raise InitError(
+        f"unknown task type {task!r} for init",
+        element="--task",
+        fix=f"give one of: {'; '.join(names)}"
+        + (
+            f"; the knowledge base's other specifications ({', '.join(other)}) have no derivation in init yet"
+            if other
+            else ""
+        ),
+    )
 
 
 def _slug(text: str) -> str:
@@ -127,24 +134,15 @@ def _select(f: Any, tokens: Sequence[str], path: Path) -> set[str]:
         hits = [str(w.GlobalId) for w in walls if t == str(w.GlobalId) or t == str(w.Name or "")]
         if not hits:
             names = sorted({str(w.Name) for w in walls if w.Name})[:8]
-            raise InitError(f"--walls {t!r} is neither the GlobalId nor the Name of a wall", file=path,
-                            element=t, fix="give wall GlobalIds or names separated by commas, e.g. "
-                                           + (", ".join(names) if names else next(iter(by_gid), "...")))
+            raise InitError(
+                f"--walls {t!r} is neither the GlobalId nor the Name of a wall",
+                file=path,
+                element=t,
+                fix="give wall GlobalIds or names separated by commas, e.g. "
+                + (", ".join(names) if names else next(iter(by_gid), "...")),
+            )
         out.update(hits)
     return out
-
-
-def _is_external_door(door: Any, hull: Polygon, centre: tuple[float, float]) -> bool:
-    import ifcopenshell.util.element as ue
-
-    try:
-        psets = ue.get_psets(door, psets_only=True)
-    except Exception:
-        psets = {}
-    ext = (psets.get("Pset_DoorCommon") or {}).get("IsExternal")
-    if isinstance(ext, bool):
-        return ext
-    return hull.exterior.distance(MultiPoint([centre]).centroid) < 0.6
 
 
 @dataclass
@@ -155,15 +153,27 @@ class _Storey:
     doors: list[Any]
 
 
-def init_project(ifc_path: Path, out: Path, *, task: str = "frame-interior-walls", storey: str | None = None,
-                 walls: Sequence[str] = (), max_walls: int = 8, seed: int = 0, force: bool = False,
-                 progress: Say | None = None) -> InitResult:
+def init_project(
+    ifc_path: Path,
+    out: Path,
+    *,
+    task: str = "frame-interior-walls",
+    storey: str | None = None,
+    walls: Sequence[str] = (),
+    max_walls: int = 8,
+    seed: int = 0,
+    force: bool = False,
+    progress: Say | None = None,
+) -> InitResult:
     """Write a complete project for ``ifc_path`` into ``out`` (see the module docstring)."""
     t0 = time.perf_counter()
     say = progress or (lambda _m: None)
     if not 1 <= max_walls <= 1000:
-        raise InitError(f"--max-walls must be from 1 to 1000, not {max_walls}", element="--max-walls",
-                        fix="give e.g. --max-walls 8")
+        raise InitError(
+            f"--max-walls must be from 1 to 1000, not {max_walls}",
+            element="--max-walls",
+            fix="give e.g. --max-walls 8",
+        )
     spec = task_specification(task)
     with output_options(force=force):
         check_output_dir(out)
@@ -174,16 +184,21 @@ def init_project(ifc_path: Path, out: Path, *, task: str = "frame-interior-walls
     to_site = np.linalg.inv(site_m)
     refs = {s.global_id: s for s in storeys(f, site_m, units.length_m)}
     if not refs:
-        raise InitError("the model has no IfcBuildingStorey", file=path, element="IfcBuildingStorey",
-                        fix="export the model with its storeys (levels)")
+        raise InitError(
+            "the model has no IfcBuildingStorey",
+            file=path,
+            element="IfcBuildingStorey",
+            fix="export the model with its storeys (levels)",
+        )
     selected = _select(f, walls, path) if walls else None
     by_storey: dict[str, _Storey] = {g: _Storey(r, f.by_guid(g), [], []) for g, r in refs.items()}
     choices: dict[str, WallChoice] = {}
     for w in sorted(f.by_type("IfcWall"), key=lambda e: str(e.GlobalId)):
         st = storey_of(w)
         gid = str(w.GlobalId)
-        c = WallChoice(gid, str(w.Name or ""), str(st.Name or st.GlobalId) if st is not None else "",
-                       w.is_a())
+        c = WallChoice(
+            gid, str(w.Name or ""), str(st.Name or st.GlobalId) if st is not None else "", w.is_a()
+        )
         choices[gid] = c
         if st is None or str(st.GlobalId) not in by_storey:
             c.reason = "not contained in a storey"
@@ -201,8 +216,12 @@ def init_project(ifc_path: Path, out: Path, *, task: str = "frame-interior-walls
     if storey is not None:
         task_st = next((s for s in order if storey in (s.ref.name, s.ref.global_id)), None)
         if task_st is None:
-            raise InitError(f"--storey {storey!r} is not a storey of the model", file=path, element=storey,
-                            fix="give one of: " + ", ".join(s.ref.name for s in order))
+            raise InitError(
+                f"--storey {storey!r} is not a storey of the model",
+                file=path,
+                element=storey,
+                fix="give one of: " + ", ".join(s.ref.name for s in order),
+            )
     else:
         open_storeys = [s for s in order if any(not choices[str(w.GlobalId)].reason for w in s.walls)]
         with_doors = [s for s in open_storeys if s.doors]
@@ -211,23 +230,40 @@ def init_project(ifc_path: Path, out: Path, *, task: str = "frame-interior-walls
         if s is not task_st:
             for w in s.walls:
                 if not choices[str(w.GlobalId)].reason:
-                    choices[str(w.GlobalId)].reason = (f"on storey {s.ref.name}, not the task storey "
-                                                       f"{task_st.ref.name} (choose it with --storey)")
+                    choices[str(w.GlobalId)].reason = (
+                        f"on storey {s.ref.name}, not the task storey "
+                        f"{task_st.ref.name} (choose it with --storey)"
+                    )
     result = InitResult(path, Path(out), task, spec, task_st.ref.name, list(choices.values()))
-    say(f"{path.name}: {len(choices)} walls, task storey {task_st.ref.name} "
-        f"({task_st.ref.elevation:.2f} m); triangulating its elements")
+    say(
+        f"{path.name}: {len(choices)} walls, task storey {task_st.ref.name} "
+        f"({task_st.ref.elevation:.2f} m); triangulating its elements"
+    )
     # ---- geometry of the task storey -------------------------------------------------------------
-    products = [e for e in f.by_type("IfcElement")
-                if not e.is_a("IfcFeatureElement") and _same(storey_of(e), task_st.entity)]
+    products = [
+        e
+        for e in f.by_type("IfcElement")
+        if not e.is_a("IfcFeatureElement") and _same(storey_of(e), task_st.entity)
+    ]
     openings: dict[str, list[Any]] = {str(w.GlobalId): opening_products(w) for w in task_st.walls}
     extra = [o for os_ in openings.values() for o in os_ if o.is_a("IfcOpeningElement")]
     spaces = [s for s in f.by_type("IfcSpace") if _same(storey_of(s), task_st.entity)]
     meshes = build_meshes(f, products + extra + spaces, world_to_site=to_site).meshes
     space_meshes = [meshes.pop(str(s.GlobalId)) for s in spaces if str(s.GlobalId) in meshes]
-    rooms = room_doors(space_meshes, [(meshes[str(d.GlobalId)], _door_width(d, meshes, units.length_m),
-                                       f"{d.Name or d.GlobalId} ({d.GlobalId})")
-                                      for d in task_st.doors if str(d.GlobalId) in meshes], WALL_TOLERANCE_M)
-    need, robot = _door_need()
+    rooms = room_doors(
+        space_meshes,
+        [
+            (
+                meshes[str(d.GlobalId)],
+                L.door_width(d, meshes, units.length_m),
+                f"{d.Name or d.GlobalId} ({d.GlobalId})",
+            )
+            for d in task_st.doors
+            if str(d.GlobalId) in meshes
+        ],
+        WALL_TOLERANCE_M,
+    )
+    need, robot = L.door_need()
     wall_meshes = [meshes[str(w.GlobalId)] for w in task_st.walls if str(w.GlobalId) in meshes]
     if not wall_meshes:
         result.notes.append(f"storey {task_st.ref.name} has no wall with geometry")
@@ -236,7 +272,7 @@ def init_project(ifc_path: Path, out: Path, *, task: str = "frame-interior-walls
             c.reason = c.reason or "no body geometry (ifcopenshell could not triangulate it)"
         return result
     hull = footprint(_merge(wall_meshes))
-    entrance = _entrance(task_st, meshes, hull)
+    entrance = L.entrance_door(task_st.doors, meshes, hull)
     near = entrance[0] if entrance else (hull.centroid.x, hull.centroid.y)
     # ---- walls and panels --------------------------------------------------------------------------
     candidates = []
@@ -255,7 +291,7 @@ def init_project(ifc_path: Path, out: Path, *, task: str = "frame-interior-walls
             candidates.append((round(math.hypot(mid[0] - near[0], mid[1] - near[1]), 4), c.global_id, c))
     candidates.sort(key=lambda t: (t[0], t[1]))
     chosen: list[tuple[float, WallChoice]] = []
-    placed = []
+    placed: list[PanelSpot] = []
     for dist, gid, c in candidates:
         if len(chosen) >= max_walls:
             c.reason = f"beyond --max-walls {max_walls} (farther from the entrance)"
@@ -286,26 +322,6 @@ def init_project(ifc_path: Path, out: Path, *, task: str = "frame-interior-walls
     return result
 
 
-def _door_width(door: Any, meshes: dict[str, Any], length_m: float) -> float:
-    """OverallWidth in metres, else the long side of the door's footprint."""
-    w = getattr(door, "OverallWidth", None)
-    if isinstance(w, (int, float)) and w > 0:
-        return round(float(w) * length_m, 4)
-    rect = footprint(meshes[str(door.GlobalId)]).minimum_rotated_rectangle
-    pts = np.asarray(rect.exterior.coords)[:3]
-    return round(float(max(np.linalg.norm(pts[1] - pts[0]), np.linalg.norm(pts[2] - pts[1]))), 4)
-
-
-def _door_need() -> tuple[float, str]:
-    """The narrowest door the narrowest KB robot with an arm passes (its width + the proposed clearance)."""
-    arms = [r for r in load_robots(load_kb()) if r.payload_kg is not None and r.payload_kg >= PANEL_MAX_KG]
-    if not arms:
-        return (0.0, "no robot of the knowledge base lifts a panel")
-    r = min(arms, key=lambda r: (r.width_m, r.label))
-    return (round(r.width_m + 2 * site.DOOR_CLEARANCE, 4),
-            f"{r.label}: {r.width_m:.2f} m + 2 x {site.DOOR_CLEARANCE} m door clearance")
-
-
 def _same(a: Any, b: Any) -> bool:
     return a is not None and b is not None and a.id() == b.id()
 
@@ -316,105 +332,36 @@ def _merge(meshes: Sequence[Any]) -> Any:
     return trimesh.util.concatenate(list(meshes))
 
 
-def _entrance(st: _Storey, meshes: dict[str, Any], hull: Polygon
-              ) -> tuple[tuple[float, float], tuple[float, float], str] | None:
-    """(door centre, outward unit normal, label) of the widest external door of the storey."""
-    best: tuple[float, str, tuple[float, float], tuple[float, float], str] | None = None
-    for d in st.doors:
-        mesh = meshes.get(str(d.GlobalId))
-        if mesh is None:
-            continue
-        fp = footprint(mesh)
-        c = (fp.centroid.x, fp.centroid.y)
-        if not _is_external_door(d, hull, c):
-            continue
-        rect = fp.minimum_rotated_rectangle
-        pts = np.asarray(rect.exterior.coords)[:4]
-        e1, e2 = pts[1] - pts[0], pts[2] - pts[1]
-        long_ = e1 if np.linalg.norm(e1) >= np.linalg.norm(e2) else e2
-        width = float(np.linalg.norm(long_))
-        n = np.array([-long_[1], long_[0]]) / max(width, 1e-9)
-        probe = MultiPoint([(c[0] + n[0] * 2.0, c[1] + n[1] * 2.0)]).centroid
-        if hull.contains(probe):
-            n = -n
-        key = (-round(width, 3), str(d.GlobalId))
-        if best is None or key < (best[0], best[1]):
-            best = (key[0], key[1], c, (float(n[0]), float(n[1])), f"{d.Name or d.GlobalId} ({d.GlobalId})")
-    return None if best is None else (best[2], best[3], best[4])
-
-
-def _site_plan(hull: Polygon, st: _Storey, entrance: tuple[tuple[float, float], tuple[float, float], str] | None,
-               ground: float) -> site.SitePlan:
-    x0, y0, x1, y1 = hull.bounds
-    extent = (round(x0 - 15, 3), round(y0 - 15, 3), ground - 2.0, round(x1 + 15, 3), round(y1 + 15, 3),
-              st.ref.elevation + 15.0)
-    if entrance is None:
-        c = (x1 + 5.0, (y0 + y1) / 2)
-        n = (1.0, 0.0)
-        note = ("No external door was found: the robot start is east of the building; move it to where the "
-                "robot enters, or add a door.")
-        door = (x1, (y0 + y1) / 2)
-    else:
-        door, n, label = entrance
-        c = (door[0] + n[0] * START_OUT_M, door[1] + n[1] * START_OUT_M)
-        note = f"The robot starts {START_OUT_M} m in front of the entrance door {label}, facing it."
-    t = (-n[1], n[0])  # along the facade
-
-    def at(out_m: float, side_m: float) -> tuple[float, float]:
-        return (round(door[0] + n[0] * out_m + t[0] * side_m, 3), round(door[1] + n[1] * out_m + t[1] * side_m, 3))
-
-    face = math.atan2(-n[1], -n[0])
-    objs = []
-    for key, cls, label, obstructs, size, (out_m, side) in (
-            ("entrance-area", "Workspace", "Entrance area", False, (2.0, 2.0, 2.0), (1.5, 0.0)),
-            ("lumber-storage", "MaterialStorage", "Lumber storage (carpenters)", True, (3.6, 1.4, 1.0), (7.0, 6.0)),
-            ("office", "SiteOffice", "Site office", True, (6.0, 2.5, 2.7), (11.0, -8.0))):
-        x, y = at(out_m, side)
-        objs.append(site.PlacedObject(key, cls, label, obstructs, size, x, y, ground, round(face, 9)))
-    start = (round(c[0], 3), round(c[1], 3), ground, round(face, 9))
-    return site.SitePlan(extent, start, note, None, tuple(objs))
-
-
-def _project_toml(name: str, base: str, ifc_rel: str, seed: int, sim_date: str, source: Path,
-                  scenarios: dict[str, tuple[str, str]]) -> str:
-    lines = [f"# Written by `kbplanner init {source.name}`: every file here is a proposal to edit.", "",
-             "[project]", f"name = {_toml_str(name)}",
-             f'description = "Robotized interior wall framing in {_toml_esc(source.name)}, set up by kbplanner init"',
-             f'base_iri = "{base}"', f"seed = {seed}", "", "[model]", f'ifc = "{ifc_rel}"',
-             'schedule = "schedule.csv"', 'site = ["site/site_layout.ttl", "site/workers.ttl"]',
-             'jobsite = ["site/jobsite.ttl"]', 'augmentation = ["augmentation/work_sequence.ttl"]', "",
-             "[calendar]", 'work_start = "07:00"', 'work_end = "15:30"',
-             'workdays = ["Mon", "Tue", "Wed", "Thu", "Fri"]', "", "[simulation]",
-             f'task = "{site.FRAME_TASK}"', f'date = "{sim_date}"', ""]
-    for key, (desc, file) in scenarios.items():
-        lines += [f"[scenarios.{key}]", f"description = {_toml_str(desc)}",
-                  f'overlays = ["{file}", "augmentation/grasp_points.ttl"]', ""]
-    return "\n".join(lines)
-
-
-def _toml_esc(s: str) -> str:
-    return s.replace("\\", "\\\\").replace('"', '\\"')
-
-
-def _toml_str(s: str) -> str:
-    return f'"{_toml_esc(s)}"'
-
-
-def _write(result: InitResult, f: Any, path: Path, out: Path, st: _Storey, hull: Polygon,
-           entrance: tuple[tuple[float, float], tuple[float, float], str] | None, seed: int, force: bool,
-           say: Say) -> None:
+def _write(
+    result: InitResult,
+    f: Any,
+    path: Path,
+    out: Path,
+    st: _Storey,
+    hull: Polygon,
+    entrance: tuple[tuple[float, float], tuple[float, float], str] | None,
+    seed: int,
+    force: bool,
+    say: Say,
+) -> None:
     stem = _slug(path.stem)
     base = f"https://w3id.org/kbplanner/data/{stem}/"
     ifc_rel = f"model/{stem}_frames.ifc"
     frames = result.frames
     walls = [w.global_id for w in result.chosen]
-    doors = sorted({str(o.GlobalId) for w in st.walls if str(w.GlobalId) in walls
-                    for o in opening_products(w) if o.is_a("IfcDoor")})
+    doors = sorted(
+        {
+            str(o.GlobalId)
+            for w in st.walls
+            if str(w.GlobalId) in walls
+            for o in opening_products(w)
+            if o.is_a("IfcDoor")
+        }
+    )
     rows = site.schedule_rows(st.ref.name, walls, doors)
     sim_date = f"{rows[1]['start']}T07:00:00"
-    ground = min(0.0, st.ref.elevation) if entrance is not None else st.ref.elevation
     ground = st.ref.elevation
-    plan = _site_plan(hull, st, entrance, ground)
+    plan = L.site_plan(hull, st.ref.elevation, entrance, ground)
     name = f"{path.stem}: robotized interior wall framing"
     texts = {
         "schedule.csv": site.schedule_csv(rows, result.specification),
@@ -432,16 +379,17 @@ def _write(result: InitResult, f: Any, path: Path, out: Path, st: _Storey, hull:
             p.parent.mkdir(parents=True, exist_ok=True)
             p.write_text(text, encoding="utf-8")
         (stage / "site" / "site_layout.ttl").write_text(site.site_layout(base, plan), encoding="utf-8")
-        (stage / "project.toml").write_text(_project_toml(name, base, ifc_rel, seed, sim_date, path, {}),
-                                            encoding="utf-8")
+        (stage / "project.toml").write_text(
+            L.project_toml(name, base, ifc_rel, seed, sim_date, path, {}), encoding="utf-8"
+        )
         say(f"importing {ifc_rel} and building the map of {st.ref.name}")
         data = ProjectData.load(stage)
         world = world_of(data, task_id=site.FRAME_TASK)
         grid = storey_map(world).grid
         start = world.robot_start
         start_xy = (start.x, start.y) if start is not None else (plan.start[0], plan.start[1])
-        if grid.is_occupied(*start_xy) or not _reaches_inside(grid, start_xy, hull):
-            plan = _inside_start(plan, grid, hull, st.ref.elevation, result)
+        if grid.is_occupied(*start_xy) or not L.reaches_inside(grid, start_xy, hull):
+            plan = L.inside_start(plan, grid, hull, st.ref.elevation, result.notes)
             (stage / "site" / "site_layout.ttl").write_text(site.site_layout(base, plan), encoding="utf-8")
             start_xy = plan.start[:2]
         stacks = math.ceil(len(frames) / MAX_STACK)
@@ -454,26 +402,38 @@ def _write(result: InitResult, f: Any, path: Path, out: Path, st: _Storey, hull:
         }
         scenarios: dict[str, tuple[str, str]] = {}
         for key, (label, inside, near) in proposals.items():
-            spots_ = place_storages(grid, stacks, start=start_xy, panels=panels_xy, footprint=hull,
-                                    inside=inside, near=near)
+            spots_ = place_storages(
+                grid, stacks, start=start_xy, panels=panels_xy, footprint=hull, inside=inside, near=near
+            )
             if len(spots_) < stacks:
-                result.notes.append(f"scenario {key} not written: room for {len(spots_)} of {stacks} frame "
-                                    f"storages found on the map of {st.ref.name}")
+                result.notes.append(
+                    f"scenario {key} not written: room for {len(spots_)} of {stacks} frame "
+                    f"storages found on the map of {st.ref.name}"
+                )
                 continue
             storages = []
             for i, sp in enumerate(spots_):
-                chunk = frames[i * MAX_STACK:(i + 1) * MAX_STACK]
-                storages.append(site.Storage(f"{key}-{i + 1}", f"Frame storage {i + 1} ({key})", sp.x, sp.y,
-                                             st.ref.elevation, sp.yaw,
-                                             (sp.pickup[0], sp.pickup[1], st.ref.elevation, sp.pickup[2]),
-                                             tuple(chunk)))
+                chunk = frames[i * MAX_STACK : (i + 1) * MAX_STACK]
+                storages.append(
+                    site.Storage(
+                        f"{key}-{i + 1}",
+                        f"Frame storage {i + 1} ({key})",
+                        sp.x,
+                        sp.y,
+                        st.ref.elevation,
+                        sp.yaw,
+                        (sp.pickup[0], sp.pickup[1], st.ref.elevation, sp.pickup[2]),
+                        tuple(chunk),
+                    )
+                )
             rel = f"scenarios/{key.replace('-', '_')}.ttl"
             (stage / "scenarios").mkdir(exist_ok=True)
             (stage / rel).write_text(site.scenario(base, key, label, storages), encoding="utf-8")
             scenarios[key] = (label[0].upper() + label[1:], rel)
             result.scenarios[key] = len(storages)
-        (stage / "project.toml").write_text(_project_toml(name, base, ifc_rel, seed, sim_date, path, scenarios),
-                                            encoding="utf-8")
+        (stage / "project.toml").write_text(
+            L.project_toml(name, base, ifc_rel, seed, sim_date, path, scenarios), encoding="utf-8"
+        )
         for key in list(scenarios):
             data = ProjectData.load(stage, scenario=key)
             world = world_of(data, task_id=site.FRAME_TASK)
@@ -483,52 +443,12 @@ def _write(result: InitResult, f: Any, path: Path, out: Path, st: _Storey, hull:
                 result.notes.append(f"scenario {key} dropped: {exc.problem}")
                 (stage / scenarios.pop(key)[1]).unlink()
                 result.scenarios.pop(key)
-        (stage / "project.toml").write_text(_project_toml(name, base, ifc_rel, seed, sim_date, path, scenarios),
-                                            encoding="utf-8")
-        result.files = sorted(str(p.relative_to(stage)) for p in stage.rglob("*")
-                              if p.is_file() and ".kbplanner-cache" not in p.parts)
+        (stage / "project.toml").write_text(
+            L.project_toml(name, base, ifc_rel, seed, sim_date, path, scenarios), encoding="utf-8"
+        )
+        result.files = sorted(
+            str(p.relative_to(stage))
+            for p in stage.rglob("*")
+            if p.is_file() and ".kbplanner-cache" not in p.parts
+        )
     result.written = True
-    _ = Literal
-
-
-def _reaches_inside(grid: Any, start: tuple[float, float], hull: Polygon) -> bool:
-    """Whether the start's free region reaches the inside of the building."""
-    from scipy import ndimage
-
-    if grid.is_occupied(*start):
-        return False
-    labels, _n = ndimage.label(~grid.occupied)
-    ix, iy = grid.cell_of(*start)
-    region = labels == labels[iy, ix]
-    c = hull.buffer(-0.5).representative_point()
-    if hull.buffer(-0.5).is_empty:
-        return False
-    ys, xs = np.nonzero(region)
-    from shapely import contains_xy
-
-    px = grid.origin[0] + (xs + 0.5) * grid.resolution
-    py = grid.origin[1] + (ys + 0.5) * grid.resolution
-    _ = c
-    return bool(contains_xy(hull.buffer(-0.5), px, py).any())
-
-
-def _inside_start(plan: site.SitePlan, grid: Any, hull: Polygon, z: float, result: InitResult) -> site.SitePlan:
-    """A robot start (or arrival) inside: the free cell farthest from obstacles within the footprint."""
-    from scipy import ndimage
-    from shapely import contains_xy
-
-    clearance = ndimage.distance_transform_edt(~grid.occupied)
-    ys, xs = np.nonzero(~grid.occupied)
-    px = grid.origin[0] + (xs + 0.5) * grid.resolution
-    py = grid.origin[1] + (ys + 0.5) * grid.resolution
-    inside = contains_xy(hull, px, py)
-    if not inside.any():
-        result.notes.append("no free floor inside the building on the task storey's map: robot start kept")
-        return plan
-    k = int(np.lexsort((px[inside], py[inside], -clearance[ys[inside], xs[inside]]))[0])
-    x, y = round(float(px[inside][k]), 3), round(float(py[inside][k]), 3)
-    result.notes.append(f"the robot start in front of the entrance does not reach the inside on the map: the "
-                        f"robot is set down inside at ({x}, {y}) instead (edit kbp:robotStart in "
-                        "site/site_layout.ttl)")
-    return site.SitePlan(plan.extent, (x, y, z, 0.0), "The robot is set down inside the building (no open "
-                         "entrance on the map).", plan.arrival, plan.objects)
