@@ -186,3 +186,14 @@ def test_public_models_without_partitions_exit_1_with_reasons(
     out = capsys.readouterr().out
     walls = len(ifcopenshell.open(str(path)).by_type("IfcWall"))
     assert f"walls chosen: 0 of {walls}" in out and "Negative result" in out
+
+
+def test_an_ifc2x3_copy_is_byte_identical_on_a_rerun(tmp_path: Path) -> None:
+    """IFC2X3 needs owner histories: the file's own is reused, none with a time stamp is added."""
+    ifc = tmp_path / "x3.ifc"
+    write_test_building(ifc, schema="IFC2X3", storeys=1)
+    one = init_project(ifc, tmp_path / "one", max_walls=1)
+    two = init_project(ifc, tmp_path / "two", max_walls=1)
+    assert one.frames and _files(one.directory) == _files(two.directory)
+    copy = ifcopenshell.open(str(next((one.directory / "model").glob("*.ifc"))))
+    assert len(copy.by_type("IfcOwnerHistory")) == len(ifcopenshell.open(str(ifc)).by_type("IfcOwnerHistory"))

@@ -113,6 +113,7 @@ def write_frames(
     first_new = max((e.id() for e in f), default=0) + 1
     histories = sorted(f.by_type("IfcOwnerHistory"), key=lambda e: e.id())
     history = histories[0] if histories else None
+    saved = {h.id(): [h[i] for i in range(len(h))] for h in histories}  # the API time-stamps them
     context = body_context(f)
     records = []
     for n, (spot, storey) in enumerate(spots, start=1):
@@ -180,19 +181,22 @@ def write_frames(
             )
         )
     _deterministic(f, first_new, history)
+    for h in f.by_type("IfcOwnerHistory"):
+        for i, value in enumerate(saved.get(h.id(), [])):
+            h[i] = value
     return records
 
 
 def _deterministic(f: ifcopenshell.file, first_new: int, history: Any) -> None:
     """The owner history of the file on every new entity (the API's new ones removed), stable GlobalIds."""
     new_histories = [e for e in f.by_type("IfcOwnerHistory") if e.id() >= first_new]
+    fresh = {h.id() for h in new_histories}
     keep = history if f.schema == "IFC2X3" else None
     for e in sorted(f.by_type("IfcRoot"), key=lambda e: e.id()):
-        if e.id() < first_new:
-            continue
-        if e.OwnerHistory is not None or keep is not None:
-            e.OwnerHistory = keep
-        if not e.is_a("IfcMember"):
+        # new entities, and old ones the API marked MODIFIED with a new, time-stamped history
+        if e.id() >= first_new or (e.OwnerHistory is not None and e.OwnerHistory.id() in fresh):
+            e.OwnerHistory = keep if e.id() >= first_new else history
+        if e.id() >= first_new and not e.is_a("IfcMember"):
             e.GlobalId = guid(f"{e.is_a()}/{e.id()}")
     for h in new_histories:
         if not f.get_inverse(h):

@@ -20,6 +20,7 @@ frames and nothing is written (exit 1, with the reason per wall).
 
 from __future__ import annotations
 
+import logging
 import math
 import re
 import time
@@ -384,7 +385,13 @@ def _write(
         )
         say(f"importing {ifc_rel} and building the map of {st.ref.name}")
         data = ProjectData.load(stage)
-        world = world_of(data, task_id=site.FRAME_TASK)
+        quiet = logging.getLogger("kbplanner.world.build")
+        level = quiet.level
+        quiet.setLevel(logging.ERROR)  # the bare world has no storage yet: its warning is expected here
+        try:
+            world = world_of(data, task_id=site.FRAME_TASK)
+        finally:
+            quiet.setLevel(level)
         grid = storey_map(world).grid
         start = world.robot_start
         start_xy = (start.x, start.y) if start is not None else (plan.start[0], plan.start[1])
