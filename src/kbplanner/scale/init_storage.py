@@ -27,7 +27,8 @@ PICKUP_STANDOFF = 1.15  # m from the stack's centre line: the Husky's half lengt
 STORAGE = (2.6, 0.8)
 MARGIN = 0.2  # free ground around a storage
 ROBOT_ROOM = 0.5  # clearance of the pickup cell (the robot's half width + margin)
-PANEL_KEEP = 0.9  # storage and pickup at least this far from an install location
+PANEL_KEEP = 0.9  # a storage at least this far from an install location
+PICKUP_KEEP = 0.9  # a pickup this far (more leaves no inside storage in the Duplex; see docs/own_building.md)
 STEP = 0.2
 
 
@@ -140,7 +141,7 @@ def _try(
             continue
         if occupied[iy, ix] or clearance[iy, ix] < ROBOT_ROOM or labels[iy, ix] != region:
             continue
-        if panel_dist[iy, ix] < PANEL_KEEP:
+        if panel_dist[iy, ix] < PICKUP_KEEP:
             continue
         # the storage must not cut the pickup off from the start: its box lies away from the pickup
         facing = math.atan2(y - py, x - px)
