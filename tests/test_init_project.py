@@ -197,3 +197,15 @@ def test_an_ifc2x3_copy_is_byte_identical_on_a_rerun(tmp_path: Path) -> None:
     assert one.frames and _files(one.directory) == _files(two.directory)
     copy = ifcopenshell.open(str(next((one.directory / "model").glob("*.ifc"))))
     assert len(copy.by_type("IfcOwnerHistory")) == len(ifcopenshell.open(str(ifc)).by_type("IfcOwnerHistory"))
+
+
+def test_an_upper_storey_gets_a_robot_arrival_and_an_inside_storage(building: tuple[Path, str, InitResult],
+                                                                     tmp_path: Path) -> None:
+    from kbplanner.world.build import world_of
+
+    r = init_project(building[0], tmp_path / "up", storey="Level 2")
+    assert r.storey == "Level 2" and r.frames and set(r.scenarios) == {"storage-inside"}
+    assert any("robot arrival" in n for n in r.notes)
+    assert main(["validate", str(r.directory), "--scenario", "storage-inside"]) == 0
+    world = world_of(ProjectData.load(r.directory, scenario="storage-inside"), task_id="T-FRAME")
+    assert world.robot_start is not None and world.robot_start.z == pytest.approx(3.0)  # on Level 2

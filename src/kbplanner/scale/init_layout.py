@@ -27,6 +27,7 @@ from kbplanner.scale import init_site as site
 from kbplanner.scale.init_walls import footprint
 
 START_OUT_M = 4.0  # robot start in front of the entrance door
+UPPER_STOREY_M = 1.0  # a task storey this far above the ground is reached by lift (a robot arrival)
 PANEL_MAX_KG = 14.0  # panels of at most 0.75 m weigh about 9-14 kg
 
 
@@ -212,8 +213,10 @@ def reaches_inside(grid: Any, start: tuple[float, float], hull: Polygon) -> bool
     return bool(contains_xy(inner, px, py).any())
 
 
-def inside_start(plan: site.SitePlan, grid: Any, hull: Polygon, z: float, notes: list[str]) -> site.SitePlan:
-    """A robot start (or arrival) inside: the free cell farthest from obstacles within the footprint."""
+def inside_start(
+    plan: site.SitePlan, grid: Any, hull: Polygon, z: float, notes: list[str], *, arrival: bool = False
+) -> site.SitePlan:
+    """A robot start (or, on an upper storey, arrival) inside: the free cell farthest from obstacles."""
     clearance = ndimage.distance_transform_edt(~grid.occupied)
     ys, xs = np.nonzero(~grid.occupied)
     px = grid.origin[0] + (xs + 0.5) * grid.resolution
@@ -224,6 +227,12 @@ def inside_start(plan: site.SitePlan, grid: Any, hull: Polygon, z: float, notes:
         return plan
     k = int(np.lexsort((px[inside], py[inside], -clearance[ys[inside], xs[inside]]))[0])
     x, y = round(float(px[inside][k]), 3), round(float(py[inside][k]), 3)
+    if arrival:
+        notes.append(
+            f"the robot arrival on the task storey is proposed at ({x}, {y}), the most open free spot "
+            "inside: move it to the lift landing or stair (kbp:robotArrival in site/site_layout.ttl)"
+        )
+        return site.SitePlan(plan.extent, plan.start, plan.start_note, (x, y, z, 0.0), plan.objects)
     notes.append(
         f"the robot start in front of the entrance does not reach the inside on the map: the "
         f"robot is set down inside at ({x}, {y}) instead (edit kbp:robotStart in "

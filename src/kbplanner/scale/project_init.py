@@ -318,7 +318,20 @@ def init_project(
     frames = write_frames(f, spots, site=site_m, length_m=units.length_m, mass_kg=units.mass_kg)
     result.frames = frames
     result.entrance = entrance[2] if entrance else ""
-    _write(result, f, path, Path(out), task_st, hull, entrance, seed, force, say)
+    ground = next((s.ref.elevation for s in order if s.doors), task_st.ref.elevation)
+    _write(
+        result,
+        f,
+        path,
+        Path(out),
+        task_st,
+        hull,
+        entrance,
+        min(ground, task_st.ref.elevation),
+        seed,
+        force,
+        say,
+    )
     result.seconds = round(time.perf_counter() - t0, 2)
     return result
 
@@ -341,6 +354,7 @@ def _write(
     st: _Storey,
     hull: Polygon,
     entrance: tuple[tuple[float, float], tuple[float, float], str] | None,
+    ground: float,
     seed: int,
     force: bool,
     say: Say,
@@ -361,7 +375,7 @@ def _write(
     )
     rows = site.schedule_rows(st.ref.name, walls, doors)
     sim_date = f"{rows[1]['start']}T07:00:00"
-    ground = st.ref.elevation
+    upper = st.ref.elevation > ground + L.UPPER_STOREY_M  # the robot arrives there (lift): no outside storage
     plan = L.site_plan(hull, st.ref.elevation, entrance, ground)
     name = f"{path.stem}: robotized interior wall framing"
     texts = {
@@ -395,10 +409,10 @@ def _write(
         grid = storey_map(world).grid
         start = world.robot_start
         start_xy = (start.x, start.y) if start is not None else (plan.start[0], plan.start[1])
-        if grid.is_occupied(*start_xy) or not L.reaches_inside(grid, start_xy, hull):
-            plan = L.inside_start(plan, grid, hull, st.ref.elevation, result.notes)
+        if upper or grid.is_occupied(*start_xy) or not L.reaches_inside(grid, start_xy, hull):
+            plan = L.inside_start(plan, grid, hull, st.ref.elevation, result.notes, arrival=upper)
             (stage / "site" / "site_layout.ttl").write_text(site.site_layout(base, plan), encoding="utf-8")
-            start_xy = plan.start[:2]
+            start_xy = (plan.arrival or plan.start)[:2]
         stacks = math.ceil(len(frames) / MAX_STACK)
         panels_xy = [(r.spot.x, r.spot.y) for r in frames]
         centroid = (float(np.mean([p[0] for p in panels_xy])), float(np.mean([p[1] for p in panels_xy])))
@@ -407,6 +421,12 @@ def _write(
             "storage-inside": ("frame storage inside the building, near the walls to frame", True, centroid),
             "storage-outside": ("frame storage outside the building, near the entrance", False, door_xy),
         }
+        if upper:
+            del proposals["storage-outside"]
+            result.notes.append(
+                f"{st.ref.name} is above the ground ({ground:.2f} m): the robot arrives there "
+                "(kbp:robotArrival, e.g. by lift); no storage-outside scenario"
+            )
         scenarios: dict[str, tuple[str, str]] = {}
         for key, (label, inside, near) in proposals.items():
             spots_ = place_storages(
