@@ -209,3 +209,16 @@ def test_an_upper_storey_gets_a_robot_arrival_and_an_inside_storage(building: tu
     assert main(["validate", str(r.directory), "--scenario", "storage-inside"]) == 0
     world = world_of(ProjectData.load(r.directory, scenario="storage-inside"), task_id="T-FRAME")
     assert world.robot_start is not None and world.robot_start.z == pytest.approx(3.0)  # on Level 2
+
+
+def test_an_ifc_work_schedule_is_named_in_a_note(tmp_path: Path) -> None:
+    import ifcopenshell.api.sequence as seq
+
+    ifc = tmp_path / "sched.ifc"
+    write_test_building(ifc, storeys=1)
+    f = ifcopenshell.open(str(ifc))
+    ws = seq.add_work_schedule(f, name="Construction")
+    seq.add_task(f, work_schedule=ws, name="Partitions", identification="P1")
+    f.write(str(ifc))
+    r = init_project(ifc, tmp_path / "p", max_walls=1)
+    assert r.written and any("work schedule (1 IfcTask)" in n for n in r.notes)

@@ -315,6 +315,12 @@ def init_project(
         ps = sorted(c.panels, key=lambda p: -math.hypot(p.x - near[0], p.y - near[1]))
         spots += [(p, task_st.entity) for p in ps]
     say(f"{len(chosen)} walls chosen, {len(spots)} panels; writing the IFC copy")
+    tasks = len(f.by_type("IfcTask")) if f.by_type("IfcWorkSchedule") else 0
+    if tasks:
+        result.notes.append(
+            f"the IFC has a work schedule ({tasks} IfcTask): schedule.csv is a scaffold beside it; to use "
+            'the IFC\'s, set schedule = "ifc" in project.toml and add a robotized task that builds the panels'
+        )
     frames = write_frames(f, spots, site=site_m, length_m=units.length_m, mass_kg=units.mass_kg)
     result.frames = frames
     result.entrance = entrance[2] if entrance else ""
