@@ -4,7 +4,7 @@ Each :class:`kbplanner.scale.init_walls.PanelSpot` becomes an ``IfcMember`` "Stu
 (ObjectType "Interior stud frame panel", contained in the wall's storey) written with
 ``ifcopenshell.api`` into the opened copy of the user's file, never into the file itself: plates,
 studs and noggings of :func:`kbplanner.model.stud_frames.stud_frame` as extruded rectangles in the
-file's length unit, ``Pset_MemberCommon``, ``Kbplanner_StudFramePanel`` (host wall, install order,
+file's length unit, ``Pset_MemberCommon``, ``Kbplanner_StudFramePanel`` (host wall,
 studs, density, mass, grasp point) and ``BaseQuantities`` with ``NetWeight`` in the file's mass unit,
 so that the import reads the same kilograms. GlobalIds are uuid5 of the host wall and panel number;
 the file's own owner history and time stamp are reused, so the same input gives the same file.
@@ -146,7 +146,6 @@ def write_frames(
             properties={
                 "PanelId": pid,
                 "HostWallGlobalId": spot.wall,
-                "InstallOrder": n,
                 "StudCount": frame.studs,
                 "StudSection": "38 x 89 mm",
                 "AssumedDensity": DENSITY,

@@ -170,7 +170,7 @@ def project_toml(
         'schedule = "schedule.csv"',
         'site = ["site/site_layout.ttl", "site/workers.ttl"]',
         'jobsite = ["site/jobsite.ttl"]',
-        'augmentation = ["augmentation/work_sequence.ttl"]',
+        "augmentation = []  # the work sequence is in each scenario: it follows the storages",
         "",
         "[calendar]",
         'work_start = "07:00"',

@@ -178,17 +178,6 @@ def jobsite(base: str) -> str:
     )
 
 
-def work_sequence(base: str, frames: Sequence[FrameRecord]) -> str:
-    out = [
-        _PREFIXES,
-        f"# Work sequence of {FRAME_TASK} proposed by `kbplanner init`: the walls farthest from the entrance",
-        "# first, each from its far end, so that installed panels stay behind the robot. Edit to reorder.",
-        "",
-    ]
-    out += [f"{element(base, r.global_id)} kbp:workSequence {r.sequence} .  # {r.panel_id}" for r in frames]
-    return "\n".join(out) + "\n"
-
-
 def grasp_points(base: str, frames: Sequence[FrameRecord]) -> str:
     out = [
         _PREFIXES,
@@ -221,6 +210,11 @@ def scenario(base: str, name: str, label: str, storages: Sequence[Storage]) -> s
         f'    rdfs:label "{label}" .',
         "",
     ]
+    seq = 0
+    sequence = [
+        f"# Work sequence of {FRAME_TASK}: stack by stack (the walls farthest from the entrance first),",
+        "# in a stack the panel farthest from its pickup first (the first installed lies on top).",
+    ]
     for s in storages:
         iri, pose, pickup = f"{base}site/{s.key}", f"{base}site/{s.key}-pose", f"{base}pose/{s.key}-pickup"
         out += [
@@ -236,12 +230,14 @@ def scenario(base: str, name: str, label: str, storages: Sequence[Storage]) -> s
         ]
         n = len(s.panels)
         for i, r in enumerate(s.panels):
+            seq += 1
+            sequence.append(f"{element(base, r.global_id)} kbp:workSequence {seq} .  # {r.panel_id}")
             out.append(
                 f"{element(base, r.global_id)} kbp:storedIn <{iri}> ; kbp:stackIndex {n - 1 - i} .  "
                 f"# {r.panel_id}"
             )
         out.append("")
-    return "\n".join(out)
+    return "\n".join([*out, *sequence, ""])
 
 
 def schedule_rows(storey: str, walls: Sequence[str], doors: Sequence[str]) -> list[dict[str, str]]:

@@ -26,6 +26,7 @@ import re
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -342,6 +343,10 @@ def init_project(
     return result
 
 
+def _far_first(pickup: tuple[float, float, float], r: FrameRecord) -> tuple[float, int]:
+    return (-round(math.hypot(r.spot.x - pickup[0], r.spot.y - pickup[1]), 4), r.sequence)
+
+
 def _same(a: Any, b: Any) -> bool:
     return a is not None and b is not None and a.id() == b.id()
 
@@ -388,7 +393,6 @@ def _write(
         "schedule.csv": site.schedule_csv(rows, result.specification),
         "site/workers.ttl": site.workers(base, plan),
         "site/jobsite.ttl": site.jobsite(base),
-        "augmentation/work_sequence.ttl": site.work_sequence(base, frames),
         "augmentation/grasp_points.ttl": site.grasp_points(base, frames),
         ".gitignore": ".kbplanner-cache/\n",
     }
@@ -446,7 +450,10 @@ def _write(
                 continue
             storages = []
             for i, sp in enumerate(spots_):
+                # in a stack, the panel farthest from the pickup goes first: the ones installed last
+                # stand nearest the place where the robot turns with the next frame
                 chunk = frames[i * MAX_STACK : (i + 1) * MAX_STACK]
+                chunk = sorted(chunk, key=partial(_far_first, sp.pickup))
                 storages.append(
                     site.Storage(
                         f"{key}-{i + 1}",
