@@ -222,3 +222,13 @@ def test_an_ifc_work_schedule_is_named_in_a_note(tmp_path: Path) -> None:
     f.write(str(ifc))
     r = init_project(ifc, tmp_path / "p", max_walls=1)
     assert r.written and any("work schedule (1 IfcTask)" in n for n in r.notes)
+
+
+def test_a_storey_without_walls_or_spaces_is_a_negative_result(tmp_path: Path,
+                                                               capsys: pytest.CaptureFixture[str]) -> None:
+    ifc = tmp_path / "traits.ifc"
+    write_traits(ifc)  # "Level 3": one slab, no walls, no spaces
+    assert main(["init", str(ifc), "--storey", "Level 3", "--out", str(tmp_path / "p")]) == 1
+    out = capsys.readouterr().out
+    assert "storey Level 3" in out and "walls chosen: 0 of 12" in out and "not the task storey Level 3" in out
+    assert not (tmp_path / "p").exists()
