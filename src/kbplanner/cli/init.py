@@ -15,7 +15,10 @@ import sys
 from collections import Counter
 from pathlib import Path
 
+from rich.console import Console
+
 from kbplanner.cli.arguments import add_force, check_out, int_at_least, seed_int
+from kbplanner.cli.progress import status
 from kbplanner.scale.project_init import TASK_TYPES, InitResult, init_project
 
 SHOWN = 20  # walls not chosen listed one by one; the rest summarised by reason
@@ -90,17 +93,18 @@ def _kind(reason: str) -> str:
 def run(args: argparse.Namespace) -> int:
     check_out(args.out)
     walls = [w.strip() for w in (args.walls or "").split(",") if w.strip()]
-    r = init_project(
-        args.ifc,
-        args.out,
-        task=args.task,
-        storey=args.storey,
-        walls=walls,
-        max_walls=args.max_walls,
-        seed=args.seed,
-        force=args.force,
-        progress=lambda m: print(m, file=sys.stderr) if args.verbose else None,
-    )
+    with status(Console(stderr=True), f"reading {args.ifc}") as say:
+        r = init_project(
+            args.ifc,
+            args.out,
+            task=args.task,
+            storey=args.storey,
+            walls=walls,
+            max_walls=args.max_walls,
+            seed=args.seed,
+            force=args.force,
+            progress=say,
+        )
     lines = report(r)
     if not r.written:
         lines.append(

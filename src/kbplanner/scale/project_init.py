@@ -439,6 +439,7 @@ def _write(
             )
         scenarios: dict[str, tuple[str, str]] = {}
         for key, (label, inside, near) in proposals.items():
+            say(f"placing the frame storages of {key}")
             spots_ = place_storages(
                 grid, stacks, start=start_xy, panels=panels_xy, footprint=hull, inside=inside, near=near
             )
@@ -475,6 +476,7 @@ def _write(
             L.project_toml(name, base, ifc_rel, seed, sim_date, path, scenarios), encoding="utf-8"
         )
         for key in list(scenarios):
+            say(f"checking the pickup locations of {key} on its world")
             data = ProjectData.load(stage, scenario=key)
             world = world_of(data, task_id=site.FRAME_TASK)
             try:
