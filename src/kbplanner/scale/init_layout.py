@@ -130,7 +130,8 @@ def site_plan(
     face = math.atan2(-n[1], -n[0])
     objs = []
     for key, cls, label, obstructs, size, (out_m, side) in (
-        ("entrance-area", "Workspace", "Entrance area", False, (2.0, 2.0, 2.0), (1.5, 0.0)),
+        # the entrance area beside the doorway, not in it (a carpenter dwells there)
+        ("entrance-area", "Workspace", "Entrance area", False, (2.0, 2.0, 2.0), (2.0, 2.5)),
         (
             "lumber-storage",
             "MaterialStorage",
