@@ -28,8 +28,11 @@ STORAGE = (2.6, 0.8)
 MARGIN = 0.2  # free ground around a storage
 ROBOT_ROOM = 0.5  # clearance of the pickup cell (the robot's half width + margin)
 PANEL_KEEP = 0.9  # a storage at least this far from an install location
-PICKUP_KEEP = 0.9  # a pickup this far (more leaves no inside storage in the Duplex; see docs/own_building.md)
+PICKUP_KEEP = 0.9  # a pickup at least this far from an install location (the last tier)
 STEP = 0.2
+# (pickup clearance, pickup distance to install locations): first room for the robot to turn with a
+# 2.4 m frame (its half length + margin), else the least that still fits the robot
+TIERS = ((1.3, 1.6), (ROBOT_ROOM, PICKUP_KEEP))
 
 
 @dataclass(frozen=True)
@@ -92,11 +95,25 @@ def place_storages(
         gx, gy = fx[keep], fy[keep]
         dist = np.hypot(gx - near[0], gy - near[1])
         best: Spot | None = None
-        for k in np.lexsort((np.round(gx, 6), np.round(gy, 6), np.round(dist, 6))):
-            for yaw in (0.0, math.pi / 2):
-                best = _try(
-                    grid, occupied, clearance, labels, region, panel_dist, float(gx[k]), float(gy[k]), yaw
-                )
+        ranked = np.lexsort((np.round(gx, 6), np.round(gy, 6), np.round(dist, 6)))
+        for room, keep in TIERS:  # room to turn with a frame at the pickup first, else the least room
+            for k in ranked:
+                for yaw in (0.0, math.pi / 2):
+                    best = _try(
+                        grid,
+                        occupied,
+                        clearance,
+                        labels,
+                        region,
+                        panel_dist,
+                        float(gx[k]),
+                        float(gy[k]),
+                        yaw,
+                        room,
+                        keep,
+                    )
+                    if best is not None:
+                        break
                 if best is not None:
                     break
             if best is not None:
@@ -127,6 +144,8 @@ def _try(
     x: float,
     y: float,
     yaw: float,
+    room: float = ROBOT_ROOM,
+    keep: float = PICKUP_KEEP,
 ) -> Spot | None:
     hx, hy = (STORAGE[0] / 2, STORAGE[1] / 2) if yaw == 0.0 else (STORAGE[1] / 2, STORAGE[0] / 2)
     cells = _rect_cells(grid, x, y, hx + MARGIN, hy + MARGIN)
@@ -139,9 +158,9 @@ def _try(
         ix, iy = grid.cell_of(px, py)
         if not (0 <= iy < occupied.shape[0] and 0 <= ix < occupied.shape[1]):
             continue
-        if occupied[iy, ix] or clearance[iy, ix] < ROBOT_ROOM or labels[iy, ix] != region:
+        if occupied[iy, ix] or clearance[iy, ix] < room or labels[iy, ix] != region:
             continue
-        if panel_dist[iy, ix] < PICKUP_KEEP:
+        if panel_dist[iy, ix] < keep:
             continue
         # the storage must not cut the pickup off from the start: its box lies away from the pickup
         facing = math.atan2(y - py, x - px)
