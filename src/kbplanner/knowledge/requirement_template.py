@@ -115,8 +115,8 @@ class _Template:
             out[subject].append((p, _placeholder(rng)))
         # what validation needs besides (shapes/*.ttl, sh:minCount >= 1): a storage's pose and size
         for p, node_cls in _required_by_shapes(cls):
-            if node_cls is None:
-                out[subject].append((p, _placeholder(XSD.double)))
+            if node_cls is None:  # a size: 1.0, as the numeric rule refuses 0 where a size is read
+                out[subject].append((p, Literal(1.0)))
                 continue
             local = f"{self._local(subject)}-{slug(label(self.kb, p))}"
             node, new = self._node(("required", subject, p), node_cls, local, self.current_base)
@@ -133,7 +133,7 @@ class _Template:
         comments = [f"# TODO requirement {req.number}: {req.task_id} action {req.action_order} "
                     f"'{req.action_label}' ({req.skill_id} {req.input_name})",
                     f"#   {req.problem}: {req.missing}",
-                    f"#   for {len(req.elements)} element(s); replace every placeholder (0.0) "
+                    f"#   for {len(req.elements)} element(s); replace every placeholder (0.0; sizes 1.0) "
                     "with real values"]
         if b.hint:
             comments.append(f"#   hint: {b.hint}")
