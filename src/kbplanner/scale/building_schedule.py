@@ -111,7 +111,6 @@ def schedule_tasks(storeys: int) -> list[dict[str, str]]:
     rows.sort(key=lambda r: (r["start"], r["task_id"]))
     return rows
 
-
 def schedule_csv(storeys: int) -> str:
     """``schedule.csv`` of the generated building."""
     buf = io.StringIO()

@@ -119,14 +119,8 @@ class SiteFiles:
         # Upper floors: the robot comes up in the lift and is set down in the lobby in front of the lift
         # door, facing west along the corridor.
         for k in range(1, self.n):
-            out += _pose_ttl(
-                f"{base}pose/robot-arrival-L{k + 1:02d}",
-                L - 2.0,
-                4.5,
-                k * STOREY_HEIGHT,
-                math.pi,
-                f"robot arrival on Level {k + 1}: the lift lobby, facing the corridor",
-            )
+            out += _pose_ttl(f"{base}pose/robot-arrival-L{k + 1:02d}", L - 2.0, 4.5, k * STOREY_HEIGHT,
+                             math.pi, f"robot arrival on Level {k + 1}: the lift lobby, facing the corridor")
         out.append("")
         out += _site_object(
             base, "office", "SiteOffice", "Site office", True, (6.0, 2.5, 2.7), -9.0, Dc + 9.0

@@ -86,9 +86,9 @@ class SweepSpec:
     clearance_m: float = PICKUP_CLEARANCE_M
 
 
-def build_variants(
-    spec: SweepSpec, *, base: StorageInfo | None = None, grid: OccupancyGrid | None = None
-) -> tuple[list[Variant], dict[str, str]]:
+
+def build_variants(spec: SweepSpec, *, base: StorageInfo | None = None, grid: OccupancyGrid | None = None
+                   ) -> tuple[list[Variant], dict[str, str]]:
     """The sweep's variants in a deterministic order, and the rejection reason of each rejected one.
 
     ``base`` and ``grid`` (the base scenario's storage and its free-ground map) are needed for moved
@@ -103,11 +103,8 @@ def build_variants(
         parsed = parse_storage(raw, manifest.scenarios)
         if isinstance(parsed, float):
             if base is None or grid is None:
-                raise SweepError(
-                    "grid candidates need the base storage and map",
-                    element=raw,
-                    fix="call prepare_base(spec) first",
-                )
+                raise SweepError("grid candidates need the base storage and map", element=raw,
+                                 fix="call prepare_base(spec) first")
             cands.extend(grid_candidates(grid, base, parsed, clearance_m=spec.clearance_m))
         else:
             cands.append(parsed)
@@ -123,12 +120,9 @@ def build_variants(
             for start in starts:
                 offset = clock_s(start, f"start={start}") - work_start
                 if offset < 0:
-                    raise SweepError(
-                        f"start {start} is before the calendar's work_start {manifest.calendar.work_start}",
-                        file=manifest.path,
-                        element=start,
-                        fix="choose start times at or after work_start",
-                    )
+                    raise SweepError(f"start {start} is before the calendar's work_start "
+                                     f"{manifest.calendar.work_start}", file=manifest.path, element=start,
+                                     fix="choose start times at or after work_start")
                 n += 1
                 label = c.label if c is not None else scen
                 vid = f"v{n:03d}-{label}-s{seed}-t{start.replace(':', '')}"
@@ -136,19 +130,10 @@ def build_variants(
                 variants.append(Variant(vid, scenario, c, seed, start, offset))
                 if c is not None and c.moved:
                     if base is None or grid is None:
-                        raise SweepError(
-                            "moved candidates need the base storage and map",
-                            element=c.label,
-                            fix="call prepare_base(spec) first",
-                        )
-                    why = site_check(
-                        grid,
-                        base,
-                        c.x or 0.0,
-                        c.y or 0.0,
-                        base.yaw if c.yaw is None else c.yaw,
-                        clearance_m=spec.clearance_m,
-                    )
+                        raise SweepError("moved candidates need the base storage and map", element=c.label,
+                                         fix="call prepare_base(spec) first")
+                    why = site_check(grid, base, c.x or 0.0, c.y or 0.0,
+                                     base.yaw if c.yaw is None else c.yaw, clearance_m=spec.clearance_m)
                     if why:
                         rejected[vid] = why
     return variants, rejected
@@ -157,19 +142,12 @@ def build_variants(
 def _base_scenario(spec: SweepSpec, manifest: Any) -> str:
     if spec.scenario is not None:
         if spec.scenario not in manifest.scenarios:
-            raise SweepError(
-                f"unknown scenario {spec.scenario!r}",
-                file=manifest.path,
-                element=spec.scenario,
-                fix="choose one of: " + (", ".join(sorted(manifest.scenarios)) or "none"),
-            )
+            raise SweepError(f"unknown scenario {spec.scenario!r}", file=manifest.path, element=spec.scenario,
+                             fix="choose one of: " + (", ".join(sorted(manifest.scenarios)) or "none"))
         return str(spec.scenario)
     if not manifest.scenarios:
-        raise SweepError(
-            "the project has no scenario to sweep",
-            file=manifest.path,
-            fix="add a [scenarios.NAME] with the storage overlay to project.toml",
-        )
+        raise SweepError("the project has no scenario to sweep", file=manifest.path,
+                         fix="add a [scenarios.NAME] with the storage overlay to project.toml")
     return str(sorted(manifest.scenarios)[0])
 
 
@@ -188,16 +166,10 @@ def prepare_base(spec: SweepSpec) -> tuple[StorageInfo, OccupancyGrid] | None:
     return st, free_ground_grid(world_of(project), st.iri)
 
 
-def run_sweep(
-    spec: SweepSpec,
-    *,
-    out_dir: Path | None = None,
-    workers: int = 1,
-    cluster: str | None = None,
-    keep_runs: bool = False,
-    safety: str = "threshold",
-    progress: Progress | None = None,
-) -> SweepResult:
+
+def run_sweep(spec: SweepSpec, *, out_dir: Path | None = None, workers: int = 1,
+              cluster: str | None = None, keep_runs: bool = False, safety: str = "threshold",
+              progress: Progress | None = None) -> SweepResult:
     """Build the variants, simulate them (rejected ones are rows with their reason), rank, write outputs.
 
     With ``keep_runs`` each variant's run directory is kept as ``out_dir/runs/<variant id>``
@@ -211,36 +183,18 @@ def run_sweep(
     if keep_runs and out_dir is None:
         raise SweepError("keep_runs needs an output directory", fix="give --out DIR")
     with run_directory(out_dir) if out_dir is not None else nullcontext(None) as stage:
-        return _run_variants(
-            spec, variants, rejected, base, stage, out_dir, workers, cluster, keep_runs, safety, progress
-        )
+        return _run_variants(spec, variants, rejected, base, stage, out_dir, workers, cluster, keep_runs,
+                             safety, progress)
 
 
-def _run_variants(
-    spec: SweepSpec,
-    variants: list[Variant],
-    rejected: dict[str, str],
-    base: StorageInfo | None,
-    stage: Path | None,
-    out_dir: Path | None,
-    workers: int,
-    cluster: str | None,
-    keep_runs: bool,
-    safety: str,
-    progress: Progress | None,
-) -> SweepResult:
+def _run_variants(spec: SweepSpec, variants: list[Variant], rejected: dict[str, str],
+                  base: StorageInfo | None, stage: Path | None, out_dir: Path | None, workers: int,
+                  cluster: str | None, keep_runs: bool, safety: str, progress: Progress | None
+                  ) -> SweepResult:
     runs_dir = (stage / "runs").resolve() if keep_runs and stage is not None else None
-    tasks = [
-        VariantTask(
-            str(Path(spec.project_dir).resolve()),
-            v,
-            spec.max_elements,
-            spec.threshold_m,
-            str(runs_dir / v.id) if runs_dir is not None else None,
-        )
-        for v in variants
-        if v.id not in rejected
-    ]
+    tasks = [VariantTask(str(Path(spec.project_dir).resolve()), v, spec.max_elements, spec.threshold_m,
+                         str(runs_dir / v.id) if runs_dir is not None else None)
+             for v in variants if v.id not in rejected]
     log.info("sweep: %d variants, %d rejected before simulation", len(variants), len(rejected))
     done = {r.variant: r for r in execute(tasks, workers=workers, cluster=cluster, progress=progress)}
     rows = []
@@ -251,20 +205,9 @@ def _run_variants(
         c = v.storage
         assert c is not None and base is not None
         yaw = base.yaw if c.yaw is None else c.yaw
-        rows.append(
-            VariantResult(
-                variant=v.id,
-                scenario=v.scenario,
-                storage=c.label,
-                storage_x=c.x,
-                storage_y=c.y,
-                storage_yaw=rounded(yaw, 4),
-                seed=v.seed,
-                start=v.start,
-                status=REJECTED,
-                reason=rejected[v.id],
-            )
-        )
+        rows.append(VariantResult(variant=v.id, scenario=v.scenario, storage=c.label, storage_x=c.x,
+                                  storage_y=c.y, storage_yaw=rounded(yaw, 4), seed=v.seed, start=v.start,
+                                  status=REJECTED, reason=rejected[v.id]))
     result = SweepResult(rows=rows, front=pareto_front(rows, safety), safety=safety, out_dir=out_dir)
     if stage is not None:
         write_sweep(result, stage)

@@ -76,11 +76,8 @@ def parse_vary(texts: Sequence[str]) -> SweepAxes:
         axis, sep, values = text.partition("=")
         axis = axis.strip()
         if not sep or axis not in AXES:
-            raise _bad_vary(
-                text,
-                f"expected AXIS=VALUES with AXIS one of {', '.join(AXES)}",
-                "write e.g. --vary storage=12.0,-16.0 --vary seed=1,2 --vary start=07:00,10:00",
-            )
+            raise _bad_vary(text, f"expected AXIS=VALUES with AXIS one of {', '.join(AXES)}",
+                            "write e.g. --vary storage=12.0,-16.0 --vary seed=1,2 --vary start=07:00,10:00")
         if not values.strip():
             raise _bad_vary(text, f"no values for {axis}", f"give at least one value after {axis}=")
         if axis == "storage":
@@ -92,9 +89,8 @@ def parse_vary(texts: Sequence[str]) -> SweepAxes:
                 try:
                     seeds.append(int(v.strip()))
                 except ValueError:
-                    raise _bad_vary(
-                        text, f"seed {v.strip()!r} is not an integer", "write --vary seed=1,2,3"
-                    ) from None
+                    raise _bad_vary(text, f"seed {v.strip()!r} is not an integer",
+                                    "write --vary seed=1,2,3") from None
         else:
             for v in values.split(","):
                 clock_s(v.strip(), text)
@@ -120,11 +116,8 @@ def parse_storage(value: str, scenarios: Iterable[str]) -> StorageCandidate | fl
         except ValueError:
             step = -1.0
         if not step > 0 or not math.isfinite(step):
-            raise _bad_vary(
-                f"storage={value}",
-                "grid step must be a positive number of metres",
-                "write --vary storage=grid:2.0",
-            )
+            raise _bad_vary(f"storage={value}", "grid step must be a positive number of metres",
+                            "write --vary storage=grid:2.0")
         return step
     parts = value.split(",")
     try:
@@ -132,12 +125,10 @@ def parse_storage(value: str, scenarios: Iterable[str]) -> StorageCandidate | fl
     except ValueError:
         nums = []
     if len(nums) not in (2, 3) or not all(math.isfinite(n) for n in nums):
-        raise _bad_vary(
-            f"storage={value}",
-            "a storage candidate is a scenario name, X,Y, X,Y,YAW or grid:STEP",
-            "use metres and radians in the site frame, e.g. storage=12.0,-16.0,1.5708; "
-            "scenarios: " + (", ".join(sorted(known)) or "none"),
-        )
+        raise _bad_vary(f"storage={value}",
+                        "a storage candidate is a scenario name, X,Y, X,Y,YAW or grid:STEP",
+                        "use metres and radians in the site frame, e.g. storage=12.0,-16.0,1.5708; "
+                        "scenarios: " + (", ".join(sorted(known)) or "none"))
     x, y = round(nums[0], 3), round(nums[1], 3)
     yaw = round(nums[2], 6) if len(nums) == 3 else None
     label = f"x{x:.2f}y{y:.2f}" + (f"r{yaw:.2f}" if yaw is not None else "")

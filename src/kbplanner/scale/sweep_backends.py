@@ -26,19 +26,13 @@ Progress = Callable[[int, int, str], None]  # (done, total, variant id)
 
 
 def _missing_extra(module: str, extra: str) -> SweepError:
-    return SweepError(
-        f"{module} is not installed; a cluster address needs it",
-        element=module,
-        fix=f"pip install 'kbplanner[{extra}]' (or run with --workers N on this machine)",
-    )
+    return SweepError(f"{module} is not installed; a cluster address needs it", element=module,
+                      fix=f"pip install 'kbplanner[{extra}]' (or run with --workers N on this machine)")
 
 
 def _unreachable(address: str, what: str, err: Exception) -> SweepError:
-    return SweepError(
-        f"cannot reach the cluster at {address} ({type(err).__name__}: {err})",
-        element=address,
-        fix=f"start {what} there, or run with --workers N on this machine",
-    )
+    return SweepError(f"cannot reach the cluster at {address} ({type(err).__name__}: {err})", element=address,
+                      fix=f"start {what} there, or run with --workers N on this machine")
 
 
 def _ray_connect(ray: Any, address: str) -> Any:
@@ -58,24 +52,15 @@ def _ray_connect(ray: Any, address: str) -> Any:
         except ConnectionAbortedError as err:
             if attempt == RAY_CONNECT_ATTEMPTS:
                 raise _unreachable(address, what, err) from None
-            log.warning(
-                "Ray Client at %s: session start failed (attempt %d of %d), trying again",
-                address,
-                attempt,
-                RAY_CONNECT_ATTEMPTS,
-            )
+            log.warning("Ray Client at %s: session start failed (attempt %d of %d), trying again",
+                        address, attempt, RAY_CONNECT_ATTEMPTS)
         except ConnectionError as err:
             raise _unreachable(address, what, err) from None
     raise AssertionError("unreachable")  # pragma: no cover
 
 
-def execute(
-    tasks: Sequence[VariantTask],
-    *,
-    workers: int = 1,
-    cluster: str | None = None,
-    progress: Progress | None = None,
-) -> list[VariantResult]:
+def execute(tasks: Sequence[VariantTask], *, workers: int = 1, cluster: str | None = None,
+            progress: Progress | None = None) -> list[VariantResult]:
     """Run the tasks serially, in ``workers`` local processes or on a cluster; results in task order."""
     say = progress or (lambda _d, _t, _v: None)
     total = len(tasks)
@@ -83,9 +68,8 @@ def execute(
     if cluster:
         return _execute_cluster(tasks, cluster, say)
     if workers < 1:
-        raise SweepError(
-            f"--workers {workers} is not positive", element="--workers", fix="use --workers 1 or more"
-        )
+        raise SweepError(f"--workers {workers} is not positive", element="--workers",
+                         fix="use --workers 1 or more")
     if workers == 1 or total <= 1:
         for n, t in enumerate(tasks, start=1):
             results[t.variant.id] = run_variant(t)
@@ -103,11 +87,8 @@ def execute(
 def _execute_cluster(tasks: Sequence[VariantTask], address: str, say: Progress) -> list[VariantResult]:
     scheme, sep, rest = address.partition("://")
     if not sep or not rest or scheme not in ("dask", "ray"):
-        raise SweepError(
-            f"cluster address {address!r} is not dask://HOST:PORT or ray://HOST:PORT",
-            element=address,
-            fix="write --cluster dask://127.0.0.1:8786 or --cluster ray://HOST:10001",
-        )
+        raise SweepError(f"cluster address {address!r} is not dask://HOST:PORT or ray://HOST:PORT",
+                         element=address, fix="write --cluster dask://127.0.0.1:8786 or --cluster ray://HOST:10001")
     total = len(tasks)
     results: dict[str, VariantResult] = {}
     if scheme == "dask":

@@ -78,26 +78,18 @@ def pareto_png(rows: Sequence[VariantResult], front: Sequence[VariantResult], sa
     import matplotlib.pyplot as plt
 
     key = SAFETY_KEYS[safety]
-    label = (
-        "time below the proximity threshold (s)"
-        if safety == "threshold"
-        else "time below the ISO/TS 15066 protective separation distance (s)"
-    )
+    label = ("time below the proximity threshold (s)" if safety == "threshold"
+             else "time below the ISO/TS 15066 protective separation distance (s)")
     ok = [r for r in rows if r.complete]
     fig, ax = plt.subplots(figsize=(7, 5), dpi=100)
-    ax.scatter(
-        [float(getattr(r, key) or 0.0) for r in ok],
-        [float(r.total_min or 0.0) for r in ok],
-        c="#9aa5b1",
-        label="variants",
-    )
+    ax.scatter([float(getattr(r, key) or 0.0) for r in ok], [float(r.total_min or 0.0) for r in ok],
+               c="#9aa5b1", label="variants")
     fx = [float(getattr(r, key) or 0.0) for r in front]
     fy = [float(r.total_min or 0.0) for r in front]
     ax.plot(fx, fy, "-o", c="#d1495b", label="Pareto front")
     for r in front:
-        ax.annotate(
-            r.variant, (getattr(r, key), r.total_min), fontsize=7, xytext=(4, 4), textcoords="offset points"
-        )
+        ax.annotate(r.variant, (getattr(r, key), r.total_min), fontsize=7, xytext=(4, 4),
+                    textcoords="offset points")
     ax.set_xlabel(label)
     ax.set_ylabel("total duration (min)")
     ax.set_title("Storage locations and start times: safety vs duration")
@@ -112,13 +104,8 @@ def pareto_png(rows: Sequence[VariantResult], front: Sequence[VariantResult], sa
 def write_sweep(result: SweepResult, out_dir: Path) -> None:
     """``sweep.csv``, ``sweep.json``, ``pareto.csv`` and ``pareto.png`` into ``out_dir``."""
     atomic_write_text(out_dir / "sweep.csv", _csv(result.rows))
-    write_json(
-        out_dir / "sweep.json",
-        {
-            "safety_objective": SAFETY_KEYS[result.safety],
-            "rows": [asdict(r) for r in result.rows],
-            "pareto": [r.variant for r in result.front],
-        },
-    )
+    write_json(out_dir / "sweep.json", {"safety_objective": SAFETY_KEYS[result.safety],
+                                        "rows": [asdict(r) for r in result.rows],
+                                        "pareto": [r.variant for r in result.front]})
     atomic_write_text(out_dir / "pareto.csv", _csv(result.front))
     atomic_write_bytes(out_dir / "pareto.png", pareto_png(result.rows, result.front, result.safety))

@@ -74,9 +74,8 @@ def rounded(v: float | None, nd: int = 3) -> float | None:
     return None if v is None else round(float(v), nd)
 
 
-def shifted_workers(
-    project: ProjectData, grid: OccupancyGrid, *, seed: int, horizon_s: float, offset_s: float
-) -> list[WorkerMotion]:
+def shifted_workers(project: ProjectData, grid: OccupancyGrid, *, seed: int, horizon_s: float,
+                    offset_s: float) -> list[WorkerMotion]:
     """The workers' motions from ``offset_s`` seconds into their day on: planned from 0, shifted."""
     from kbplanner.simulation.workers import plan_workers
 
@@ -84,11 +83,8 @@ def shifted_workers(
     if offset_s <= 0:
         return motions
     for m in motions:
-        m.segments = [
-            (t0 - offset_s, t1 - offset_s, pts, cum)
-            for t0, t1, pts, cum in m.segments
-            if t1 - offset_s >= 0.0
-        ]
+        m.segments = [(t0 - offset_s, t1 - offset_s, pts, cum) for t0, t1, pts, cum in m.segments
+                      if t1 - offset_s >= 0.0]
     return motions
 
 
@@ -113,17 +109,9 @@ def run_variant(task: VariantTask) -> VariantResult:
         yaw = st.yaw if v.storage.yaw is None else float(v.storage.yaw)
         apply_overlay(project.model, storage_overlay(st, x, y, yaw))
     label = v.storage.label if v.storage else v.scenario
-    row = VariantResult(
-        variant=v.id,
-        scenario=v.scenario,
-        storage=label,
-        storage_x=rounded(x),
-        storage_y=rounded(y),
-        storage_yaw=rounded(yaw, 4),
-        seed=v.seed,
-        start=v.start,
-        status=OK,
-    )
+    row = VariantResult(variant=v.id, scenario=v.scenario, storage=label,
+                        storage_x=rounded(x), storage_y=rounded(y), storage_yaw=rounded(yaw, 4), seed=v.seed,
+                        start=v.start, status=OK)
     try:
         world = world_of(project)
         grid = storey_map(world).grid
@@ -138,16 +126,8 @@ def run_variant(task: VariantTask) -> VariantResult:
         workers = shifted_workers(project, grid, seed=v.seed, horizon_s=horizon, offset_s=v.start_offset_s)
         with tempfile.TemporaryDirectory(prefix="kbplanner-sweep-") as tmp:
             out = Path(task.run_dir) if task.run_dir else Path(tmp) / "run"
-            simulate(
-                project,
-                refined,
-                seed=v.seed,
-                out_dir=out,
-                world=world,
-                grid=grid,
-                settings=ExecSettings(keyframes=False),
-                workers=workers,
-            )
+            simulate(project, refined, seed=v.seed, out_dir=out, world=world, grid=grid,
+                     settings=ExecSettings(keyframes=False), workers=workers)
             rec = RunRecord.load(out)
             fig = scenario_figures(rec, rec.proximity(threshold_m=task.threshold_m))
     except KbplannerError as err:

@@ -55,39 +55,24 @@ def _num(g: Graph, s: URIRef, p: URIRef, file: Any, fix: str) -> float:
 def find_storage(model: Graph, *, file: Any = None) -> StorageInfo:
     """The one material storage the model's elements are stored in (``kbp:storedIn``)."""
     storages = sorted({str(o) for o in model.objects(None, KBP.storedIn)})
-    fix = (
-        "sweep from a scenario with one kbp:MaterialStorage "
-        "(see data/case_study/scenarios/storage_outside.ttl)"
-    )
+    fix = ("sweep from a scenario with one kbp:MaterialStorage "
+           "(see data/case_study/scenarios/storage_outside.ttl)")
     if len(storages) != 1:
-        raise SweepError(
-            f"{len(storages)} material storages hold elements; a moved candidate needs exactly one",
-            file=file,
-            element=", ".join(storages) or "kbp:storedIn",
-            fix=fix,
-        )
+        raise SweepError(f"{len(storages)} material storages hold elements; "
+                         "a moved candidate needs exactly one",
+                         file=file, element=", ".join(storages) or "kbp:storedIn", fix=fix)
     s = URIRef(storages[0])
     pose, pickup = model.value(s, KBP.installedPose), model.value(s, KBP.pickupLocation)
     if not isinstance(pose, URIRef) or not isinstance(pickup, URIRef):
-        raise SweepError(
-            "the storage has no kbp:installedPose or kbp:pickupLocation (as IRIs)",
-            file=file,
-            element=str(s),
-            fix="give both poses as named kbp:Pose nodes",
-        )
+        raise SweepError("the storage has no kbp:installedPose or kbp:pickupLocation (as IRIs)",
+                         file=file, element=str(s), fix="give both poses as named kbp:Pose nodes")
     return StorageInfo(
-        iri=str(s),
-        pose_iri=str(pose),
-        pickup_iri=str(pickup),
-        x=_num(model, pose, KBP.x, file, fix),
-        y=_num(model, pose, KBP.y, file, fix),
+        iri=str(s), pose_iri=str(pose), pickup_iri=str(pickup),
+        x=_num(model, pose, KBP.x, file, fix), y=_num(model, pose, KBP.y, file, fix),
         yaw=_num(model, pose, KBP.yaw, file, fix) if model.value(pose, KBP.yaw) is not None else 0.0,
         size=(_num(model, s, KBP.sizeX, file, fix), _num(model, s, KBP.sizeY, file, fix)),
-        pickup=(
-            _num(model, pickup, KBP.x, file, fix),
-            _num(model, pickup, KBP.y, file, fix),
-            _num(model, pickup, KBP.yaw, file, fix) if model.value(pickup, KBP.yaw) is not None else 0.0,
-        ),
+        pickup=(_num(model, pickup, KBP.x, file, fix), _num(model, pickup, KBP.y, file, fix),
+                _num(model, pickup, KBP.yaw, file, fix) if model.value(pickup, KBP.yaw) is not None else 0.0),
     )
 
 
@@ -101,11 +86,8 @@ def moved_pickup(st: StorageInfo, x: float, y: float, yaw: float) -> tuple[float
     c, s = math.cos(-st.yaw), math.sin(-st.yaw)
     rx, ry = c * (px - st.x) - s * (py - st.y), s * (px - st.x) + c * (py - st.y)
     c2, s2 = math.cos(yaw), math.sin(yaw)
-    return (
-        round(x + c2 * rx - s2 * ry, 6),
-        round(y + s2 * rx + c2 * ry, 6),
-        round(_wrap(yaw + pyaw - st.yaw), 6),
-    )
+    return (round(x + c2 * rx - s2 * ry, 6), round(y + s2 * rx + c2 * ry, 6),
+            round(_wrap(yaw + pyaw - st.yaw), 6))
 
 
 @dataclass
@@ -150,15 +132,8 @@ def free_ground_grid(world: World, storage_iri: str) -> OccupancyGrid:
     return storey_map(replace(world, site_objects=others)).grid
 
 
-def site_check(
-    grid: OccupancyGrid,
-    st: StorageInfo,
-    x: float,
-    y: float,
-    yaw: float,
-    *,
-    clearance_m: float = PICKUP_CLEARANCE_M,
-) -> str | None:
+def site_check(grid: OccupancyGrid, st: StorageInfo, x: float, y: float, yaw: float, *,
+               clearance_m: float = PICKUP_CLEARANCE_M) -> str | None:
     """Why the storage cannot stand at (x, y, yaw), or None when its footprint and pickup pose are free."""
     hx, hy = st.size[0] / 2, st.size[1] / 2
     us = np.linspace(-hx, hx, max(2, math.ceil(2 * hx / SAMPLE_STEP_M) + 1))
@@ -176,15 +151,13 @@ def site_check(
         return f"pickup location ({kx:.2f}, {ky:.2f}) is outside the site map"
     free = grid.clearance_at(kx, ky)
     if free < clearance_m:
-        return (
-            f"pickup location ({kx:.2f}, {ky:.2f}) has {free:.2f} m free around it, needs {clearance_m:.2f} m"
-        )
+        return (f"pickup location ({kx:.2f}, {ky:.2f}) has {free:.2f} m free around it, "
+                f"needs {clearance_m:.2f} m")
     return None
 
 
-def grid_candidates(
-    grid: OccupancyGrid, st: StorageInfo, step_m: float, *, clearance_m: float = PICKUP_CLEARANCE_M
-) -> list[StorageCandidate]:
+def grid_candidates(grid: OccupancyGrid, st: StorageInfo, step_m: float, *,
+                    clearance_m: float = PICKUP_CLEARANCE_M) -> list[StorageCandidate]:
     """Storage positions on a ``step_m`` grid over the map where storage and pickup pose are free."""
     ext = grid.extent
     out = []

@@ -41,18 +41,8 @@ log = logging.getLogger(__name__)
 
 Say = Callable[[str], None]
 
-TASK_COLUMNS = [
-    "task",
-    "label",
-    "world date",
-    "installed",
-    "elements",
-    "simulated (min)",
-    "per element (min)",
-    "min separation (m)",
-    "time < 1 m (s)",
-    "stops for workers",
-]
+TASK_COLUMNS = ["task", "label", "world date", "installed", "elements", "simulated (min)",
+                "per element (min)", "min separation (m)", "time < 1 m (s)", "stops for workers"]
 
 
 @dataclass(frozen=True)
@@ -73,18 +63,10 @@ class TaskFigures:
 
     def row(self) -> list[Any]:
         """One row of ``tasks.csv``."""
-        return [
-            self.task_id,
-            self.label,
-            self.world_date,
-            self.installed,
-            self.elements,
-            round(self.sim_time_s / 60.0, 2),
-            None if self.per_element_min is None else round(self.per_element_min, 2),
-            round(self.min_separation_m, 2),
-            round(self.below_threshold_s, 1),
-            self.worker_stops,
-        ]
+        return [self.task_id, self.label, self.world_date, self.installed, self.elements,
+                round(self.sim_time_s / 60.0, 2),
+                None if self.per_element_min is None else round(self.per_element_min, 2),
+                round(self.min_separation_m, 2), round(self.below_threshold_s, 1), self.worker_stops]
 
 
 @dataclass
@@ -118,20 +100,12 @@ class TaskRunsResult:
         """The table of ``tasks.csv`` with a totals row."""
         out = [t.row() for t in self.tasks]
         seps = [t.min_separation_m for t in self.tasks]
-        out.append(
-            [
-                "all",
-                f"{len(self.tasks)} tasks",
-                "",
-                self.installed,
-                self.elements,
-                round(self.sim_time_s / 60.0, 2),
-                round(self.sim_time_s / 60.0 / self.installed, 2) if self.installed else None,
-                round(min(seps), 2) if seps else None,
-                round(sum(t.below_threshold_s for t in self.tasks), 1),
-                sum(t.worker_stops for t in self.tasks),
-            ]
-        )
+        out.append(["all", f"{len(self.tasks)} tasks", "", self.installed, self.elements,
+                    round(self.sim_time_s / 60.0, 2),
+                    round(self.sim_time_s / 60.0 / self.installed, 2) if self.installed else None,
+                    round(min(seps), 2) if seps else None,
+                    round(sum(t.below_threshold_s for t in self.tasks), 1),
+                    sum(t.worker_stops for t in self.tasks)])
         return out
 
     def text(self) -> str:
@@ -141,25 +115,13 @@ class TaskRunsResult:
     def write(self, out_dir: Path) -> None:
         """``tasks.csv``, ``tasks.json`` (deterministic) and ``tasks_timings.json`` (wall times)."""
         atomic_write_text(out_dir / "tasks.csv", render(TASK_COLUMNS, self.rows(), fmt="csv"))
-        write_json(
-            out_dir / "tasks.json",
-            {
-                "scenario": self.scenario,
-                "tasks": [asdict(t) for t in self.tasks],
-                "installed": self.installed,
-                "elements": self.elements,
-                "sim_time_s": round(self.sim_time_s, 3),
-            },
-        )
-        write_json(
-            out_dir / "tasks_timings.json",
-            {
-                "workers": self.workers,
-                "wall_s": round(self.wall_s, 3),
-                "real_time_factor": round(self.sim_time_s / self.wall_s, 1) if self.wall_s > 0 else None,
-                "tasks": {k: round(v, 3) for k, v in self.task_wall_s.items()},
-            },
-        )
+        write_json(out_dir / "tasks.json", {
+            "scenario": self.scenario, "tasks": [asdict(t) for t in self.tasks], "installed": self.installed,
+            "elements": self.elements, "sim_time_s": round(self.sim_time_s, 3)})
+        write_json(out_dir / "tasks_timings.json", {
+            "workers": self.workers, "wall_s": round(self.wall_s, 3),
+            "real_time_factor": round(self.sim_time_s / self.wall_s, 1) if self.wall_s > 0 else None,
+            "tasks": {k: round(v, 3) for k, v in self.task_wall_s.items()}})
 
 
 @dataclass(frozen=True)
@@ -191,32 +153,17 @@ def _project(project_dir: Path, scenario: str | None) -> ProjectData:
 def _run(job: _Job) -> tuple[TaskFigures, ScenarioRun | None, float]:
     t0 = time.perf_counter()
     project = _project(job.project_dir, job.scenario)
-    run = simulate_scenario(
-        job.project_dir,
-        job.scenario,
-        seed=job.seed,
-        out_dir=job.out_dir,
-        keyframes=job.keyframes,
-        task_id=job.task_id,
-        project=project,
-        max_elements=job.max_elements,
-    )
+    run = simulate_scenario(job.project_dir, job.scenario, seed=job.seed, out_dir=job.out_dir,
+                            keyframes=job.keyframes, task_id=job.task_id, project=project,
+                            max_elements=job.max_elements)
     rec = RunRecord.load(job.out_dir)
     fig = scenario_figures(rec, rec.proximity(threshold_m=1.0))
     world_date = project.world_date(job.task_id).isoformat()  # the date simulate_scenario's world used
     figures = TaskFigures(
-        task_id=job.task_id,
-        label=job.label,
-        world_date=world_date,
-        installed=fig.installed,
-        elements=fig.elements,
-        sim_time_s=float(rec.metrics.get("totals", {}).get("sim_time_s", 0.0)),
-        per_element_min=fig.per_element_min,
-        min_separation_m=fig.min_separation_m,
-        below_threshold_s=fig.below_threshold_s,
-        worker_stops=fig.worker_stops,
-        run_dir=job.rel_dir,
-    )
+        task_id=job.task_id, label=job.label, world_date=world_date, installed=fig.installed,
+        elements=fig.elements, sim_time_s=float(rec.metrics.get("totals", {}).get("sim_time_s", 0.0)),
+        per_element_min=fig.per_element_min, min_separation_m=fig.min_separation_m,
+        below_threshold_s=fig.below_threshold_s, worker_stops=fig.worker_stops, run_dir=job.rel_dir)
     return figures, (run if job.main else None), time.perf_counter() - t0
 
 
@@ -228,13 +175,8 @@ def robotized_tasks(project: ProjectData) -> list[tuple[str, str, datetime | Non
         if not robotized or str(robotized).lower() in ("false", "0"):
             continue
         when = start.toPython() if hasattr(start, "toPython") else start
-        out.append(
-            (
-                str(task_id),
-                str(label or task_id),
-                when.replace(tzinfo=None) if isinstance(when, datetime) else None,
-            )
-        )
+        out.append((str(task_id), str(label or task_id),
+                    when.replace(tzinfo=None) if isinstance(when, datetime) else None))
     return out
 
 
@@ -264,11 +206,8 @@ def simulate_tasks(
     """
     say = progress or (lambda _m: None)
     if workers < 1:
-        raise KbplannerError(
-            f"workers must be at least 1, got {workers}",
-            element="--workers",
-            fix="give --workers 1 or more (the number of cores is a good choice)",
-        )
+        raise KbplannerError(f"workers must be at least 1, got {workers}", element="--workers",
+                             fix="give --workers 1 or more (the number of cores is a good choice)")
     project = project or ProjectData.load(project_dir, scenario=scenario)
     main_task = str(project.manifest.simulation.get("task") or "")
     known = robotized_tasks(project)
@@ -277,12 +216,9 @@ def simulate_tasks(
         ids = {k for k, _l, _s in known}
         unknown = [t for t in wanted if t not in ids]
         if unknown:
-            raise KbplannerError(
-                f"not a robotized task of the schedule: {', '.join(unknown)}",
-                file=project.manifest.path,
-                element=unknown[0],
-                fix=f"use one of {', '.join(sorted(ids)) or '(none)'}",
-            )
+            raise KbplannerError(f"not a robotized task of the schedule: {', '.join(unknown)}",
+                                 file=project.manifest.path, element=unknown[0],
+                                 fix=f"use one of {', '.join(sorted(ids)) or '(none)'}")
         known = [k for k in known if k[0] in wanted]
     if not main_task and known:
         main_task = known[0][0]
@@ -291,20 +227,8 @@ def simulate_tasks(
         is_main = task_id == main_task
         where = main_dir if (is_main and main_dir is not None) else out_dir / task_id
         rel = Path(os.path.relpath(where.resolve(), out_dir.resolve())).as_posix()
-        jobs.append(
-            _Job(
-                project_dir,
-                scenario,
-                task_id,
-                label,
-                seed,
-                where,
-                rel,
-                keyframes and is_main,
-                is_main,
-                max_elements,
-            )
-        )
+        jobs.append(_Job(project_dir, scenario, task_id, label, seed, where, rel,
+                         keyframes and is_main, is_main, max_elements))
     _LOADED[(str(project_dir.resolve()), scenario)] = project
     result = TaskRunsResult(scenario=scenario, out_dir=out_dir, workers=workers)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -314,10 +238,8 @@ def simulate_tasks(
     def tell(job: _Job, res: tuple[TaskFigures, ScenarioRun | None, float]) -> None:
         done[job.task_id] = res
         f = res[0]
-        say(
-            f"{scenario or 'bare'}: tasks {len(done)}/{len(jobs)} ({f.task_id}: {f.installed}/{f.elements} "
-            f"installed, {f.sim_time_s / 60.0:.1f} min simulated in {res[2]:.0f} s)"
-        )
+        say(f"{scenario or 'bare'}: tasks {len(done)}/{len(jobs)} ({f.task_id}: {f.installed}/{f.elements} "
+            f"installed, {f.sim_time_s / 60.0:.1f} min simulated in {res[2]:.0f} s)")
 
     if workers == 1 or len(jobs) <= 1:
         for job in jobs:
@@ -326,8 +248,7 @@ def simulate_tasks(
         ctx = multiprocessing.get_context("spawn")
         with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=ctx) as pool:
             futures: list[tuple[_Job, Future[tuple[TaskFigures, ScenarioRun | None, float]]]] = [
-                (job, pool.submit(_run, job)) for job in jobs
-            ]
+                (job, pool.submit(_run, job)) for job in jobs]
             for job, fut in futures:
                 tell(job, fut.result())
     result.wall_s = time.perf_counter() - t0
@@ -338,13 +259,6 @@ def simulate_tasks(
         if run is not None:
             result.main = run
     result.write(out_dir)
-    log.info(
-        "%d tasks of %s: %d/%d installed, %.0f s simulated in %.0f s wall",
-        len(jobs),
-        scenario,
-        result.installed,
-        result.elements,
-        result.sim_time_s,
-        result.wall_s,
-    )
+    log.info("%d tasks of %s: %d/%d installed, %.0f s simulated in %.0f s wall", len(jobs), scenario,
+             result.installed, result.elements, result.sim_time_s, result.wall_s)
     return result
