@@ -40,6 +40,7 @@ COMMANDS: tuple[str, ...] = (
     "report",
     "export_mcap",
     "run",
+    "init",
     "generate_building",
     "sweep",
 )

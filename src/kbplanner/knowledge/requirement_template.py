@@ -7,6 +7,7 @@ added to the project, the file meets the requirements (A3 -> A4).
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from typing import Any
 
@@ -14,7 +15,8 @@ from rdflib import RDF, XSD, Graph, Literal, URIRef
 from rdflib.term import Node
 
 from kbplanner.core.iris import mint, slug
-from kbplanner.core.rdf_io import bind_prefixes
+from kbplanner.core.rdf_io import bind_prefixes, parse_turtle
+from kbplanner.core.resources import shape_files
 from kbplanner.core.vocab import KBP
 from kbplanner.knowledge.binding_paths import (
     Gap,
@@ -25,7 +27,7 @@ from kbplanner.knowledge.binding_paths import (
     steps_of,
     walk,
 )
-from kbplanner.knowledge.knowledge_base import is_datatype, label
+from kbplanner.knowledge.knowledge_base import SH, is_datatype, label
 from kbplanner.knowledge.requirement_rows import WRONG_TYPE, Requirement, class_fill
 from kbplanner.knowledge.requirement_shapes import shape_base
 
@@ -40,6 +42,27 @@ def _placeholder(datatype: URIRef) -> Literal:
     if datatype in _PLACEHOLDER:
         return _PLACEHOLDER[datatype]
     return Literal("TODO", datatype=datatype if datatype != XSD.string else None)
+
+
+@functools.cache
+def _shapes() -> Graph:
+    g = Graph()
+    for p in shape_files():
+        parse_turtle(p, into=g)
+    return g
+
+
+def _required_by_shapes(cls: URIRef) -> list[tuple[URIRef, URIRef | None]]:
+    """(path, sh:class or None) of the validation shapes' required properties of ``cls``, by path."""
+    g = _shapes()
+    out: dict[URIRef, URIRef | None] = {}
+    for shape in g.subjects(SH.targetClass, cls):
+        for ps in g.objects(shape, SH.property):
+            path, low = g.value(ps, SH.path), g.value(ps, SH.minCount)
+            if isinstance(path, URIRef) and isinstance(low, Literal) and int(low) >= 1:
+                node_cls = g.value(ps, SH["class"])
+                out[path] = node_cls if isinstance(node_cls, URIRef) else None
+    return sorted(out.items(), key=lambda kv: str(kv[0]))
 
 
 def render_template(requirements: Sequence[Requirement], model: Graph, kb: Graph, base: str | None) -> str:
@@ -64,6 +87,7 @@ class _Template:
         self.minted: dict[tuple[Any, ...], URIRef] = {}
         self.taken: set[URIRef] = set()
         self.keys: dict[Node, str] = {}
+        self.current_base = base or ""
 
     def _local(self, node: Node) -> str:
         if node in self.keys:
@@ -95,16 +119,27 @@ class _Template:
         out.setdefault(subject, []).append((RDF.type, cls))
         for p, rng in class_fill(self.kb, cls):
             out[subject].append((p, _placeholder(rng)))
+        # what validation needs besides (shapes/*.ttl, sh:minCount >= 1): a storage's pose and size
+        for p, node_cls in _required_by_shapes(cls):
+            if node_cls is None:  # a size: 1.0, as the numeric rule refuses 0 where a size is read
+                out[subject].append((p, Literal(1.0)))
+                continue
+            local = f"{self._local(subject)}-{slug(label(self.kb, p))}"
+            node, new = self._node(("required", subject, p), node_cls, local, self.current_base)
+            out[subject].append((p, node))
+            if new:
+                self._fill(node, node_cls, out)
 
     def _requirement(self, req: Requirement) -> tuple[list[str], dict[Node, list[tuple[Node, Node]]]]:
         bt = req.target
         b = bt.binding
         vc = b.input.value_class
         base = self.base or shape_base(bt.task.iri)
+        self.current_base = base
         comments = [f"# TODO requirement {req.number}: {req.task_id} action {req.action_order} "
                     f"'{req.action_label}' ({req.skill_id} {req.input_name})",
                     f"#   {req.problem}: {req.missing}",
-                    f"#   for {len(req.elements)} element(s); replace every placeholder (0.0) "
+                    f"#   for {len(req.elements)} element(s); replace every placeholder (0.0; sizes 1.0) "
                     "with real values"]
         if b.hint:
             comments.append(f"#   hint: {b.hint}")
