@@ -7,8 +7,7 @@ import json
 import sys
 from dataclasses import asdict
 
-from kbplanner.core.stores import add_store_argument
-from kbplanner.project import Project
+from kbplanner.core.store_spec import add_store_argument
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -21,6 +20,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from kbplanner.project import Project
+
     project = Project.load(args.project, scenario=args.scenario, store=args.store)
     info = project.info()
     if args.format == "json":
