@@ -65,7 +65,8 @@ from kbplanner.core.store_spec import (
 
 __all__ = [  # the spec names live in kbplanner.core.store_spec (light); re-exported here
     "MEMORY", "OXIGRAPH", "SPARQL", "STORE_FORMS", "EndpointStore", "StoreError", "StoreSpec",
-    "add_store_argument", "bind_values", "describe", "parse_store", "place_graphs", "result_json",
+    "add_store_argument", "bind_values", "describe", "parse_store", "place_files", "place_graphs",
+    "result_json",
 ]
 
 log = logging.getLogger(__name__)
@@ -322,6 +323,29 @@ def place_graphs(spec: str | StoreSpec | None, model: Graph, kb: Graph, *,
         out = _endpoint_graphs(s, model, kb, graph_base)
     log.info("model on %s in %.2f s", s.text, time.perf_counter() - t0)
     return out
+
+
+def place_files(spec: str | StoreSpec | None, model_nt: Path, kb_nt: Path) -> tuple[Graph, Graph] | None:
+    """The model graph and the merged model + knowledge-base graph read straight from N-Triples files
+    (the project cache) into an in-memory Oxigraph store; ``None`` for any other backend (the caller
+    parses the files and places the graphs). Blank nodes keep the files' labels, as rdflib's
+    :func:`kbplanner.model.project_cache` reading does, so both sides name the same nodes."""
+    s = parse_store(spec)
+    if s.kind != OXIGRAPH or s.location is not None:
+        return None
+    import pyoxigraph as ox
+
+    t0 = time.perf_counter()
+    placed, merged = new_graph(OXIGRAPH), new_graph(OXIGRAPH)
+    for g, files in ((placed, (model_nt,)), (merged, (model_nt, kb_nt))):
+        ident = g.identifier
+        name = ox.BlankNode(str(ident)) if isinstance(ident, BNode) else ox.NamedNode(str(ident))
+        inner = getattr(g.store, "_inner")  # noqa: B009 (oxrdflib's pyoxigraph store)
+        for path in files:
+            inner.extend(ox.Quad(q.subject, q.predicate, q.object, name)
+                         for q in ox.parse(path=str(path), format=ox.RdfFormat.N_TRIPLES))
+    log.info("model on %s from %s in %.2f s", s.text, model_nt.parent, time.perf_counter() - t0)
+    return placed, merged
 
 
 def describe(graph: Graph) -> str:

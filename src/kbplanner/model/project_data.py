@@ -24,7 +24,8 @@ from rdflib import RDF, Graph
 from kbplanner.core.errors import ProjectError
 from kbplanner.core.named_queries import QueryResult, run_named
 from kbplanner.core.number_rule import check_numbers
-from kbplanner.core.rdf_io import bind_prefixes, parse_turtle
+from kbplanner.core.rdf_io import bind_prefixes, parse_turtle, recording_reads
+from kbplanner.model import project_cache
 from kbplanner.model.project_manifest import Manifest, read_manifest
 
 if TYPE_CHECKING:
@@ -120,28 +121,15 @@ class ProjectData:
             raise ProjectError(f"unknown scenario {scenario!r}", file=manifest.path, element=scenario,
                                fix=f"choose one of: {known}")
         say = progress or (lambda _msg: None)
-        say(f"importing {manifest.ifc.name}")
-        result_graph, import_dir = import_cached(manifest)
-        model = Graph()
-        bind_prefixes(model)
-        for t in result_graph:
-            model.add(t)
-        if manifest.schedule is not None or manifest.schedule_from_ifc:
-            say("reading schedule")
-            model += _schedule_graph(manifest, model)
-        overlays: list[Path] = [*manifest.site, *manifest.jobsite, *manifest.augmentation]
-        if scenario is not None:
-            overlays += list(manifest.scenarios[scenario].overlays)
-        for p in overlays:
-            say(f"reading {p.name}")
-            overlay = parse_turtle(p)
-            check_numbers(overlay, p)  # the numeric rule, where the numbers are read
-            for triple in overlay:
-                model.add(triple)
-        say("loading knowledge base")
-        kb, kb_files = _load_kb(manifest.knowledge_base)
+        hit = _cache_hit(manifest, scenario)
+        from_cache = hit.graphs(store) if hit is not None else None
         merged: Graph | None = None
-        if store is not None:
+        if hit is not None and from_cache is not None:
+            say("project from cache")
+            (model, merged), kb, import_dir, kb_files = from_cache, hit.kb, hit.import_dir, hit.kb_files
+        else:
+            model, kb, import_dir, kb_files = _load_graphs(manifest, scenario, say)
+        if store is not None and merged is None:
             from kbplanner.core.stores import place_graphs
 
             say(f"placing the model on {store}")
@@ -271,6 +259,45 @@ class ProjectData:
             scenarios=sorted(self.manifest.scenarios),
             triples=len(self.model),
         )
+
+
+def _cache_hit(manifest: Manifest, scenario: str | None) -> project_cache.CacheEntry | None:
+    if not project_cache.enabled():
+        return None
+    entry = project_cache.entry_dir(cache_root(manifest.directory), manifest, scenario)
+    return project_cache.read_entry(entry)
+
+
+def _load_graphs(manifest: Manifest, scenario: str | None,
+                 say: ProgressFn) -> tuple[Graph, Graph, Path, list[Path]]:
+    """The model graph (import, schedule, overlays) and the knowledge base of a project and scenario,
+    read from the inputs; kept in the project cache (:mod:`kbplanner.model.project_cache`)."""
+    with recording_reads() as reads:
+        say(f"importing {manifest.ifc.name}")
+        result_graph, import_dir = import_cached(manifest)
+        model = Graph()
+        bind_prefixes(model)
+        for t in result_graph:
+            model.add(t)
+        if manifest.schedule is not None or manifest.schedule_from_ifc:
+            say("reading schedule")
+            model += _schedule_graph(manifest, model)
+        overlays: list[Path] = [*manifest.site, *manifest.jobsite, *manifest.augmentation]
+        if scenario is not None:
+            overlays += list(manifest.scenarios[scenario].overlays)
+        for p in overlays:
+            say(f"reading {p.name}")
+            overlay = parse_turtle(p)
+            check_numbers(overlay, p)  # the numeric rule, where the numbers are read
+            for triple in overlay:
+                model.add(triple)
+        say("loading knowledge base")
+        kb, kb_files = _load_kb(manifest.knowledge_base)
+    if project_cache.enabled():
+        entry = project_cache.entry_dir(cache_root(manifest.directory), manifest, scenario)
+        project_cache.write_entry(entry, project_cache.CachedProject(model, kb, import_dir, kb_files), reads,
+                                  project_cache.declared_inputs(manifest, scenario))
+    return model, kb, import_dir, kb_files
 
 
 def import_cached(manifest: Manifest) -> tuple[Graph, Path]:
