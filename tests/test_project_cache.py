@@ -80,7 +80,9 @@ def test_editing_a_turtle_file_changes_the_result(case: tuple[Path, Path]) -> No
     after, said = _load(proj)
     assert "project from cache" not in said
     assert after.info().workers == before.info().workers + 1
-    assert len(_entries(cache)) == 2  # one entry per set of inputs
+    assert len(_entries(cache)) == 1  # the entry of the old inputs was removed
+    _load(proj, scenario=None)
+    assert len(_entries(cache)) == 2  # one entry per scenario
 
 
 def test_a_change_of_a_file_read_through_owl_imports_is_seen(case: tuple[Path, Path]) -> None:

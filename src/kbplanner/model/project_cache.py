@@ -196,15 +196,24 @@ def read_entry(entry: Path) -> CacheEntry | None:
 
 # ---- writing -------------------------------------------------------------------------------------
 
-def write_entry(entry: Path, project: CachedProject, reads: Iterable[Path], declared: Iterable[Path]) -> bool:
+def owner_of(manifest: Manifest, scenario: str | None) -> str:
+    """What an entry is of: the project directory and the scenario (older entries of it are removed)."""
+    return f"{manifest.directory.resolve()}|{scenario or ''}"
+
+
+def write_entry(entry: Path, project: CachedProject, reads: Iterable[Path], declared: Iterable[Path],
+                owner: str = "") -> bool:
     """Keep ``project`` in ``entry`` (atomically: a temporary folder renamed into place); ``reads`` are
     the Turtle files the load parsed, those not among ``declared`` are recorded with their hashes.
-    Returns whether the entry was written; an error is logged, not raised (the cache is an aid)."""
+    Other entries of the same ``owner`` (:func:`owner_of`; made before an input changed) are removed,
+    so the cache holds one entry per project and scenario. Returns whether the entry was written; an
+    error is logged, not raised (the cache is an aid)."""
     known = {Path(p).resolve() for p in declared}
     extra = {str(Path(p).resolve()): _sha256(Path(p)) for p in reads if Path(p).resolve() not in known}
     meta = {
         "format": FORMAT,
         "kbplanner": __version__,
+        "owner": owner,
         "import_dir": str(project.import_dir.resolve()),
         "kb_files": [str(p) for p in project.kb_files],
         "extra_reads": dict(sorted(extra.items())),
@@ -228,6 +237,8 @@ def write_entry(entry: Path, project: CachedProject, reads: Iterable[Path], decl
         os.rename(tmp, entry)
         tmp = None
         log.info("project cached in %s", entry)
+        if owner:
+            _remove_older(entry, owner)
         return True
     except OSError as exc:  # read-only project, full disk, or another command placed it first
         if entry.is_dir() and (entry / META).is_file():
@@ -237,6 +248,22 @@ def write_entry(entry: Path, project: CachedProject, reads: Iterable[Path], decl
     finally:
         if tmp is not None:
             shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _remove_older(entry: Path, owner: str) -> None:
+    """Remove the other entries of ``owner`` beside ``entry`` (moved aside first: a reader sees a whole
+    entry or none)."""
+    for other in entry.parent.iterdir():
+        if other == entry or other.name.startswith("."):
+            continue
+        try:
+            if json.loads((other / META).read_text(encoding="utf-8")).get("owner") != owner:
+                continue
+            stale = Path(tempfile.mkdtemp(prefix=f".{other.name}.stale.", dir=entry.parent))
+            os.replace(other, stale / "entry")
+            shutil.rmtree(stale, ignore_errors=True)
+        except (OSError, ValueError, AttributeError):  # removed meanwhile, or not an entry
+            continue
 
 
 def _umask() -> int:

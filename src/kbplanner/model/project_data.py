@@ -296,7 +296,8 @@ def _load_graphs(manifest: Manifest, scenario: str | None,
     if project_cache.enabled():
         entry = project_cache.entry_dir(cache_root(manifest.directory), manifest, scenario)
         project_cache.write_entry(entry, project_cache.CachedProject(model, kb, import_dir, kb_files), reads,
-                                  project_cache.declared_inputs(manifest, scenario))
+                                  project_cache.declared_inputs(manifest, scenario),
+                                  owner=project_cache.owner_of(manifest, scenario))
     return model, kb, import_dir, kb_files
 
 
