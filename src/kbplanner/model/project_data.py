@@ -303,16 +303,18 @@ def _load_graphs(manifest: Manifest, scenario: str | None,
 
 def import_cached(manifest: Manifest) -> tuple[Graph, Path]:
     """Import the project's IFC, or reuse a cached import of the same bytes and importer version."""
-    from kbplanner.model import ifc_import
+    from kbplanner.model.import_version import IMPORTER_VERSION
 
     digest = file_sha256(manifest.ifc)[:16]
-    version = getattr(ifc_import, "IMPORTER_VERSION", "1")
+    version = IMPORTER_VERSION
     key = hashlib.sha256(f"{digest}|{manifest.base}|{version}".encode()).hexdigest()[:20]
     out = cache_root(manifest.directory) / key
     ttl = out / "model.ttl"
     if ttl.is_file():
         log.info("using cached import %s", out)
         return parse_turtle(ttl), out
+    from kbplanner.model import ifc_import  # ifcopenshell, trimesh: only when the IFC is imported
+
     result: ImportResult = ifc_import.import_ifc(manifest.ifc, out, base=manifest.base)
     return result.graph, out
 
