@@ -134,3 +134,19 @@ def test_two_commands_at_once_leave_one_whole_entry_and_no_temporary_folder(case
         project_cache.MODEL_NT, project_cache.KB_NT, project_cache.META}
     third = subprocess.run(cmd, capture_output=True, text=True, env=env, check=True, timeout=300)
     assert third.stdout == outs[0][0]
+
+
+def test_a_damaged_entry_is_not_used_and_is_replaced(case: tuple[Path, Path]) -> None:
+    proj, cache = case
+    cold, _ = _load(proj)
+    entry = cache / project_cache.SUBDIR / _entries(cache)[0]
+    for store in (None, "oxigraph"):  # read by rdflib, read straight into Oxigraph
+        (entry / project_cache.MODEL_NT).write_text("<a> <b> .\n", encoding="utf-8")  # not N-Triples
+        again, said = _load(proj, store=store)
+        assert "project from cache" not in said and again.info() == cold.info()
+        assert (entry / project_cache.MODEL_NT).stat().st_size > 1000  # replaced by the full load
+    (entry / project_cache.META).unlink()
+    again, said = _load(proj)
+    assert "project from cache" not in said and again.info() == cold.info()
+    _, said = _load(proj)
+    assert "project from cache" in said  # a whole entry again

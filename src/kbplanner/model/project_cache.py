@@ -33,6 +33,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from rdflib import Graph
+from rdflib.exceptions import ParserError
 
 from kbplanner.core.resources import data_dir, ontology_files
 from kbplanner.core.version import __version__
@@ -161,7 +162,7 @@ class CacheEntry:
                 if placed is not None:
                     return placed
             model = _graph(self.path / MODEL_NT, self.meta["model_namespaces"])
-        except (OSError, ValueError) as exc:
+        except (OSError, ValueError, SyntaxError, ParserError) as exc:  # removed or damaged meanwhile
             log.info("project cache %s not used: %s", self.path, exc)
             return None
         if len(model) != self.meta["model_triples"]:
@@ -186,7 +187,7 @@ def read_entry(entry: Path) -> CacheEntry | None:
         kb = _graph(entry / KB_NT, meta["kb_namespaces"])
         if len(kb) != meta["kb_triples"]:
             return None
-    except (OSError, ValueError, KeyError, TypeError) as exc:  # missing, half-removed or foreign entry
+    except (OSError, ValueError, KeyError, TypeError, ParserError) as exc:  # missing, half-removed, damaged
         log.info("project cache %s not used: %s", entry, exc)
         return None
     log.info("project from cache %s", entry)
