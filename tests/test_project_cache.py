@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from rdflib import URIRef
 from rdflib.compare import isomorphic
 
 from kbplanner.cli import NO_CACHE_ENV as CLI_NO_CACHE_ENV
@@ -150,3 +151,26 @@ def test_a_damaged_entry_is_not_used_and_is_replaced(case: tuple[Path, Path]) ->
     assert "project from cache" not in said and again.info() == cold.info()
     _, said = _load(proj)
     assert "project from cache" in said  # a whole entry again
+
+
+def test_world_tables_read_from_the_cache_equal_those_read_from_the_graph_until_it_changes(
+        case: tuple[Path, Path], monkeypatch: pytest.MonkeyPatch) -> None:
+    from dataclasses import replace
+
+    from kbplanner.world.tables import TABLE_QUERIES, world_tables
+
+    proj, _ = case
+    _load(proj)  # writes the entry
+    first, _ = _load(proj)
+    assert first.cache_entry is not None
+    tables = replace(world_tables(first), model_id=0)  # read by SPARQL, rows kept
+    kept = sorted(p.name for p in (first.cache_entry / project_cache.ROWS).iterdir())
+    assert kept == sorted(f"{name}.memory.json" for name, _ in TABLE_QUERIES)
+    second, _ = _load(proj)
+    assert replace(world_tables(second), model_id=0) == tables  # from the kept rows
+    monkeypatch.setenv(project_cache.NO_CACHE_ENV, "1")
+    assert replace(world_tables(second), model_id=0) == tables  # by SPARQL again
+    monkeypatch.delenv(project_cache.NO_CACHE_ENV)
+    tasks = second.pristine_rows([("world_tasks", False)])["world_tasks"].rows
+    second.model.remove((URIRef(tasks[0][0]), None, None))  # an API user edits the loaded graph
+    assert len(second.pristine_rows([("world_tasks", False)])["world_tasks"].rows) == len(tasks) - 1

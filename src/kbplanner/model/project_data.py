@@ -90,6 +90,7 @@ class ProjectData:
     import_dir: Path
     kb_files: list[Path] = field(default_factory=list)
     _merged: Graph | None = field(default=None, repr=False)
+    cache_entry: Path | None = field(default=None, repr=False)  # the project cache entry of the load
 
     # ---- loading -------------------------------------------------------------------------------
     @classmethod
@@ -121,22 +122,26 @@ class ProjectData:
             raise ProjectError(f"unknown scenario {scenario!r}", file=manifest.path, element=scenario,
                                fix=f"choose one of: {known}")
         say = progress or (lambda _msg: None)
-        hit = _cache_hit(manifest, scenario)
+        entry = (project_cache.entry_dir(cache_root(manifest.directory), manifest, scenario)
+                 if project_cache.enabled() else None)
+        hit = project_cache.read_entry(entry) if entry is not None else None
         from_cache = hit.graphs(store) if hit is not None else None
         merged: Graph | None = None
         if hit is not None and from_cache is not None:
             say("project from cache")
             (model, merged), kb, import_dir, kb_files = from_cache, hit.kb, hit.import_dir, hit.kb_files
         else:
-            model, kb, import_dir, kb_files = _load_graphs(manifest, scenario, say)
+            model, kb, import_dir, kb_files = _load_graphs(manifest, scenario, say, entry)
         if store is not None and merged is None:
             from kbplanner.core.stores import place_graphs
 
             say(f"placing the model on {store}")
             model, merged = place_graphs(store, model, kb,
                                          graph_base=f"{manifest.base}graph/{scenario or 'bare'}/")
+        if entry is not None and not (entry / project_cache.META).is_file():
+            entry = None  # not written (read-only project, full disk)
         return cls(manifest=manifest, scenario=scenario, model=model, kb=kb, import_dir=import_dir,
-                   kb_files=kb_files, _merged=merged)
+                   kb_files=kb_files, _merged=merged, cache_entry=entry)
 
     # ---- basic properties ----------------------------------------------------------------------
     @property
@@ -179,6 +184,27 @@ class ProjectData:
             >>> p.query("doors_and_widths", storeyLabel="Level 1")  # doctest: +SKIP
         """
         return run_named(self.graph, name, **bindings)
+
+    def pristine_rows(self, queries: Sequence[tuple[str, bool]]) -> dict[str, QueryResult]:
+        """Named queries without bindings, each ``(name, on_merged_graph)``, kept in the project cache
+        while the model and knowledge base are the ones loaded (checked by a hash of their triples,
+        :func:`kbplanner.model.project_cache.graphs_stamp`); the world tables read theirs so (A6)."""
+        from kbplanner.core.stores import describe
+
+        entry = self.cache_entry if project_cache.enabled() else None
+        backend = describe(self.graph)
+        if entry is not None and backend not in ("memory", "oxigraph"):
+            entry = None  # an endpoint's rows are the server's business
+        stamp = project_cache.graphs_stamp(self.model, self.kb) if entry is not None else ""
+        out: dict[str, QueryResult] = {}
+        for name, merged in queries:
+            kept = project_cache.read_rows(entry, name, backend, stamp) if entry is not None else None
+            if kept is None:
+                kept = run_named(self.graph if merged else self.model, name)
+                if entry is not None:
+                    project_cache.write_rows(entry, name, backend, stamp, kept)
+            out[name] = kept
+        return out
 
     def element_states(self, at: datetime) -> dict[str, str]:
         """State of every scheduled element at a date: IRI -> 'built' | 'in progress' | 'not started'."""
@@ -261,15 +287,8 @@ class ProjectData:
         )
 
 
-def _cache_hit(manifest: Manifest, scenario: str | None) -> project_cache.CacheEntry | None:
-    if not project_cache.enabled():
-        return None
-    entry = project_cache.entry_dir(cache_root(manifest.directory), manifest, scenario)
-    return project_cache.read_entry(entry)
-
-
-def _load_graphs(manifest: Manifest, scenario: str | None,
-                 say: ProgressFn) -> tuple[Graph, Graph, Path, list[Path]]:
+def _load_graphs(manifest: Manifest, scenario: str | None, say: ProgressFn,
+                 entry: Path | None) -> tuple[Graph, Graph, Path, list[Path]]:
     """The model graph (import, schedule, overlays) and the knowledge base of a project and scenario,
     read from the inputs; kept in the project cache (:mod:`kbplanner.model.project_cache`)."""
     with recording_reads() as reads:
@@ -293,8 +312,7 @@ def _load_graphs(manifest: Manifest, scenario: str | None,
                 model.add(triple)
         say("loading knowledge base")
         kb, kb_files = _load_kb(manifest.knowledge_base)
-    if project_cache.enabled():
-        entry = project_cache.entry_dir(cache_root(manifest.directory), manifest, scenario)
+    if entry is not None:
         project_cache.write_entry(entry, project_cache.CachedProject(model, kb, import_dir, kb_files), reads,
                                   project_cache.declared_inputs(manifest, scenario),
                                   owner=project_cache.owner_of(manifest, scenario))
