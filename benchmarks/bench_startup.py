@@ -67,7 +67,9 @@ def _seed_imports(cache: Path, env: dict[str, str], project: Path) -> None:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--before", default="main", help="git ref of the 'before' tree (default main)")
+    ap.add_argument("--before", default="main",
+                    help="git ref of the before tree (default main; when main has moved on, give the commit "
+                         "this branch started from, so that both sides read the same case study)")
     ap.add_argument("--repeat", type=int, default=3, help="runs per command and side (median; default 3)")
     ap.add_argument("--query", default="storeys", help="the named query timed (default storeys)")
     ap.add_argument("--plan", action="store_true",

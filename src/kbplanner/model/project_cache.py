@@ -10,10 +10,11 @@ N-Triples, so that the next command reads two files instead.
   ``$KBPLANNER_CACHE_DIR/project/KEY/`` when that variable is set; the IFC import cache lives beside it.
 - Off: ``KBPLANNER_NO_CACHE=1`` (``kbplanner --no-cache``): nothing is read from or written to it.
 - Key: SHA-256 of the cache format, kbplanner's version, the source of the loading code (``core``,
-  ``model``, ``knowledge``), the project directory, the scenario, and the bytes of every declared input
-  (``project.toml``, the IFC, the schedule, site/jobsite/augmentation/scenario and project KB Turtle,
-  the shipped ontology and shapes). Files read through ``owl:imports`` are listed in ``meta.json``
-  with their hashes and checked at each use; any change makes a new load (and replaces the entry).
+  ``model``, ``knowledge``) and the named queries, the project directory, the scenario, and the
+  bytes of every declared input (``project.toml``, the IFC, the schedule, site, jobsite,
+  augmentation, scenario and project KB Turtle, the shipped ontology and shapes). Files read through
+  ``owl:imports`` are listed in ``meta.json`` with their hashes and checked at each use; any change
+  makes a new load (and replaces the entry).
 - Rows of the named queries the world tables read (A6, :func:`kbplanner.world.tables.world_tables`) are
   kept beside the graphs (``rows/NAME.BACKEND.json``), each with a hash of the graphs they were read
   from, and used only while the project's graphs still hash the same.
@@ -53,7 +54,8 @@ FORMAT = "1"
 NO_CACHE_ENV = "KBPLANNER_NO_CACHE"
 SUBDIR = "project"
 MODEL_NT, KB_NT, META = "model.nt", "kb.nt", "meta.json"
-_CODE_PACKAGES = ("core", "model", "knowledge")  # the code that builds the graphs
+# The code that builds the graphs, and the named queries (the schedule reads one; the kept rows are theirs).
+_CODE_FILES = (("core", "*.py"), ("model", "*.py"), ("knowledge", "*.py"), ("queries", "*.rq"))
 
 
 @dataclass
@@ -83,13 +85,13 @@ _code_digest_memo: list[str] = []
 
 
 def code_digest() -> str:
-    """SHA-256 of the source of the packages that build a project's graphs (a change of the code
-    between releases invalidates the cache as a version change does)."""
+    """SHA-256 of the source of the packages that build a project's graphs and of the named queries (a
+    change of the code between releases invalidates the cache as a version change does)."""
     if not _code_digest_memo:
         root = Path(__file__).resolve().parents[1]
         h = hashlib.sha256()
-        for pkg in _CODE_PACKAGES:
-            for path in sorted((root / pkg).rglob("*.py")):
+        for pkg, pattern in _CODE_FILES:
+            for path in sorted((root / pkg).rglob(pattern)):
                 h.update(path.relative_to(root).as_posix().encode())
                 h.update(path.read_bytes())
         _code_digest_memo.append(h.hexdigest())
