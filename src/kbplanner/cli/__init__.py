@@ -4,7 +4,9 @@ Exit codes: 0 success (and, for ``validate``, a conforming model); 1 a reported 
 (``validate``: the model does not conform); 2 bad input or misuse (a bad path or number, an output
 that the output rule refuses, an unusable file), printed as one message without a traceback
 (docs/errors.md). Each command lives in its own module of this package and registers itself through
-``register(subparsers)``; ``COMMANDS`` lists them in help order.
+``register(subparsers)``; ``COMMANDS`` lists them in help order. Registering only builds argparse
+options: a command module imports its heavy parts (rdflib, PyBullet, ...) inside its ``run`` function,
+so that ``--help`` and ``--version`` start at once (``tests/test_startup.py`` checks it).
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import os
 import shlex
 import sys
 import typing
@@ -24,6 +27,7 @@ from kbplanner.core.output_dirs import output_options
 EXIT_OK = 0
 EXIT_NEGATIVE = 1
 EXIT_BAD_INPUT = 2
+NO_CACHE_ENV = "KBPLANNER_NO_CACHE"  # kbplanner.model.project_cache.NO_CACHE_ENV (not imported: start-up)
 
 # Modules of kbplanner.cli, each with ``register(subparsers)`` setting ``func(args) -> int``.
 COMMANDS: tuple[str, ...] = (
@@ -62,6 +66,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"kbplanner {__version__}")
     parser.add_argument("-v", "--verbose", action="store_true", help="log progress details")
+    parser.add_argument("--no-cache", action="store_true",
+                        help=f"load projects from their inputs, not the project cache ({NO_CACHE_ENV}=1)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in COMMANDS:
         module = importlib.import_module(f"kbplanner.cli.{name}")
@@ -84,6 +90,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return EXIT_BAD_INPUT
     words = list(sys.argv[1:] if argv is None else argv)
+    saved = os.environ.get(NO_CACHE_ENV)
+    if args.no_cache:
+        os.environ[NO_CACHE_ENV] = "1"
     try:
         with output_options(force=bool(getattr(args, "force", False)),
                             command=shlex.join(["kbplanner", *words])):
@@ -99,6 +108,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         sys.stderr.write("kbplanner: interrupted\n")
         return 130
+    finally:
+        if args.no_cache:  # main() may run in a longer process (tests, notebooks): leave it as found
+            if saved is None:
+                os.environ.pop(NO_CACHE_ENV, None)
+            else:
+                os.environ[NO_CACHE_ENV] = saved
 
 
 if __name__ == "__main__":

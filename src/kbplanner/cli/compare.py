@@ -12,10 +12,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from rich.console import Console
-
 from kbplanner.cli.arguments import add_force, check_out, positive_float, seed_int
-from kbplanner.cli.progress import status
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -37,7 +34,10 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from rich.console import Console
+
     from kbplanner.analysis.comparison import compare
+    from kbplanner.cli.progress import status
 
     check_out(args.out)
     names = [s.strip() for s in args.scenarios.split(",") if s.strip()]

@@ -14,7 +14,6 @@ from dataclasses import asdict
 from pathlib import Path
 
 from kbplanner.cli.arguments import check_out, seed_int
-from kbplanner.scale.building_generator import generate_building
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -32,6 +31,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from kbplanner.scale.building_generator import generate_building
+
     check_out(args.out)
     b = generate_building(args.out, storeys=args.storeys, units_per_storey=args.units_per_storey,
                           seed=args.seed, force=args.force)

@@ -20,18 +20,14 @@ import os
 import sys
 import tomllib
 from pathlib import Path
-
-from rdflib import Graph
-from rich.progress import Progress
+from typing import TYPE_CHECKING
 
 from kbplanner.cli.arguments import positive_int
 from kbplanner.core.errors import IfcError, ProjectError
-from kbplanner.core.iris import base_iri
 from kbplanner.core.output_dirs import probe_writable
-from kbplanner.core.outputs import atomic_write_text
-from kbplanner.model import ifc_turtle
-from kbplanner.model.ifc_import import MESH_DIR, MODEL_FILE, ImportResult, import_ifc
-from kbplanner.model.ifc_report import SKIPPED_CSV
+
+if TYPE_CHECKING:
+    from kbplanner.model.ifc_import import ImportResult
 
 MANIFEST = "project.toml"
 NOTES_SHOWN = 20
@@ -72,6 +68,8 @@ def check_import_target(out: Path) -> None:
         IfcError: a parent of ``out`` is a file, ``model.ttl`` is not an import's, or ``meshes/`` holds
             files that are not meshes (the import replaces the folder), so nothing of the user's is lost.
     """
+    from kbplanner.model.ifc_import import MESH_DIR, MODEL_FILE
+
     for parent in Path(os.path.abspath(out)).parents:
         if parent.exists():
             if not parent.is_dir():
@@ -99,6 +97,10 @@ def check_import_target(out: Path) -> None:
 
 def _is_import(path: Path) -> bool:
     """Whether ``path`` starts as every model.ttl of an import does."""
+    from rdflib import Graph
+
+    from kbplanner.model import ifc_turtle
+
     first = ifc_turtle.serialize(Graph()).split(b"\n", 1)[0]
     try:
         with open(path, "rb") as fh:
@@ -120,6 +122,12 @@ def starter_manifest(name: str, ifc_relative: str) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    from rich.progress import Progress
+
+    from kbplanner.core.iris import base_iri
+    from kbplanner.core.outputs import atomic_write_text
+    from kbplanner.model.ifc_import import import_ifc
+
     model: Path = args.model
     out: Path = args.out
     if args.processes < 1:
@@ -163,6 +171,9 @@ def run(args: argparse.Namespace) -> int:
 
 def summary(result: ImportResult, out: Path, name: str, wrote_manifest: bool) -> str:
     """The text the command prints after an import."""
+    from kbplanner.model.ifc_import import MESH_DIR, MODEL_FILE
+    from kbplanner.model.ifc_report import SKIPPED_CSV
+
     units = result.units
     unit_text = (f"length unit {units.length_name} = {units.length_m:g} m, mass unit {units.mass_name} = "
                  f"{units.mass_kg:g} kg" if units is not None else f"length unit {result.length_unit_m:g} m")

@@ -15,16 +15,13 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from kbplanner.cli.arguments import add_force, check_out
-from kbplanner.core.outputs import atomic_write_text, run_directory
 from kbplanner.core.tables import render
-from kbplanner.model.dates import parse_date
-from kbplanner.planning.plan_model import Plan
-from kbplanner.planning.plan_rdf import plan_turtle
-from kbplanner.planning.planner import plan_task
-from kbplanner.project import Project
+
+if TYPE_CHECKING:
+    from kbplanner.planning.plan_model import Plan
 
 EXIT_FEASIBLE = 0
 EXIT_INFEASIBLE = 1
@@ -116,6 +113,12 @@ def plan_text(plan: Plan) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    from kbplanner.core.outputs import atomic_write_text, run_directory
+    from kbplanner.model.dates import parse_date
+    from kbplanner.planning.plan_rdf import plan_turtle
+    from kbplanner.planning.planner import plan_task
+    from kbplanner.project import Project
+
     check_out(args.out)
     at = parse_date(args.date) if args.date is not None else None  # checked before the project load
     project = Project.load(args.project, scenario=args.scenario)

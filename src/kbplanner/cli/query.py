@@ -9,14 +9,14 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-
-from rdflib.term import Identifier
+from typing import TYPE_CHECKING
 
 from kbplanner.core.errors import InputFileError, QueryError
-from kbplanner.core.named_queries import catalogue, get_query, iri_term, result_rows, run_text, to_term
-from kbplanner.core.stores import add_store_argument
+from kbplanner.core.store_spec import OXIGRAPH, add_store_argument
 from kbplanner.core.tables import FORMATS, iri_shortener, render
-from kbplanner.project import Project
+
+if TYPE_CHECKING:
+    from rdflib.term import Identifier
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -28,7 +28,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--bind", action="append", default=[], metavar="VAR=VALUE",
                    help="bind a query variable (repeatable); for --sparql, <...> binds an IRI")
     p.add_argument("--scenario", help="scenario overlay to apply (default: the bare model)")
-    add_store_argument(p)
+    add_store_argument(p, default=OXIGRAPH)  # same rows as rdflib, faster (tests/test_startup.py)
     p.add_argument("--format", choices=FORMATS, default="table")
     p.set_defaults(func=run)
 
@@ -44,6 +44,8 @@ def _pairs(binds: list[str]) -> dict[str, str]:
 
 
 def _list() -> str:
+    from kbplanner.core.named_queries import catalogue
+
     lines = []
     for name, q in sorted(catalogue().items()):
         lines.append(f"{name}\n    {q.description}")
@@ -55,6 +57,9 @@ def _list() -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    from kbplanner.core.named_queries import get_query, iri_term, result_rows, run_text, to_term
+    from kbplanner.project import Project
+
     if args.list:
         sys.stdout.write(_list())
         return 0

@@ -12,14 +12,15 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from kbplanner.cli.arguments import check_out_file
 from kbplanner.core.output_dirs import FILE_SIGNATURE
-from kbplanner.core.outputs import atomic_write_text
-from kbplanner.core.stores import add_store_argument
+from kbplanner.core.store_spec import add_store_argument
 from kbplanner.core.tables import render
-from kbplanner.knowledge.requirements import RequirementsResult, derive_requirements
-from kbplanner.project import Project
+
+if TYPE_CHECKING:
+    from kbplanner.knowledge.requirements import RequirementsResult
 
 FORMATS = ("table", "csv", "json", "ttl")
 
@@ -43,6 +44,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 def format_result(result: RequirementsResult, fmt: str) -> str:
     """The result in one of ``FORMATS``."""
+    from kbplanner.knowledge.requirements import RequirementsResult
+
     if fmt == "csv":
         return result.to_csv()
     if fmt == "json":
@@ -60,6 +63,10 @@ def format_result(result: RequirementsResult, fmt: str) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    from kbplanner.core.outputs import atomic_write_text
+    from kbplanner.knowledge.requirements import derive_requirements
+    from kbplanner.project import Project
+
     check_out_file(args.template, "--template")
     project = Project.load(args.project, scenario=args.scenario, store=args.store)
     result = derive_requirements(project.model, project.kb, task_id=args.task)

@@ -12,9 +12,6 @@ import sys
 
 from kbplanner.core.errors import KbplannerError
 from kbplanner.core.tables import render
-from kbplanner.knowledge.robot_selection import select_robots
-from kbplanner.knowledge.task_specs import robotized_tasks
-from kbplanner.project import Project
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -28,6 +25,10 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from kbplanner.knowledge.robot_selection import select_robots
+    from kbplanner.knowledge.task_specs import robotized_tasks
+    from kbplanner.project import Project
+
     project = Project.load(args.project, scenario=args.scenario)
     task = args.task or project.default_task()
     if task is None:

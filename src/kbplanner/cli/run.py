@@ -5,14 +5,14 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from rich.console import Console
-from rich.table import Table
-
-from kbplanner.analysis.report import COMPARISON_COLUMNS
 from kbplanner.cli.arguments import add_force, check_out, positive_int, seed_int
-from kbplanner.cli.progress import status
-from kbplanner.pipeline import PipelineResult, run_pipeline
+
+if TYPE_CHECKING:
+    from rich.table import Table
+
+    from kbplanner.pipeline import PipelineResult
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -39,6 +39,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 def summary_table(result: PipelineResult) -> Table:
     """The final summary as a rich table."""
+    from rich.table import Table
+
     t = Table(title=f"kbplanner run: {result.project}")
     t.add_column("scenario")
     t.add_column("conforms")
@@ -55,6 +57,13 @@ def summary_table(result: PipelineResult) -> Table:
 
 
 def run(args: argparse.Namespace) -> int:
+    from rich.console import Console
+    from rich.table import Table
+
+    from kbplanner.analysis.report import COMPARISON_COLUMNS
+    from kbplanner.cli.progress import status
+    from kbplanner.pipeline import run_pipeline
+
     check_out(args.out)
     err = Console(stderr=True)
     out = Console(width=max(Console().width, 150))

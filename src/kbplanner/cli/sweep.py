@@ -18,9 +18,6 @@ import argparse
 import sys
 from pathlib import Path
 
-from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
 from kbplanner.cli.arguments import add_force, check_out, positive_float, positive_int
 
 
@@ -51,6 +48,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
     from kbplanner.cli.progress import plain_counter
     from kbplanner.scale.sweep import SweepSpec, run_sweep
     from kbplanner.scale.sweep_axes import SweepError, parse_vary

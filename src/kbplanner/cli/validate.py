@@ -14,9 +14,7 @@ from pathlib import Path
 
 from kbplanner.cli import EXIT_NEGATIVE, EXIT_OK
 from kbplanner.cli.arguments import check_out_file
-from kbplanner.core.stores import add_store_argument
-from kbplanner.knowledge.validation import validate_model
-from kbplanner.project import Project
+from kbplanner.core.store_spec import add_store_argument
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -35,6 +33,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from kbplanner.knowledge.validation import validate_model
+    from kbplanner.project import Project
+
     check_out_file(args.report, "--report")
     project = Project.load(args.project, scenario=args.scenario, store=args.store)
     result = validate_model(project.model, project.kb, include_requirements=not args.well_formedness_only)

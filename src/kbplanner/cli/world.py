@@ -15,12 +15,7 @@ from pathlib import Path
 
 from kbplanner.cli.arguments import add_force, check_out, positive_float
 from kbplanner.core.errors import KbplannerError, WorldError
-from kbplanner.core.outputs import run_directory
-from kbplanner.model.dates import parse_date
-from kbplanner.project import Project
-from kbplanner.world.build import build_world
-from kbplanner.world.exports import export_world
-from kbplanner.world.maps import MapSettings, map_summary
+from kbplanner.world.map_settings import MapSettings
 
 MAP_LINES = 10  # level regions and map notes printed (all are in world.json)
 
@@ -47,6 +42,13 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from kbplanner.core.outputs import run_directory
+    from kbplanner.model.dates import parse_date
+    from kbplanner.project import Project
+    from kbplanner.world.build import build_world
+    from kbplanner.world.exports import export_world
+    from kbplanner.world.maps import map_summary
+
     check_out(args.out)
     settings = MapSettings(resolution_m=args.resolution, robot_height_m=args.robot_height)
     at = parse_date(args.date) if args.date is not None else None  # checked before the project load

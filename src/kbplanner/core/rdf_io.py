@@ -7,8 +7,10 @@ backed by Oxigraph (``store="oxigraph"``) for large models.
 
 from __future__ import annotations
 
+import contextvars
 import re
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from urllib.parse import urlparse
 from urllib.request import url2pathname
@@ -40,6 +42,21 @@ def bind_prefixes(g: Graph) -> None:
     g.bind("bot", BOT, override=True)
 
 
+_READS: contextvars.ContextVar[list[Path] | None] = contextvars.ContextVar("kbplanner_reads", default=None)
+
+
+@contextmanager
+def recording_reads() -> Iterator[list[Path]]:
+    """Collect every Turtle file :func:`parse_turtle` reads in the block (``owl:imports`` too), in order;
+    the project cache keys its entries by them."""
+    reads: list[Path] = []
+    token = _READS.set(reads)
+    try:
+        yield reads
+    finally:
+        _READS.reset(token)
+
+
 def parse_turtle(path: Path, into: Graph | None = None, *,
                  _importing: frozenset[Path] = frozenset()) -> Graph:
     """Parse one Turtle file; a syntax error names the file, line and column; a remote import is
@@ -54,6 +71,9 @@ def parse_turtle(path: Path, into: Graph | None = None, *,
     if not path.is_file():
         raise InputFileError("file not found", file=path, fix="check the path (relative paths are "
                              "resolved against the project directory)")
+    reads = _READS.get()
+    if reads is not None:
+        reads.append(path)
     g = Graph() if into is None else into
     part = Graph()
     try:

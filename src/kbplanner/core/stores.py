@@ -32,7 +32,6 @@ Example:
 
 from __future__ import annotations
 
-import argparse
 import hashlib
 import json
 import logging
@@ -41,7 +40,6 @@ import urllib.error
 import urllib.parse
 import urllib.request
 from collections.abc import Iterable, Iterator, Mapping
-from dataclasses import dataclass
 from decimal import Decimal
 from io import BytesIO
 from pathlib import Path
@@ -52,76 +50,30 @@ from rdflib.plugins.stores.sparqlstore import SPARQLUpdateStore
 from rdflib.query import Result
 from rdflib.term import Identifier, Node, Variable
 
-from kbplanner.core.errors import KbplannerError, QueryError
+from kbplanner.core.errors import QueryError
 from kbplanner.core.rdf_io import bind_prefixes, new_graph
+from kbplanner.core.store_spec import (
+    MEMORY,
+    OXIGRAPH,
+    SPARQL,
+    STORE_FORMS,
+    StoreError,
+    StoreSpec,
+    add_store_argument,
+    parse_store,
+)
+
+__all__ = [  # the spec names live in kbplanner.core.store_spec (light); re-exported here
+    "MEMORY", "OXIGRAPH", "SPARQL", "STORE_FORMS", "EndpointStore", "StoreError", "StoreSpec",
+    "add_store_argument", "bind_values", "describe", "parse_store", "place_files", "place_graphs",
+    "result_json",
+]
 
 log = logging.getLogger(__name__)
 
-MEMORY = "memory"
-OXIGRAPH = "oxigraph"
-SPARQL = "sparql"
-STORE_FORMS = "memory | oxigraph | oxigraph:DIR | sparql+http://HOST:PORT/query"
 UPLOAD_BATCH = 20_000          # triples per INSERT DATA request
 TIMEOUT_S = 120.0              # per HTTP request
 _RESULTS_JSON = "application/sparql-results+json"
-
-
-class StoreError(KbplannerError):
-    """A store spec that cannot be used: unknown form, unreachable endpoint, refused upload."""
-
-
-@dataclass(frozen=True)
-class StoreSpec:
-    """A parsed ``--store`` value."""
-
-    kind: str                       # memory | oxigraph | sparql
-    text: str = MEMORY
-    location: Path | None = None    # oxigraph on disk
-    query_url: str | None = None    # sparql endpoint
-    update_url: str | None = None
-
-    @property
-    def is_memory(self) -> bool:
-        """True for the default embedded rdflib store."""
-        return self.kind == MEMORY
-
-
-def parse_store(spec: str | StoreSpec | None) -> StoreSpec:
-    """Parse a store spec (see the module docstring); ``None`` and ``""`` mean memory.
-
-    Raises:
-        StoreError: an unknown form.
-    """
-    if isinstance(spec, StoreSpec):
-        return spec
-    text = (spec or MEMORY).strip()
-    if text == MEMORY:
-        return StoreSpec(MEMORY)
-    if text == OXIGRAPH:
-        return StoreSpec(OXIGRAPH, text)
-    if text.startswith(OXIGRAPH + ":"):
-        location = Path(text[len(OXIGRAPH) + 1:]).expanduser()
-        if not str(location):
-            raise StoreError("oxigraph: without a directory", element=text, fix="write oxigraph:DIR")
-        return StoreSpec(OXIGRAPH, text, location=location)
-    if text.startswith(("sparql+http://", "sparql+https://")):
-        url = text[len("sparql+"):]
-        parts = urllib.parse.urlsplit(url)
-        if not parts.netloc:
-            raise StoreError("SPARQL endpoint URL without a host", element=text,
-                             fix="write sparql+http://HOST:PORT/query")
-        path = parts.path.rstrip("/")
-        update = url
-        if path.endswith("/query"):
-            update = urllib.parse.urlunsplit(parts._replace(path=path[: -len("query")] + "update"))
-        return StoreSpec(SPARQL, text, query_url=url, update_url=update)
-    raise StoreError(f"unknown store {text!r}", element=text, fix=f"use one of: {STORE_FORMS}")
-
-
-def add_store_argument(parser: argparse.ArgumentParser) -> None:
-    """The ``--store`` option of the commands that load a project."""
-    parser.add_argument("--store", metavar="SPEC", default=None,
-                        help=f"graph backend: {STORE_FORMS} (default: memory)")
 
 
 # ----------------------------------------------------------------------------------------------
@@ -371,6 +323,29 @@ def place_graphs(spec: str | StoreSpec | None, model: Graph, kb: Graph, *,
         out = _endpoint_graphs(s, model, kb, graph_base)
     log.info("model on %s in %.2f s", s.text, time.perf_counter() - t0)
     return out
+
+
+def place_files(spec: str | StoreSpec | None, model_nt: Path, kb_nt: Path) -> tuple[Graph, Graph] | None:
+    """The model graph and the merged model + knowledge-base graph read straight from N-Triples files
+    (the project cache) into an in-memory Oxigraph store; ``None`` for any other backend (the caller
+    parses the files and places the graphs). Blank nodes keep the files' labels, as rdflib's
+    :func:`kbplanner.model.project_cache` reading does, so both sides name the same nodes."""
+    s = parse_store(spec)
+    if s.kind != OXIGRAPH or s.location is not None:
+        return None
+    import pyoxigraph as ox
+
+    t0 = time.perf_counter()
+    placed, merged = new_graph(OXIGRAPH), new_graph(OXIGRAPH)
+    for g, files in ((placed, (model_nt,)), (merged, (model_nt, kb_nt))):
+        ident = g.identifier
+        name = ox.BlankNode(str(ident)) if isinstance(ident, BNode) else ox.NamedNode(str(ident))
+        inner = getattr(g.store, "_inner")  # noqa: B009 (oxrdflib's pyoxigraph store)
+        for path in files:
+            inner.extend(ox.Quad(q.subject, q.predicate, q.object, name)
+                         for q in ox.parse(path=str(path), format=ox.RdfFormat.N_TRIPLES))
+    log.info("model on %s from %s in %.2f s", s.text, model_nt.parent, time.perf_counter() - t0)
+    return placed, merged
 
 
 def describe(graph: Graph) -> str:

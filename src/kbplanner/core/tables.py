@@ -11,6 +11,7 @@ import io
 import json
 from collections.abc import Callable, Sequence
 from datetime import date, datetime
+from decimal import Decimal
 from typing import Any
 
 FORMATS = ("table", "csv", "json")
@@ -19,14 +20,32 @@ FORMATS = ("table", "csv", "json")
 def _plain(value: Any) -> Any:
     if isinstance(value, datetime | date):
         return value.isoformat()
+    if isinstance(value, Decimal):  # xsd:decimal: a JSON number
+        value = float(value)
     if isinstance(value, float):
         return round(value, 6)
-    return value
+    if value is None or isinstance(value, str | int | bool):
+        return value
+    return str(value)  # durations, times, other literal values: their text
+
+
+def decimal_text(value: Decimal) -> str:
+    """The canonical text of an xsd:decimal (``1.0``, ``0.2``, ``-3.25``): stores differ in the text they
+    keep (rdflib the one read, Oxigraph its own), so tables print this one.
+
+    Example:
+        >>> [decimal_text(Decimal(t)) for t in ("1", "1.0", "0.20", "-3.250", "1E+1")]
+        ['1.0', '1.0', '0.2', '-3.25', '10.0']
+    """
+    text = format(value.normalize(), "f")
+    return text if "." in text or not value.is_finite() else text + ".0"
 
 
 def _cell(value: Any) -> str:
     if value is None:
         return ""
+    if isinstance(value, Decimal):
+        return decimal_text(value)
     if isinstance(value, float):
         return f"{value:.3f}"
     if isinstance(value, datetime | date):

@@ -43,6 +43,7 @@ from kbplanner.model.ifc_report import (
     skipped_json,
     skipped_of,
 )
+from kbplanner.model.import_version import IMPORTER_VERSION
 
 __all__ = [
     "IMPORTER_VERSION", "MESH_DIR", "MODEL_FILE", "SUPPORTED_SCHEMAS", "ImportNote", "ImportResult",
@@ -54,8 +55,6 @@ log = logging.getLogger(__name__)
 
 ProgressCallback = Callable[[int, int], None]
 
-# Bump when the graph or meshes written for the same IFC change (the project loader caches imports).
-IMPORTER_VERSION = "2"
 MODEL_FILE = "model.ttl"
 NO_GEOMETRY = ("no geometry: no body representation and no parts with one (in the graph without bounds, "
                "so it is no obstacle on maps)")

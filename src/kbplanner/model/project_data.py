@@ -24,7 +24,8 @@ from rdflib import RDF, Graph
 from kbplanner.core.errors import ProjectError
 from kbplanner.core.named_queries import QueryResult, run_named
 from kbplanner.core.number_rule import check_numbers
-from kbplanner.core.rdf_io import bind_prefixes, parse_turtle
+from kbplanner.core.rdf_io import bind_prefixes, parse_turtle, recording_reads
+from kbplanner.model import project_cache
 from kbplanner.model.project_manifest import Manifest, read_manifest
 
 if TYPE_CHECKING:
@@ -89,6 +90,7 @@ class ProjectData:
     import_dir: Path
     kb_files: list[Path] = field(default_factory=list)
     _merged: Graph | None = field(default=None, repr=False)
+    cache_entry: Path | None = field(default=None, repr=False)  # the project cache entry of the load
 
     # ---- loading -------------------------------------------------------------------------------
     @classmethod
@@ -120,35 +122,26 @@ class ProjectData:
             raise ProjectError(f"unknown scenario {scenario!r}", file=manifest.path, element=scenario,
                                fix=f"choose one of: {known}")
         say = progress or (lambda _msg: None)
-        say(f"importing {manifest.ifc.name}")
-        result_graph, import_dir = import_cached(manifest)
-        model = Graph()
-        bind_prefixes(model)
-        for t in result_graph:
-            model.add(t)
-        if manifest.schedule is not None or manifest.schedule_from_ifc:
-            say("reading schedule")
-            model += _schedule_graph(manifest, model)
-        overlays: list[Path] = [*manifest.site, *manifest.jobsite, *manifest.augmentation]
-        if scenario is not None:
-            overlays += list(manifest.scenarios[scenario].overlays)
-        for p in overlays:
-            say(f"reading {p.name}")
-            overlay = parse_turtle(p)
-            check_numbers(overlay, p)  # the numeric rule, where the numbers are read
-            for triple in overlay:
-                model.add(triple)
-        say("loading knowledge base")
-        kb, kb_files = _load_kb(manifest.knowledge_base)
+        entry = (project_cache.entry_dir(cache_root(manifest.directory), manifest, scenario)
+                 if project_cache.enabled() else None)
+        hit = project_cache.read_entry(entry) if entry is not None else None
+        from_cache = hit.graphs(store) if hit is not None else None
         merged: Graph | None = None
-        if store is not None:
+        if hit is not None and from_cache is not None:
+            say("project from cache")
+            (model, merged), kb, import_dir, kb_files = from_cache, hit.kb, hit.import_dir, hit.kb_files
+        else:
+            model, kb, import_dir, kb_files = _load_graphs(manifest, scenario, say, entry)
+        if store is not None and merged is None:
             from kbplanner.core.stores import place_graphs
 
             say(f"placing the model on {store}")
             model, merged = place_graphs(store, model, kb,
                                          graph_base=f"{manifest.base}graph/{scenario or 'bare'}/")
+        if entry is not None and not (entry / project_cache.META).is_file():
+            entry = None  # not written (read-only project, full disk)
         return cls(manifest=manifest, scenario=scenario, model=model, kb=kb, import_dir=import_dir,
-                   kb_files=kb_files, _merged=merged)
+                   kb_files=kb_files, _merged=merged, cache_entry=entry)
 
     # ---- basic properties ----------------------------------------------------------------------
     @property
@@ -191,6 +184,27 @@ class ProjectData:
             >>> p.query("doors_and_widths", storeyLabel="Level 1")  # doctest: +SKIP
         """
         return run_named(self.graph, name, **bindings)
+
+    def pristine_rows(self, queries: Sequence[tuple[str, bool]]) -> dict[str, QueryResult]:
+        """Named queries without bindings, each ``(name, on_merged_graph)``, kept in the project cache
+        while the model and knowledge base are the ones loaded (checked by a hash of their triples,
+        :func:`kbplanner.model.project_cache.graphs_stamp`); the world tables read theirs so (A6)."""
+        from kbplanner.core.stores import describe
+
+        entry = self.cache_entry if project_cache.enabled() else None
+        backend = describe(self.graph)
+        if entry is not None and backend not in ("memory", "oxigraph"):
+            entry = None  # an endpoint's rows are the server's business
+        stamp = project_cache.graphs_stamp(self.model, self.kb) if entry is not None else ""
+        out: dict[str, QueryResult] = {}
+        for name, merged in queries:
+            kept = project_cache.read_rows(entry, name, backend, stamp) if entry is not None else None
+            if kept is None:
+                kept = run_named(self.graph if merged else self.model, name)
+                if entry is not None:
+                    project_cache.write_rows(entry, name, backend, stamp, kept)
+            out[name] = kept
+        return out
 
     def element_states(self, at: datetime) -> dict[str, str]:
         """State of every scheduled element at a date: IRI -> 'built' | 'in progress' | 'not started'."""
@@ -273,18 +287,52 @@ class ProjectData:
         )
 
 
+def _load_graphs(manifest: Manifest, scenario: str | None, say: ProgressFn,
+                 entry: Path | None) -> tuple[Graph, Graph, Path, list[Path]]:
+    """The model graph (import, schedule, overlays) and the knowledge base of a project and scenario,
+    read from the inputs; kept in the project cache (:mod:`kbplanner.model.project_cache`)."""
+    with recording_reads() as reads:
+        say(f"importing {manifest.ifc.name}")
+        result_graph, import_dir = import_cached(manifest)
+        model = Graph()
+        bind_prefixes(model)
+        for t in result_graph:
+            model.add(t)
+        if manifest.schedule is not None or manifest.schedule_from_ifc:
+            say("reading schedule")
+            model += _schedule_graph(manifest, model)
+        overlays: list[Path] = [*manifest.site, *manifest.jobsite, *manifest.augmentation]
+        if scenario is not None:
+            overlays += list(manifest.scenarios[scenario].overlays)
+        for p in overlays:
+            say(f"reading {p.name}")
+            overlay = parse_turtle(p)
+            check_numbers(overlay, p)  # the numeric rule, where the numbers are read
+            for triple in overlay:
+                model.add(triple)
+        say("loading knowledge base")
+        kb, kb_files = _load_kb(manifest.knowledge_base)
+    if entry is not None:
+        project_cache.write_entry(entry, project_cache.CachedProject(model, kb, import_dir, kb_files), reads,
+                                  project_cache.declared_inputs(manifest, scenario),
+                                  owner=project_cache.owner_of(manifest, scenario))
+    return model, kb, import_dir, kb_files
+
+
 def import_cached(manifest: Manifest) -> tuple[Graph, Path]:
     """Import the project's IFC, or reuse a cached import of the same bytes and importer version."""
-    from kbplanner.model import ifc_import
+    from kbplanner.model.import_version import IMPORTER_VERSION
 
     digest = file_sha256(manifest.ifc)[:16]
-    version = getattr(ifc_import, "IMPORTER_VERSION", "1")
+    version = IMPORTER_VERSION
     key = hashlib.sha256(f"{digest}|{manifest.base}|{version}".encode()).hexdigest()[:20]
     out = cache_root(manifest.directory) / key
     ttl = out / "model.ttl"
     if ttl.is_file():
         log.info("using cached import %s", out)
         return parse_turtle(ttl), out
+    from kbplanner.model import ifc_import  # ifcopenshell, trimesh: only when the IFC is imported
+
     result: ImportResult = ifc_import.import_ifc(manifest.ifc, out, base=manifest.base)
     return result.graph, out
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 import logging
 from dataclasses import dataclass
 from datetime import datetime
+from pathlib import Path
 
 from rdflib import RDF, RDFS, XSD, Graph, Literal, URIRef
 
@@ -21,7 +22,6 @@ from kbplanner.core.iris import mint, task_iri
 from kbplanner.core.rdf_io import new_graph
 from kbplanner.core.vocab import KBP
 from kbplanner.model.schedule_csv import read_csv_schedule
-from kbplanner.model.schedule_ifc import read_ifc_schedule
 from kbplanner.model.schedule_model import Schedule, Task, query_text
 
 __all__ = [
@@ -43,6 +43,13 @@ STATES: tuple[URIRef, ...] = (KBP.Built, KBP.InProgress, KBP.NotStarted)
 
 def _dt(value: datetime) -> Literal:
     return Literal(value.replace(microsecond=0), datatype=XSD.dateTime)
+
+
+def read_ifc_schedule(ifc_path: Path, base: str, *, schedule_name: str | None = None) -> Schedule | None:
+    """:func:`kbplanner.model.schedule_ifc.read_ifc_schedule` (ifcopenshell loaded only when asked)."""
+    from kbplanner.model import schedule_ifc
+
+    return schedule_ifc.read_ifc_schedule(ifc_path, base, schedule_name=schedule_name)
 
 
 def schedule_iri(base: str, schedule_id: str) -> URIRef:

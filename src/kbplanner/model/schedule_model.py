@@ -15,7 +15,6 @@ from dataclasses import dataclass, field
 from datetime import date, datetime, time
 from pathlib import Path
 
-import networkx as nx
 from rdflib import URIRef
 
 from kbplanner.core.errors import ScheduleCycleError
@@ -121,6 +120,8 @@ def find_cycle(tasks: Iterable[Task]) -> list[str] | None:
     The cycle is rotated to start at its smallest task id, so the answer does not depend on where
     the search began.
     """
+    import networkx as nx  # a third of a second to import: not for commands that read no schedule
+
     g = nx.DiGraph()
     for t in tasks:
         g.add_node(t.task_id)

@@ -24,6 +24,7 @@ import trimesh
 from kbplanner.core.errors import KbplannerError
 from kbplanner.world.build import ground_level_storey
 from kbplanner.world.levels import STAIR, SUPPORT_DEPTH_M, LevelRegion, level_regions, levels_summary
+from kbplanner.world.map_settings import MapSettings
 from kbplanner.world.meshes import element_mesh, site_object_mesh
 from kbplanner.world.occupancy import Box, OccupancyGrid, occupancy_from_meshes
 from kbplanner.world.world_types import StoreyInfo, World
@@ -36,30 +37,6 @@ EXTENT_MARGIN_M = 2.0  # grid margin around the obstacles when the site layout h
 # --------------------------------------------------------------------------------------------
 # Occupancy maps
 # --------------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class MapSettings:
-    """How a storey's occupancy grid is built (metres).
-
-    ``robot_height_m`` is the top of the band above the floor: the robot with its load. The default
-    1.8 m covers a mobile manipulator (Husky + UR5: 0.95 m) carrying material, and stays under
-    door heads (2.0-2.1 m), so open doorways stay free on the map.
-    """
-
-    resolution_m: float = 0.05
-    robot_height_m: float = 1.8
-    floor_clearance_m: float = 0.05
-    no_go_occupied: bool = True
-
-    def __post_init__(self) -> None:
-        if not self.resolution_m > 0:
-            raise KbplannerError(f"map resolution must be positive, got {self.resolution_m}",
-                                 element="resolution", fix="give the cell size in metres, e.g. 0.05")
-        if not self.robot_height_m > self.floor_clearance_m:
-            raise KbplannerError(f"robot height {self.robot_height_m} m is not above the floor clearance "
-                                 f"{self.floor_clearance_m} m", element="robot_height",
-                                 fix="give the robot's height with its load in metres, e.g. 1.8")
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,7 @@ from rdflib import URIRef
 
 from kbplanner.core.errors import WorldError
 from kbplanner.core.iris import slug
-from kbplanner.core.named_queries import run_named
+from kbplanner.core.named_queries import QueryResult, run_named
 from kbplanner.knowledge.material_flow import MaterialFlow, material_flow
 from kbplanner.knowledge.task_specs import robotized_tasks, task_specification
 from kbplanner.model.ifc_geometry import Pose, matrix_to_pose
@@ -41,6 +41,14 @@ if TYPE_CHECKING:
     from kbplanner.model.project_data import ProjectData
 
 log = logging.getLogger(__name__)
+
+# The queries the tables are read from, (name, on the model + knowledge base); unbound, so their rows
+# are kept in the project cache (ProjectData.pristine_rows).
+TABLE_QUERIES: tuple[tuple[str, bool], ...] = (
+    ("world_storeys", False), ("world_element_kinds", False), ("world_elements", False),
+    ("world_layout", False), ("world_tasks", False), ("world_site_objects", True), ("world_workers", False),
+    ("world_element_schedule", False), ("robot_arrivals", False),
+)
 
 
 # --------------------------------------------------------------------------------------------
@@ -119,10 +127,10 @@ def _material_flow(project: ProjectData, task_id: str) -> tuple[MaterialFlow | N
     return material_flow(project.kb, task_specification(project.kb, spec_id, task=task_id)), ""
 
 
-def _storeys(project: ProjectData) -> tuple[tuple[StoreyInfo, ...], dict[str, str]]:
+def _storeys(rows: dict[str, QueryResult]) -> tuple[tuple[StoreyInfo, ...], dict[str, str]]:
     storeys: dict[str, StoreyInfo] = {}
     of_element: dict[str, str] = {}
-    for storey, label, elevation, element in run_named(project.model, "world_storeys").rows:
+    for storey, label, elevation, element in rows["world_storeys"].rows:
         s = str(storey)
         if s not in storeys:
             storeys[s] = StoreyInfo(s, str(label or _local(s)), float(elevation or 0.0))
@@ -133,9 +141,9 @@ def _storeys(project: ProjectData) -> tuple[tuple[StoreyInfo, ...], dict[str, st
     return ordered, of_element
 
 
-def _site_objects(project: ProjectData) -> tuple[SiteObject, ...]:
+def _site_objects(rows: dict[str, QueryResult]) -> tuple[SiteObject, ...]:
     out: dict[str, SiteObject] = {}
-    for row in run_named(project.graph, "world_site_objects").rows:
+    for row in rows["world_site_objects"].rows:
         (obj, cls, label, obstructs, x, y, z, roll, pitch, yaw, sx, sy, sz, px, py, pz, pyaw) = row
         iri = str(obj)
         if iri in out:  # several classes or pickups: the first row (by class IRI) wins
@@ -154,8 +162,8 @@ def _site_objects(project: ProjectData) -> tuple[SiteObject, ...]:
     return tuple(out[k] for k in sorted(out))
 
 
-def _workers(project: ProjectData) -> tuple[Worker, ...]:
-    rows = run_named(project.model, "world_workers").rows
+def _workers(tables: dict[str, QueryResult]) -> tuple[Worker, ...]:
+    rows = tables["world_workers"].rows
     by_worker: dict[str, list[tuple[Any, ...]]] = {}
     for row in rows:
         by_worker.setdefault(str(row[0]), []).append(row)
@@ -177,8 +185,8 @@ def _workers(project: ProjectData) -> tuple[Worker, ...]:
     return tuple(out)
 
 
-def _layout_rows(project: ProjectData) -> tuple[int, Bounds | None, Pose | None]:
-    rows = run_named(project.model, "world_layout").rows
+def _layout_rows(tables: dict[str, QueryResult]) -> tuple[int, Bounds | None, Pose | None]:
+    rows = tables["world_layout"].rows
     extent: Bounds | None = None
     start: Pose | None = None
     for _layout_iri, x0, y0, z0, x1, y1, z1, sx, sy, sz, syaw in rows:
@@ -278,13 +286,14 @@ def world_tables(project: ProjectData) -> WorldTables:
         >>> build_world(p, datetime(2022, 5, 10, 7), tables=tables).task_id  # doctest: +SKIP
         'T-FRAME'
     """
-    storeys, storey_of = _storeys(project)
+    rows = project.pristine_rows(TABLE_QUERIES)  # from the project cache when the graphs are as loaded
+    storeys, storey_of = _storeys(rows)
     kinds: dict[str, list[str]] = {}
-    for el, cls in run_named(project.model, "world_element_kinds").rows:
+    for el, cls in rows["world_element_kinds"].rows:
         kinds.setdefault(str(el), []).append(_local(str(cls)))
     storey_label = {s.iri: s.label for s in storeys}
     records: list[_ElementRecord] = []
-    for iri, row in sorted(_first_rows(run_named(project.model, "world_elements").rows).items()):
+    for iri, row in sorted(_first_rows(rows["world_elements"].rows).items()):
         (_el, gid, label, ifc_class, mesh_file, x, y, z, roll, pitch, yaw,
          x0, y0, z0, x1, y1, z1, mass, mass_text, is_door) = row
         kind = sorted(kinds.get(iri) or ["Element"])[0]
@@ -313,30 +322,30 @@ def world_tables(project: ProjectData) -> WorldTables:
             mesh_file=str(mesh_file) if mesh_file else None, mesh_path=mesh_path, installed=installed,
             bounds=bounds, mass_kg=_opt_float(mass), mass_text=str(mass_text) if mass_text else None,
             is_door=bool(is_door), static=static))
-    layout_rows, extent, start = _layout_rows(project)
+    layout_rows, extent, start = _layout_rows(rows)
     return WorldTables(
-        model_id=id(project.model), tasks=tuple(run_named(project.model, "world_tasks").rows),
-        storeys=storeys, storey_of=storey_of, site_objects=_site_objects(project), elements=tuple(records),
-        workers=_workers(project), layout_rows=layout_rows, extent=extent, robot_start=start,
-        schedule=_schedule_table(project), arrivals=_arrivals(project))
+        model_id=id(project.model), tasks=tuple(rows["world_tasks"].rows),
+        storeys=storeys, storey_of=storey_of, site_objects=_site_objects(rows), elements=tuple(records),
+        workers=_workers(rows), layout_rows=layout_rows, extent=extent, robot_start=start,
+        schedule=_schedule_table(rows), arrivals=_arrivals(rows))
 
 
-def _arrivals(project: ProjectData) -> tuple[Pose, ...]:
+def _arrivals(tables: dict[str, QueryResult]) -> tuple[Pose, ...]:
     """Where the robot is set down on other floors (``kbp:robotArrival`` of the first site layout)."""
-    rows = run_named(project.model, "robot_arrivals").rows
+    rows = tables["robot_arrivals"].rows
     first = rows[0][0] if rows else None
     return tuple(Pose(float(x), float(y), float(z), 0.0, 0.0, float(yaw or 0.0))
                  for layout, _a, x, y, z, yaw in rows if layout == first)
 
 
-def _schedule_table(project: ProjectData) -> dict[str, tuple[datetime, datetime]] | None:
+def _schedule_table(rows: dict[str, QueryResult]) -> dict[str, tuple[datetime, datetime]] | None:
     """Finish and start that decide each scheduled element's state (``world_element_schedule``).
 
     None when a finish or start is not a local date-time (e.g. one with a time zone): the states are
     then computed by ``element_state_at`` for each date, as SPARQL compares such values.
     """
     table: dict[str, tuple[datetime, datetime]] = {}
-    for el, finish, start in run_named(project.model, "world_element_schedule").rows:
+    for el, finish, start in rows["world_element_schedule"].rows:
         if not (isinstance(finish, datetime) and isinstance(start, datetime)
                 and finish.tzinfo is None and start.tzinfo is None):
             return None

@@ -1,0 +1,351 @@
+"""The project cache (4D model loading): a loaded project kept by a content hash of all its inputs.
+
+Loading a project imports the IFC (itself cached, :func:`kbplanner.model.project_data.import_cached`),
+reads the schedule, parses the site, jobsite, augmentation and scenario Turtle and the knowledge base,
+and checks their numbers: seconds of work that give the same graphs as long as no input changes. This
+module keeps the result, the model graph and the knowledge-base graph of one project and scenario, as
+N-Triples, so that the next command reads two files instead.
+
+- Where: ``PROJECT/.kbplanner-cache/project/KEY/`` (``model.nt``, ``kb.nt``, ``meta.json``), or
+  ``$KBPLANNER_CACHE_DIR/project/KEY/`` when that variable is set; the IFC import cache lives beside it.
+- Off: ``KBPLANNER_NO_CACHE=1`` (``kbplanner --no-cache``): nothing is read from or written to it.
+- Key: SHA-256 of the cache format, kbplanner's version, the source of the loading code (``core``,
+  ``model``, ``knowledge``) and the named queries, the project directory, the scenario, and the
+  bytes of every declared input (``project.toml``, the IFC, the schedule, site, jobsite,
+  augmentation, scenario and project KB Turtle, the shipped ontology and shapes). Files read through
+  ``owl:imports`` are listed in ``meta.json`` with their hashes and checked at each use; any change
+  makes a new load (and replaces the entry).
+- Rows of the named queries the world tables read (A6, :func:`kbplanner.world.tables.world_tables`) are
+  kept beside the graphs (``rows/NAME.BACKEND.json``), each with a hash of the graphs they were read
+  from, and used only while the project's graphs still hash the same.
+- Safe with two commands at once: an entry is written into a temporary folder and renamed into place
+  in one step, so a reader sees a whole entry or none; a failed read or write falls back to a full
+  load (a write that fails is logged, never an error).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import os
+import shutil
+import tempfile
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from datetime import date, datetime
+from decimal import Decimal
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from rdflib import Graph
+from rdflib.exceptions import ParserError
+
+from kbplanner.core.named_queries import QueryResult
+from kbplanner.core.resources import data_dir, ontology_files
+from kbplanner.core.version import __version__
+
+if TYPE_CHECKING:
+    from kbplanner.model.project_manifest import Manifest
+
+log = logging.getLogger(__name__)
+
+FORMAT = "1"
+NO_CACHE_ENV = "KBPLANNER_NO_CACHE"
+SUBDIR = "project"
+MODEL_NT, KB_NT, META = "model.nt", "kb.nt", "meta.json"
+# The code that builds the graphs, and the named queries (the schedule reads one; the kept rows are theirs).
+_CODE_FILES = (("core", "*.py"), ("model", "*.py"), ("knowledge", "*.py"), ("queries", "*.rq"))
+
+
+@dataclass
+class CachedProject:
+    """The graphs and paths of a loaded project, as the project loader builds them."""
+
+    model: Graph
+    kb: Graph
+    import_dir: Path
+    kb_files: list[Path]
+
+
+def enabled() -> bool:
+    """Whether the project cache is used (``KBPLANNER_NO_CACHE`` unset, empty or ``0``)."""
+    return os.environ.get(NO_CACHE_ENV, "").strip() in ("", "0")
+
+
+def _sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+_code_digest_memo: list[str] = []
+
+
+def code_digest() -> str:
+    """SHA-256 of the source of the packages that build a project's graphs and of the named queries (a
+    change of the code between releases invalidates the cache as a version change does)."""
+    if not _code_digest_memo:
+        root = Path(__file__).resolve().parents[1]
+        h = hashlib.sha256()
+        for pkg, pattern in _CODE_FILES:
+            for path in sorted((root / pkg).rglob(pattern)):
+                h.update(path.relative_to(root).as_posix().encode())
+                h.update(path.read_bytes())
+        _code_digest_memo.append(h.hexdigest())
+    return _code_digest_memo[0]
+
+
+def declared_inputs(manifest: Manifest, scenario: str | None) -> list[Path]:
+    """Every file a load of ``manifest`` (with ``scenario``) reads, as the manifest and kbplanner name
+    them (files reached through ``owl:imports`` come on top)."""
+    files: list[Path] = [manifest.path, manifest.ifc]
+    if manifest.schedule is not None:
+        files.append(manifest.schedule)
+    files += [*manifest.site, *manifest.jobsite, *manifest.augmentation, *manifest.knowledge_base]
+    if scenario is not None:
+        files += list(manifest.scenarios[scenario].overlays)
+    files += ontology_files()
+    files += sorted(data_dir("shapes").rglob("*.ttl"))  # the numeric rule's ranges
+    return files
+
+
+def entry_key(manifest: Manifest, scenario: str | None) -> str:
+    """The cache key of a project and scenario: a hash of the code, version and declared inputs."""
+    h = hashlib.sha256()
+    for part in (FORMAT, __version__, code_digest(), str(manifest.directory.resolve()), scenario or "",
+                 manifest.base):
+        h.update(part.encode("utf-8") + b"\0")
+    for path in declared_inputs(manifest, scenario):
+        h.update(f"{Path(path).resolve()}={_sha256(path)}".encode() + b"\0")
+    return h.hexdigest()[:24]
+
+
+def entry_dir(root: Path, manifest: Manifest, scenario: str | None) -> Path:
+    """The folder of a project's cache entry under the cache ``root``."""
+    return root / SUBDIR / entry_key(manifest, scenario)
+
+
+# ---- reading -------------------------------------------------------------------------------------
+
+class _SameLabels(dict[str, str]):
+    """An N-Triples blank-node context that keeps the file's labels (rdflib would make new ones), so
+    that graphs read from one entry by rdflib and by Oxigraph name the same nodes."""
+
+    def get(self, key: str, default: Any = None) -> str:
+        del default
+        return key
+
+
+def _graph(path: Path, namespaces: Sequence[Sequence[str]]) -> Graph:
+    g = Graph()
+    for prefix, ns in namespaces:
+        g.bind(prefix, ns, override=True, replace=True)
+    g.parse(path, format="nt", bnode_context=_SameLabels())
+    return g
+
+
+@dataclass
+class CacheEntry:
+    """A whole cache entry: the knowledge base read, the model graph read on request."""
+
+    path: Path
+    meta: dict[str, Any]
+    kb: Graph
+    import_dir: Path
+    kb_files: list[Path]
+
+    def graphs(self, store: str | None) -> tuple[Graph, Graph | None] | None:
+        """The model graph, and the merged model + knowledge-base graph where ``store`` is an in-memory
+        Oxigraph (read straight into it, :func:`kbplanner.core.stores.place_files`; else ``None``:
+        the loader places or merges as after a full load). ``None`` when the entry cannot be read
+        (removed meanwhile): the caller loads from the inputs."""
+        try:
+            if store is not None:
+                from kbplanner.core.stores import place_files
+
+                placed = place_files(store, self.path / MODEL_NT, self.path / KB_NT)
+                if placed is not None:
+                    return placed
+            model = _graph(self.path / MODEL_NT, self.meta["model_namespaces"])
+        except (OSError, ValueError, SyntaxError, ParserError) as exc:  # removed or damaged meanwhile
+            log.info("project cache %s not used: %s", self.path, exc)
+            return None
+        if len(model) != self.meta["model_triples"]:
+            return None
+        return model, None
+
+
+def read_entry(entry: Path) -> CacheEntry | None:
+    """The project kept in ``entry``, or ``None`` when there is none, it is incomplete or any file it
+    records as read through ``owl:imports`` changed."""
+    try:
+        meta: dict[str, Any] = json.loads((entry / META).read_text(encoding="utf-8"))
+        if meta.get("format") != FORMAT:
+            return None
+        for name, digest in meta["extra_reads"].items():
+            if not Path(name).is_file() or _sha256(Path(name)) != digest:
+                log.info("project cache %s: %s changed", entry, name)
+                return None
+        import_dir = Path(meta["import_dir"])
+        if not import_dir.is_dir() or not (entry / MODEL_NT).is_file():
+            return None
+        kb = _graph(entry / KB_NT, meta["kb_namespaces"])
+        if len(kb) != meta["kb_triples"]:
+            return None
+    except (OSError, ValueError, KeyError, TypeError, ParserError) as exc:  # missing, half-removed, damaged
+        log.info("project cache %s not used: %s", entry, exc)
+        return None
+    log.info("project from cache %s", entry)
+    return CacheEntry(path=entry, meta=meta, kb=kb, import_dir=import_dir,
+                      kb_files=[Path(p) for p in meta["kb_files"]])
+
+
+# ---- writing -------------------------------------------------------------------------------------
+
+def owner_of(manifest: Manifest, scenario: str | None) -> str:
+    """What an entry is of: the project directory and the scenario (older entries of it are removed)."""
+    return f"{manifest.directory.resolve()}|{scenario or ''}"
+
+
+def write_entry(entry: Path, project: CachedProject, reads: Iterable[Path], declared: Iterable[Path],
+                owner: str = "") -> bool:
+    """Keep ``project`` in ``entry`` (atomically: a temporary folder renamed into place); ``reads`` are
+    the Turtle files the load parsed, those not among ``declared`` are recorded with their hashes.
+    Other entries of the same ``owner`` (:func:`owner_of`; made before an input changed) are removed,
+    so the cache holds one entry per project and scenario. Returns whether the entry was written; an
+    error is logged, not raised (the cache is an aid)."""
+    known = {Path(p).resolve() for p in declared}
+    extra = {str(Path(p).resolve()): _sha256(Path(p)) for p in reads if Path(p).resolve() not in known}
+    meta = {
+        "format": FORMAT,
+        "kbplanner": __version__,
+        "owner": owner,
+        "import_dir": str(project.import_dir.resolve()),
+        "kb_files": [str(p) for p in project.kb_files],
+        "extra_reads": dict(sorted(extra.items())),
+        "model_triples": len(project.model),
+        "kb_triples": len(project.kb),
+        "model_namespaces": [[p, str(ns)] for p, ns in project.model.namespaces()],
+        "kb_namespaces": [[p, str(ns)] for p, ns in project.kb.namespaces()],
+    }
+    tmp: Path | None = None
+    try:
+        entry.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{entry.name}.", dir=entry.parent))
+        project.model.serialize(tmp / MODEL_NT, format="nt", encoding="utf-8")
+        project.kb.serialize(tmp / KB_NT, format="nt", encoding="utf-8")
+        (tmp / META).write_text(json.dumps(meta, indent=1) + "\n", encoding="utf-8")  # last: marks it whole
+        os.chmod(tmp, 0o777 & ~_umask())
+        if entry.exists():  # a stale entry (an owl:imports file changed): move it aside first
+            stale = Path(tempfile.mkdtemp(prefix=f".{entry.name}.stale.", dir=entry.parent))
+            os.replace(entry, stale / "entry")
+            shutil.rmtree(stale, ignore_errors=True)
+        os.rename(tmp, entry)
+        tmp = None
+        log.info("project cached in %s", entry)
+        if owner:
+            _remove_older(entry, owner)
+        return True
+    except OSError as exc:  # read-only project, full disk, or another command placed it first
+        if entry.is_dir() and (entry / META).is_file():
+            return True
+        log.info("project cache not written (%s): %s", entry, exc)
+        return False
+    finally:
+        if tmp is not None:
+            shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _remove_older(entry: Path, owner: str) -> None:
+    """Remove the other entries of ``owner`` beside ``entry`` (moved aside first: a reader sees a whole
+    entry or none)."""
+    for other in entry.parent.iterdir():
+        if other == entry or other.name.startswith("."):
+            continue
+        try:
+            if json.loads((other / META).read_text(encoding="utf-8")).get("owner") != owner:
+                continue
+            stale = Path(tempfile.mkdtemp(prefix=f".{other.name}.stale.", dir=entry.parent))
+            os.replace(other, stale / "entry")
+            shutil.rmtree(stale, ignore_errors=True)
+        except (OSError, ValueError, AttributeError):  # removed meanwhile, or not an entry
+            continue
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+# ---- query rows of a loaded project (the world tables, A6) ------------------------------------------
+
+ROWS = "rows"
+
+
+def graphs_stamp(*graphs: Graph) -> str:
+    """A hash of the triples of ``graphs``, whatever their order: the rows kept for an entry are used
+    only while the project's graphs are the ones loaded (an API user may have changed them since)."""
+    total = 0
+    for i, g in enumerate(graphs):
+        for s, p, o in g:
+            digest = hashlib.blake2b(f"{i} {s.n3()} {p.n3()} {o.n3()}".encode(), digest_size=16).digest()
+            total = (total + int.from_bytes(digest, "big")) % (1 << 128)
+    return f"{total:032x}"
+
+
+def _encode(value: Any) -> Any:
+    kind = type(value)
+    if value is None or kind in (str, bool, int, float):
+        return value
+    if kind is Decimal:
+        return {"decimal": str(value)}
+    if kind is datetime:
+        return {"datetime": value.isoformat()}
+    if kind is date:
+        return {"date": value.isoformat()}
+    raise TypeError(f"a value of type {kind.__name__} is not kept")
+
+
+_DECODERS: dict[str, Any] = {"decimal": Decimal, "datetime": datetime.fromisoformat,
+                             "date": date.fromisoformat}
+
+
+def _decode(value: Any) -> Any:
+    if isinstance(value, dict):
+        ((kind, text),) = value.items()
+        return _DECODERS[kind](text)
+    return value
+
+
+def read_rows(entry: Path, name: str, backend: str, stamp: str) -> QueryResult | None:
+    """The rows of the named query ``name`` kept in ``entry`` for graphs with ``stamp`` on ``backend``."""
+    try:
+        data = json.loads((entry / ROWS / f"{name}.{backend}.json").read_text(encoding="utf-8"))
+        if data["stamp"] != stamp:
+            return None
+        return QueryResult(columns=list(data["columns"]),
+                           rows=[tuple(_decode(v) for v in row) for row in data["rows"]])
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def write_rows(entry: Path, name: str, backend: str, stamp: str, result: QueryResult) -> None:
+    """Keep the rows of ``name`` in ``entry`` (atomic replace); values of other types are not kept."""
+    try:
+        text = json.dumps({"stamp": stamp, "columns": result.columns,
+                           "rows": [[_encode(v) for v in row] for row in result.rows]}, allow_nan=False)
+        folder = entry / ROWS
+        if not (entry / META).is_file():
+            return
+        folder.mkdir(exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{name}.", dir=folder)
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        os.chmod(tmp, 0o666 & ~_umask())
+        os.replace(tmp, folder / f"{name}.{backend}.json")
+    except (OSError, ValueError, TypeError) as exc:
+        log.info("rows of %s not kept in %s: %s", name, entry, exc)

@@ -1,0 +1,30 @@
+"""Start-up (issue 14): registering the commands imports no heavy library; the project cache."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+HEAVY = ("rdflib", "pyshacl", "pybullet", "ifcopenshell", "matplotlib", "trimesh", "numpy", "scipy",
+         "ompl", "pyoxigraph", "rich")
+
+
+def _modules_after(code: str) -> set[str]:
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1] / "src")}
+    probe = code + "\nimport sys, json; print(json.dumps(sorted(sys.modules)))"
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True, env=env)
+    return set(json.loads(out.stdout.splitlines()[-1]))
+
+
+def test_building_the_parser_imports_no_graph_simulation_or_plot_library() -> None:
+    loaded = _modules_after("import kbplanner.cli as c; c.build_parser()")
+    assert "kbplanner.cli.simulate" in loaded  # every command registered ...
+    assert not {m for m in loaded if m.split(".")[0] in HEAVY}  # ... without a heavy import
+
+
+def test_help_of_a_command_imports_no_heavy_library() -> None:
+    loaded = _modules_after("from kbplanner.cli import main\nassert main(['query', '--help']) == 0")
+    assert not {m for m in loaded if m.split(".")[0] in HEAVY}
