@@ -224,6 +224,7 @@ def safety_summary(
         "worker_radius_m": WORKER_RADIUS_M,
         "fixed_threshold_m": FIXED_THRESHOLD_M,
         "definition": "separation: footprint (base + carried element's carry-mode rectangle; lifted/placing: "
-        "normal) to the worker disc, per recorded sample; time below = samples at which any worker is below x "
-        "the median recording period; S_p at the robot's translational speed from consecutive samples",
+        "normal) to the worker disc, per recorded sample; time below = samples at which any worker is "
+        "below x the median recording period; S_p at the robot's translational speed from consecutive "
+        "samples",
     }
