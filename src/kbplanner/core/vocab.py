@@ -221,6 +221,7 @@ class KBP(DefinedNamespace):
     taskId: URIRef
     taskKind: URIRef
     taskSpecificationId: URIRef
+    trackedApproachSpeed: URIRef
     unit: URIRef
     urdf: URIRef
     usesSkill: URIRef
