@@ -70,6 +70,17 @@ def test_compare_over_seeds_writes_runs_statistics_plot_and_summary(project: Pat
     assert fig["collisions"] == {"median": 0, "worst": 0} and summary["collisions"] == []
     assert (out / "figures" / "seeds.png").read_bytes()[:4] == b"\x89PNG"
     assert "Over seeds" in (out / "summary.md").read_text() and (out / "summary.html").is_file()
+    # docs are regenerated from such an output (benchmarks/safety_seeds_doc.py), not retyped
+    doc = tmp_path / "docs" / "safety.md"
+    doc.parent.mkdir()
+    doc.write_text("intro\n<!-- seeds:begin -->\nold\n<!-- seeds:end -->\nrest\n")
+    gen = subprocess.run([sys.executable, str(REPO / "benchmarks" / "safety_seeds_doc.py"), str(out),
+                          "--doc", str(doc)], capture_output=True, text=True)
+    assert gen.returncode == 0, gen.stdout + gen.stderr
+    text = doc.read_text()
+    assert "old" not in text and text.startswith("intro") and text.endswith("rest\n")
+    assert f"| minimum separation | {fig['min_separation_m']['median']:g} m / " in text
+    assert (tmp_path / "docs" / "figures" / "safety_seeds.png").is_file()
     for seed in (1, 2):
         run = out / "stored" / f"seed-{seed}"
         rec = RunRecord.load(run)

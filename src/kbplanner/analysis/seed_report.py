@@ -44,6 +44,12 @@ def run_rows(study: SeedStudy) -> tuple[list[str], list[list[Any]]]:
     return cols, rows
 
 
+def _all_less(a: list[float | None], b: list[float | None]) -> bool | None:
+    """Whether every value of ``a`` is below its partner in ``b`` (None: a value is missing)."""
+    pairs = [(x, y) for x, y in zip(a, b, strict=True) if x is not None and y is not None]
+    return None if len(pairs) < len(a) else all(x < y for x, y in pairs)
+
+
 def versus(study: SeedStudy) -> list[dict[str, Any]]:
     """Each scenario against the first: duration and minimum separation, median and worst case."""
     if len(study.scenarios) < 2:
@@ -56,10 +62,8 @@ def versus(study: SeedStudy) -> list[dict[str, Any]]:
         d_med, d_worst = s["duration_min"]["median"], s["duration_min"]["worst"]
         b_med, b_worst = b["duration_min"]["median"], b["duration_min"]["worst"]
         sep, b_sep = s["min_separation_m"], b["min_separation_m"]
-        faster = None if None in (d_med, b_med, d_worst, b_worst) else (
-            bool(d_med < b_med and d_worst < b_worst))  # type: ignore[operator]
-        safer = None if None in (sep["worst"], b_sep["worst"]) else (
-            bool(sep["worst"] >= b_sep["worst"]))  # type: ignore[operator]
+        faster = _all_less([d_med, d_worst], [b_med, b_worst])
+        safer = None if sep["worst"] is None or b_sep["worst"] is None else sep["worst"] >= b_sep["worst"]
         collisions = sum(len(r.collisions) for r in study.of(name))
         base_collisions = sum(len(r.collisions) for r in study.of(base))
         if faster is None:

@@ -184,8 +184,13 @@ def run_seeds(
 
     say = progress or (lambda _m: None)
     tell = line or (lambda _m: None)
-    jobs = [(n, s, monitoring) for n in scenarios for s in seeds]
-    jobs += [(n, s, "off") for n in scenarios for s in cost_seeds] if monitoring != "off" else []
+    # seed by seed, each scenario, then its monitoring-off runs: a study stopped early (its runs are in
+    # DIR.partial, see benchmarks/seed_summary_of_runs.py) still holds whole seeds
+    cost = list(cost_seeds) if monitoring != "off" else []
+    jobs: list[tuple[str, int, str]] = []
+    for s in [*seeds, *[c for c in cost if c not in seeds]]:
+        jobs += [(n, s, monitoring) for n in scenarios] if s in seeds else []
+        jobs += [(n, s, "off") for n in scenarios] if s in cost else []
     study = SeedStudy(list(scenarios), list(seeds), monitoring, [])
     loaded: dict[str, ProjectData] = {}
     for i, (name, seed, mon) in enumerate(jobs, start=1):
@@ -203,4 +208,28 @@ def run_seeds(
         tell(f"[{i}/{len(jobs)}] {name}, seed {seed}, monitoring {mon}: installed {run.installed}/"
              f"{run.elements}, {run.figures['duration_min']:.2f} min, min separation "
              f"{'-' if sep is None else f'{sep:.2f} m'}, {len(run.collisions)} collision(s)")
+    return study
+
+
+def study_of_runs(run_dirs: Sequence[Path], root: Path) -> SeedStudy:
+    """A study from run directories already written (``compare --seeds`` runs, or ``simulate --seed N``
+    runs): scenario and seed from each ``manifest.json``, monitoring from ``metrics.json``; the
+    monitoring most runs used is the study's, runs with monitoring off besides it are the cost runs."""
+    recs = [(d, RunRecord.load(d)) for d in sorted(run_dirs)]
+    mons = [str(r.metrics.get("safety", {}).get("monitoring", "ssm")) for _, r in recs]
+    main = "ssm" if "ssm" in mons else "off"
+    study = SeedStudy([], [], main, [])
+    for (d, rec), mon in zip(recs, mons, strict=True):
+        name = rec.scenario or d.name
+        seed = int(rec.manifest.get("seed", 0))
+        run = SeedRun.of(name, seed, mon, rec, d.relative_to(root).as_posix() if d.is_relative_to(root)
+                         else str(d))
+        (study.runs if mon == main else study.cost_runs).append(run)
+        if name not in study.scenarios:
+            study.scenarios.append(name)
+        if mon == main and seed not in study.seeds:
+            study.seeds.append(seed)
+    study.runs.sort(key=lambda r: (study.scenarios.index(r.scenario), r.seed))
+    study.cost_runs.sort(key=lambda r: (study.scenarios.index(r.scenario), r.seed))
+    study.seeds.sort()
     return study
