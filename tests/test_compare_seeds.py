@@ -50,6 +50,9 @@ def test_bad_seed_lists_exit_2_before_any_work(project: Path, tmp_path: Path) ->
     both = kbplanner("compare", str(project), "--scenarios", "stored", "--seed", "1", "--seeds", "1-2",
                      "--out", str(tmp_path / "x"))
     assert both.returncode == 2 and "not allowed with" in both.stderr
+    for extra in (["--seeds", "1", "--threshold", "2"], ["--monitoring", "off"]):
+        p = kbplanner("compare", str(project), "--scenarios", "stored", *extra, "--out", str(tmp_path / "x"))
+        assert p.returncode == 2 and "kbplanner compare:" in p.stderr, p.stderr
     assert not (tmp_path / "x").exists()
 
 
@@ -117,6 +120,12 @@ def test_over_seeds_is_deterministic_and_reports_the_cost_of_monitoring(
         texts.append([(out / n).read_text() for n in ("seeds.csv", "seed_summary.json", "summary.md")])
         assert texts[-1][0] and (out / "stored" / "seed-2-monitoring-off" / "metrics.json").is_file()
     assert texts[0] == texts[1]
+    # the same summary from the run directories on disk (a study stopped early, runs made one by one)
+    again = subprocess.run([sys.executable, str(REPO / "benchmarks" / "seed_summary_of_runs.py"),
+                            str(tmp_path / "run0"), "--out", str(tmp_path / "again")],
+                           capture_output=True, text=True)
+    assert again.returncode == 0, again.stdout + again.stderr
+    assert (tmp_path / "again" / "seed_summary.json").read_text() == texts[0][1]
     cost = data["scenarios"]["stored"]["monitoring_cost_s"]
     (on,), (off,) = study.of("stored"), study.of("stored", cost=True)
     assert off.monitoring == "off" and cost["seeds_compared"] == [2]

@@ -49,8 +49,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--monitoring-cost", type=seed_list, nargs="?", const="all", metavar="SEEDS",
                    help="with --seeds: run these seeds (default: all) again with monitoring off and report "
                         "the time monitoring costs")
-    p.add_argument("--threshold", type=positive_float, default=1.0,
-                   help="proximity threshold in metres (default 1.0)")
+    p.add_argument("--threshold", type=positive_float,
+                   help="proximity threshold in metres (default 1.0; with --seeds: the runs' 1 m)")
     p.add_argument("--out", type=Path, required=True, metavar="DIR",
                    help="output folder: new, or one kbplanner wrote (replaced)")
     add_force(p)
@@ -64,6 +64,10 @@ def run(args: argparse.Namespace) -> int:
     names = [s.strip() for s in args.scenarios.split(",") if s.strip()]
     err = Console(stderr=True)
     if args.seeds is not None:
+        if args.threshold is not None:
+            sys.stderr.write("kbplanner compare: with --seeds the figures are the runs' metrics.json ones "
+                             "(1 m threshold); drop --threshold\n")
+            return 2
         return _run_seeds(args, names, err)
     if args.monitoring != "ssm" or args.scripted_workers or args.monitoring_cost is not None:
         sys.stderr.write("kbplanner compare: --monitoring, --scripted-workers and --monitoring-cost go with "
@@ -75,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
             names,
             out_dir=args.out,
             seed=args.seed,
-            threshold_m=args.threshold,
+            threshold_m=1.0 if args.threshold is None else args.threshold,
             progress=say,
         )
     sys.stdout.write(comp.text())
