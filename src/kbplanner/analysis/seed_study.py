@@ -194,8 +194,8 @@ def run_seeds(
     study = SeedStudy(list(scenarios), list(seeds), monitoring, [])
     loaded: dict[str, ProjectData] = {}
     for i, (name, seed, mon) in enumerate(jobs, start=1):
-        cost = mon != monitoring
-        rel = f"{name}/seed-{seed}" + ("-monitoring-off" if cost else "")
+        is_cost = mon != monitoring
+        rel = f"{name}/seed-{seed}" + ("-monitoring-off" if is_cost else "")
         if name not in loaded:
             loaded[name] = ProjectData.load(project_dir, scenario=name)
         tell(f"[{i}/{len(jobs)}] {name}, seed {seed}, monitoring {mon}: simulating")
@@ -203,7 +203,7 @@ def run_seeds(
         simulate_scenario(project_dir, name, seed=seed, out_dir=stage / rel, progress=say,
                           project=loaded[name], settings=settings, max_elements=max_elements)
         run = SeedRun.of(name, seed, mon, RunRecord.load(stage / rel), rel)
-        (study.cost_runs if cost else study.runs).append(run)
+        (study.cost_runs if is_cost else study.runs).append(run)
         sep = run.figures.get("min_separation_m")
         tell(f"[{i}/{len(jobs)}] {name}, seed {seed}, monitoring {mon}: installed {run.installed}/"
              f"{run.elements}, {run.figures['duration_min']:.2f} min, min separation "
