@@ -7,7 +7,13 @@ import math
 import numpy as np
 import pytest
 
-from kbplanner.analysis.proximity import SsmParameters, intervals_below, point_to_rects_distance, robot_speed
+from kbplanner.analysis.proximity import (
+    SsmParameters,
+    intervals_below,
+    point_to_rects_distance,
+    robot_speed,
+    time_below_s,
+)
 from kbplanner.world.footprint import Rect
 
 BASE = Rect(0.0, 0.0, 1.0, 0.6)  # 1.0 m long, 0.6 m wide, centred on the robot origin
@@ -65,14 +71,25 @@ def test_no_interval_when_always_far_and_one_per_approach() -> None:
     assert [(i.start_s, i.end_s, i.min_distance_m) for i in ivs] == [(1.0, 2.0, 0.5), (3.0, 5.0, 0.3)]
 
 
-def test_iso_ts_15066_separation_grows_with_robot_speed() -> None:
+def test_the_analysis_uses_the_simulation_s_s_p_and_time_below() -> None:
+    # one definition (issue 11): the analysis' S_p is the executor's, with the same constants
+    from kbplanner.simulation import separation
+
+    assert SsmParameters is separation.SsmParameters
     p = SsmParameters()
     s0 = float(p.separation_m(0.0))
-    assert s0 == pytest.approx(1.6 * 0.6 + (1.2 - 0.4 * 0.3) + 0.1)
-    s1 = float(p.separation_m(1.0))
-    assert s1 == pytest.approx(s0 + 1.0 * 0.1 + 1.0 / 2.0)
-    assert p.intrusion_m == pytest.approx(1.08)
-    assert SsmParameters(sensor_height_m=1.0).intrusion_m == 0.85  # floor of ISO 13855
+    assert s0 == pytest.approx(1.6 * 0.14 + 1.08 + 0.1)
+    # T_s = v / a: v_h v / a + v T_r + v^2 / (2 a)
+    assert float(p.separation_m(1.0)) == pytest.approx(s0 + 1.6 + 0.14 + 0.5)
+    assert SsmParameters.from_dict(p.as_dict()) == p
+
+
+def test_time_below_counts_time_of_the_run_not_worker_seconds() -> None:
+    t = np.arange(6.0)
+    a = np.array([2.0, 0.5, 0.5, 2.0, 2.0, 2.0])
+    b = np.array([2.0, 2.0, 0.5, 0.5, 2.0, 2.0])  # overlaps a at t = 2
+    assert time_below_s(t, [a, b], 1.0) == pytest.approx(3.0)
+    assert time_below_s(t, [a], np.array([1.0, 1.0, 0.4, 1.0, 1.0, 1.0])) == pytest.approx(1.0)
 
 
 def test_robot_speed_from_positions() -> None:

@@ -23,8 +23,11 @@ def test_distances_use_the_footprint_and_the_carried_element_in_its_carry_mode(t
     assert w.min_distance_m == pytest.approx(0.6) and w.t_min_s == 1.0
     assert [(i.start_s, i.end_s) for i in w.below_threshold] == [(1.0, 3.0)]
     assert w.time_below_threshold_s == pytest.approx(2.0)
-    # The robot does not move, so S_p is the standing value 2.14 m: always below.
-    assert w.time_below_separation_s == pytest.approx(5.0)
+    # The robot does not move, so S_p is the standing value 1.6 * 0.14 + 1.08 + 0.1 = 1.404 m (the
+    # simulation's defaults; the record has no safety.ssm): below at 0.6, 0.6 and 1.3 m.
+    assert w.time_below_separation_s == pytest.approx(3.0)
+    assert prox.time_below_separation_s == pytest.approx(3.0)
+    assert prox.time_below_threshold_s == pytest.approx(2.0)
     assert prox.min_distance_m == pytest.approx(0.6)
 
 

@@ -18,7 +18,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from datetime import datetime
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from rdflib import URIRef
 
@@ -41,6 +41,9 @@ from kbplanner.core.outputs import atomic_write_text, write_json
 from kbplanner.core.tables import render
 from kbplanner.model.project_data import ProjectData
 from kbplanner.world.occupancy import OccupancyGrid
+
+if TYPE_CHECKING:
+    from kbplanner.simulation.skills import ExecSettings
 
 log = logging.getLogger(__name__)
 
@@ -71,12 +74,14 @@ def simulate_scenario(
     at: datetime | None = None,
     project: ProjectData | None = None,
     max_elements: int | None = None,
+    settings: ExecSettings | None = None,
 ) -> ScenarioRun:
     """B1-B5 for one scenario into ``out_dir``; returns the run and its map for the report.
 
     ``task_id`` (default ``[simulation] task``) and ``at`` (the world's date, default ``[simulation]
     date``) choose another robotized task; ``project`` is the loaded scenario, to save loading it again;
-    ``max_elements`` keeps the first elements of the plan's order only (a quick look, tests).
+    ``max_elements`` keeps the first elements of the plan's order only (a quick look, tests);
+    ``settings`` the executor's (monitoring, scripted workers; default: key frames, monitoring on).
     """
     from kbplanner.planning.manipulation import refine_plan
     from kbplanner.planning.planner import plan_task
@@ -116,7 +121,7 @@ def simulate_scenario(
         progress=tell,
         world=world,
         grid=grid,
-        settings=ExecSettings(keyframes=keyframes),
+        settings=settings or ExecSettings(keyframes=keyframes),
     )
     layout = [
         LayoutObject(o.label, o.kind, o.pose.x, o.pose.y, o.size[0], o.size[1], o.pose.yaw)

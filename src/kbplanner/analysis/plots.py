@@ -255,3 +255,32 @@ def grouped_bars(groups: Mapping[str, Mapping[str, float]], *, title: str, ylabe
     ax.grid(axis="y", alpha=0.3)
     fig.tight_layout()
     return to_png(fig)
+
+
+def seed_strips(panels: Sequence[tuple[str, Mapping[str, Sequence[float]]]], *, title: str) -> bytes:
+    """Box and strip plots: one panel per figure, a box per group (e.g. scenario) with every seed's value
+    as a point (spread sideways by a fixed pattern, not at random, so the image is reproducible)."""
+    n = max(len(panels), 1)
+    cols = min(n, 3)
+    rows = math.ceil(n / cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.4 * rows), squeeze=False)
+    for k, (label, groups) in enumerate(panels):
+        ax = axes[k // cols][k % cols]
+        names = list(groups)
+        data = [np.asarray(groups[g], dtype=np.float64) for g in names]
+        filled = [i for i, d in enumerate(data) if len(d)]
+        if filled:
+            ax.boxplot([data[i] for i in filled], positions=[i + 1 for i in filled], widths=0.5,
+                       showfliers=False, medianprops={"color": "black"})
+        for i, d in enumerate(data):
+            offsets = ((np.arange(len(d)) % 7) - 3) * 0.04
+            ax.scatter(i + 1 + offsets, d, s=14, alpha=0.75, color=_COLOURS[i % len(_COLOURS)], zorder=3)
+        ax.set_xticks(range(1, len(names) + 1), names, rotation=20, ha="right", fontsize=7)
+        ax.set_xlim(0.4, len(names) + 0.6)
+        ax.set_title(label, fontsize=9)
+        ax.grid(axis="y", alpha=0.3)
+    for k in range(len(panels), rows * cols):
+        axes[k // cols][k % cols].axis("off")
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    return to_png(fig)

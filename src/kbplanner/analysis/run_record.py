@@ -6,7 +6,10 @@ time per action, per element and in total; ``proximity(threshold_m=1.0)`` gives,
 distance over time from the robot's footprint *including the element it carries in its current carry
 mode* to the worker's body (a circle of ``worker_radius_m``), the intervals below the fixed threshold
 and below the ISO/TS 15066 protective separation distance (see :mod:`kbplanner.analysis.proximity`), the
-minimum distance, and where it happened.
+minimum distance, and where it happened. Separations, S_p (with the run's own constants from
+``metrics.json``) and the time below a threshold are computed by the same functions as ``metrics.json``'s
+``safety`` section (:func:`kbplanner.simulation.safety.separation_samples`,
+:func:`kbplanner.simulation.separation.time_below_s`), so the comparison and the run agree.
 """
 
 from __future__ import annotations
@@ -29,8 +32,10 @@ from kbplanner.analysis.proximity import (
     intervals_below,
     point_to_rects_distance,
     robot_speed,
+    time_below_s,
 )
 from kbplanner.core.errors import InputFileError
+from kbplanner.simulation.safety import separation_samples
 from kbplanner.world.footprint import Rect
 
 FloatArray = npt.NDArray[np.float64]
@@ -145,6 +150,17 @@ class ProximityResult:
     t: FloatArray
     separation_m: FloatArray
     workers: list[WorkerProximity] = field(default_factory=list)
+
+    @property
+    def time_below_threshold_s(self) -> float:
+        """Time of the run with any worker below the fixed threshold (metrics.json's ``time_below_1m_s``
+        for 1 m)."""
+        return time_below_s(self.t, [w.distance_m for w in self.workers], self.threshold_m)
+
+    @property
+    def time_below_separation_s(self) -> float:
+        """Time of the run with any worker below S_p (metrics.json's ``time_below_protective_s``)."""
+        return time_below_s(self.t, [w.distance_m for w in self.workers], self.separation_m)
 
     @property
     def min_distance_m(self) -> float:
@@ -286,8 +302,11 @@ class RunRecord:
         ssm: SsmParameters | None = None,
         worker_radius_m: float = WORKER_RADIUS_M,
     ) -> ProximityResult:
-        """Distances to every worker, the intervals below ``threshold_m`` and below ISO/TS 15066 S_p."""
-        ssm = ssm or SsmParameters()
+        """Distances to every worker, the intervals below ``threshold_m`` and below ISO/TS 15066 S_p.
+
+        ``ssm`` defaults to the run's own constants (``metrics.json``, ``safety.ssm``).
+        """
+        ssm = ssm or SsmParameters.from_dict(self.metrics.get("safety", {}).get("ssm"))
         tr = self.trajectories
         sep = ssm.separation_m(robot_speed(tr.t, tr.x, tr.y))
         res = ProximityResult(
@@ -296,8 +315,10 @@ class RunRecord:
         # Workers walk on the site's ground; the robot works on its task's storey: the storeys apart
         # add to the distance (0 on the ground floor).
         dz = abs(float(self.manifest.get("robot_floor_z", 0.0)) - float(self.manifest.get("ground_z", 0.0)))
+        seps = separation_samples(tr.x, tr.y, tr.yaw, tr.carried, tr.carry_mode, tr.workers, self.footprints,
+                                  dz, radius_m=worker_radius_m)
         for name, (wx, wy) in sorted(tr.workers.items()):
-            d = np.maximum(np.hypot(self.robot_distance(wx, wy), dz) - worker_radius_m, 0.0)
+            d = seps[name]
             k = int(np.argmin(d)) if len(d) else 0
             res.workers.append(
                 WorkerProximity(

@@ -79,3 +79,36 @@ def check_out_file(path: Path | str | None, option: str) -> None:
     """The output rule for a single output file (``--report``, ``--template``)."""
     if path is not None:
         check_output_file(Path(path), option=option)
+
+
+SEEDS_MAX = 1000  # runs per scenario of one --seeds
+
+
+def seed_list(text: str) -> list[int]:
+    """An argparse type: seeds as ranges and lists, ``1-20``, ``1,3,5`` or ``1-5,9`` (in the order given).
+
+    Each seed is a whole number from 0 to ``SEED_MAX``; a range runs upwards; a seed may not repeat.
+
+    Example:
+        >>> seed_list("1-3,7")
+        [1, 2, 3, 7]
+    """
+    seeds: list[int] = []
+    parts = [p.strip() for p in text.split(",")]
+    if not text.strip() or any(not p for p in parts):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a seed list: give e.g. 1-20 or 1,3,5")
+    for part in parts:
+        lo_text, sep, hi_text = part.partition("-")
+        if sep and not lo_text.strip():
+            raise argparse.ArgumentTypeError(f"{part!r}: seeds are whole numbers from 0 to {SEED_MAX}")
+        lo = seed_int(lo_text.strip())
+        hi = seed_int(hi_text.strip()) if sep else lo
+        if hi < lo:
+            raise argparse.ArgumentTypeError(f"{part!r} runs downwards: give the smaller seed first")
+        if len(seeds) + hi - lo + 1 > SEEDS_MAX:
+            raise argparse.ArgumentTypeError(f"{text!r} gives more than {SEEDS_MAX} seeds")
+        seeds.extend(range(lo, hi + 1))
+    repeated = sorted({s for s in seeds if seeds.count(s) > 1})
+    if repeated:
+        raise argparse.ArgumentTypeError(f"{text!r} repeats seed(s) {repeated}: give each seed once")
+    return seeds

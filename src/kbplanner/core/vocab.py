@@ -243,6 +243,7 @@ class KBP(DefinedNamespace):
     taskKind: URIRef
     taskSpecificationId: URIRef
     toolSpeed: URIRef
+    trackedApproachSpeed: URIRef
     unit: URIRef
     urdf: URIRef
     usesSkill: URIRef

@@ -30,6 +30,8 @@ from kbplanner.simulation.separation import (
     SsmParameters,
     distance_at_poses,
     rects_distance,
+    robot_speed,
+    time_below_s,
 )
 from kbplanner.simulation.sim_env import SimEnv
 from kbplanner.simulation.social_force import Obstacle
@@ -121,6 +123,40 @@ def _rects_of(footprints: Mapping[str, Any]) -> tuple[list[Rect], dict[str, dict
     return robot, elements
 
 
+def separation_samples(
+    x: np.ndarray,
+    y: np.ndarray,
+    yaw: np.ndarray,
+    carried: Sequence[str],
+    carry_mode: Sequence[str],
+    workers: Mapping[str, tuple[np.ndarray, np.ndarray]],
+    footprints: Mapping[str, Any],
+    dz_m: float,
+    radius_m: float = WORKER_RADIUS_M,
+) -> dict[str, np.ndarray]:
+    """{worker: separation per sample} of recorded samples: the one definition used by ``metrics.json``
+    and the analysis (footprint of the base plus the carried element's carry-mode rectangle to the
+    worker's disc, plus the storeys between, see :mod:`kbplanner.simulation.separation`)."""
+    robot, elements = _rects_of(footprints)
+    keys = []
+    for gid, mode in zip(carried, carry_mode, strict=True):
+        key = MODE_RECT.get(mode)
+        keys.append((gid, key) if gid and key and key in elements.get(gid, {}) else ("", ""))
+    groups: dict[tuple[str, str], list[int]] = {}
+    for i, k in enumerate(keys):
+        groups.setdefault(k, []).append(i)
+    out: dict[str, np.ndarray] = {}
+    for w, (wx, wy) in sorted(workers.items()):
+        sep = np.empty(len(x))
+        for carry, members in sorted(groups.items()):
+            idx = np.array(members, dtype=np.int64)
+            rects = robot if not carry[0] else [*robot, elements[carry[0]][carry[1]]]
+            d = distance_at_poses(wx[idx], wy[idx], x[idx], y[idx], yaw[idx], rects)
+            sep[idx] = np.maximum(np.hypot(d, dz_m) - radius_m, 0.0)
+        out[w] = sep
+    return out
+
+
 def separations(
     csv_text: str, footprints: Mapping[str, Any], dz_m: float
 ) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
@@ -128,34 +164,16 @@ def separations(
     rows = list(csv.reader(io.StringIO(csv_text)))
     header, body = rows[0], rows[1:]
     col = {c: i for i, c in enumerate(header)}
-    t = np.array([float(r[col["t_s"]]) for r in body])
-    x = np.array([float(r[col["x"]]) for r in body])
-    y = np.array([float(r[col["y"]]) for r in body])
-    yaw = np.array([float(r[col["yaw"]]) for r in body])
-    robot, elements = _rects_of(footprints)
-    keys = []
-    for r in body:
-        gid, mode = r[col["carried"]], r[col["carry_mode"]]
-        key = MODE_RECT.get(mode)
-        keys.append((gid, key) if gid and key and key in elements.get(gid, {}) else ("", ""))
-    speed = np.zeros(len(t))
-    if len(t) > 1:
-        dt = np.diff(t)
-        dt[dt <= 0] = np.inf
-        speed[1:] = np.hypot(np.diff(x), np.diff(y)) / dt
-    workers = [c[:-2] for c in header if c.endswith("_x") and c[:-2] + "_y" in col and c != "x"]
-    out: dict[str, np.ndarray] = {}
-    for w in workers:
-        wx = np.array([float(r[col[w + "_x"]]) for r in body])
-        wy = np.array([float(r[col[w + "_y"]]) for r in body])
-        sep = np.empty(len(t))
-        for carry in sorted(set(keys)):
-            idx = np.array([i for i, k in enumerate(keys) if k == carry], dtype=np.int64)
-            rects = robot if not carry[0] else [*robot, elements[carry[0]][carry[1]]]
-            d = distance_at_poses(wx[idx], wy[idx], x[idx], y[idx], yaw[idx], rects)
-            sep[idx] = np.maximum(np.hypot(d, dz_m) - WORKER_RADIUS_M, 0.0)
-        out[w] = sep
-    return t, speed, out
+
+    def num(c: str) -> np.ndarray:
+        return np.array([float(r[col[c]]) for r in body])
+
+    t, x, y, yaw = num("t_s"), num("x"), num("y"), num("yaw")
+    names = [c[:-2] for c in header if c.endswith("_x") and c[:-2] + "_y" in col and c != "x"]
+    workers = {w: (num(w + "_x"), num(w + "_y")) for w in names}
+    seps = separation_samples(x, y, yaw, [r[col["carried"]] for r in body],
+                              [r[col["carry_mode"]] for r in body], workers, footprints, dz_m)
+    return t, robot_speed(t, x, y), seps
 
 
 def safety_summary(
@@ -169,7 +187,6 @@ def safety_summary(
 ) -> dict[str, Any]:
     """The ``safety`` section of metrics.json (see module docstring)."""
     t, speed, seps = separations(csv_text, footprints, dz_m)
-    dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
     sp = ssm.separation_m(speed)
     per_worker = {}
     for w, s in sorted(seps.items()):
@@ -177,18 +194,13 @@ def safety_summary(
         per_worker[w] = {
             "min_separation_m": round(float(s[k]), 3) if len(s) else None,
             "t_min_s": round(float(t[k]), 2) if len(s) else None,
-            "time_below_1m_s": round(float(np.count_nonzero(s < FIXED_THRESHOLD_M)) * dt, 2),
-            "time_below_protective_s": round(float(np.count_nonzero(s < sp)) * dt, 2),
+            "time_below_1m_s": round(time_below_s(t, [s], FIXED_THRESHOLD_M), 2),
+            "time_below_protective_s": round(time_below_s(t, [s], sp), 2),
         }
     allmin = min(
         (v["min_separation_m"] for v in per_worker.values() if v["min_separation_m"] is not None),
         default=None,
     )
-    anyw = np.zeros(len(t), dtype=bool)
-    anyp = np.zeros(len(t), dtype=bool)
-    for s in seps.values():
-        anyw |= s < FIXED_THRESHOLD_M
-        anyp |= s < sp
     collisions = [
         {"t_s": e["t_s"], **{k: v for k, v in e["details"].items()}}
         for e in events
@@ -199,8 +211,8 @@ def safety_summary(
         "collisions": len(collisions),
         "collision_events": collisions,
         "min_separation_m": allmin,
-        "time_below_1m_s": round(float(np.count_nonzero(anyw)) * dt, 2),
-        "time_below_protective_s": round(float(np.count_nonzero(anyp)) * dt, 2),
+        "time_below_1m_s": round(time_below_s(t, list(seps.values()), FIXED_THRESHOLD_M), 2),
+        "time_below_protective_s": round(time_below_s(t, list(seps.values()), sp), 2),
         "stops": sum(int(n.get("stops", 0)) for n in navigation),
         "stop_time_s": round(sum(float(n.get("stop_time_s", 0.0)) for n in navigation), 2),
         "slowdowns": sum(int(n.get("slowdowns", 0)) for n in navigation),
@@ -212,5 +224,7 @@ def safety_summary(
         "worker_radius_m": WORKER_RADIUS_M,
         "fixed_threshold_m": FIXED_THRESHOLD_M,
         "definition": "separation: footprint (base + carried element's carry-mode rectangle; lifted/placing: "
-        "normal) to the worker disc, per recorded sample; time below = samples x period",
+        "normal) to the worker disc, per recorded sample; time below = samples at which any worker is "
+        "below x the median recording period; S_p at the robot's translational speed from consecutive "
+        "samples",
     }

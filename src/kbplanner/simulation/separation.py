@@ -116,6 +116,25 @@ class SsmParameters:
         qa, qb = 1.0 / (2 * a), self.human_speed_mps / a + self.reaction_time_s
         return float((-qb + math.sqrt(qb * qb - 4 * qa * c0)) / (2 * qa))
 
+    @classmethod
+    def from_dict(cls, d: Mapping[str, object] | None) -> SsmParameters:
+        """From ``metrics.json``'s ``safety.ssm`` (:meth:`as_dict`); defaults for what is absent."""
+        base = cls()
+        if not d:
+            return base
+
+        def num(key: str, default: float) -> float:
+            v = d.get(key)
+            return float(v) if isinstance(v, (int, float)) and math.isfinite(float(v)) else default
+
+        return cls(
+            num("human_speed_mps", base.human_speed_mps),
+            num("reaction_time_s", base.reaction_time_s),
+            num("deceleration_mps2", base.deceleration_mps2),
+            num("intrusion_m", base.intrusion_m),
+            num("uncertainty_m", base.uncertainty_m),
+        )
+
     def as_dict(self) -> dict[str, float]:
         """The constants, for metrics.json."""
         return {
@@ -180,6 +199,47 @@ def distance_at_poses(
             np.hypot(np.maximum(np.abs(ux) - r.length / 2, 0.0), np.maximum(np.abs(uy) - r.width / 2, 0.0)),
         )
     return np.asarray(best, dtype=np.float64)
+
+
+def robot_speed(t: FloatArray, x: FloatArray, y: FloatArray) -> FloatArray:
+    """Translational speed (m/s) of the robot base from its sampled positions (backward differences,
+    0 at the first sample): the speed S_p is evaluated at in the safety figures.
+
+    Example:
+        >>> robot_speed(np.array([0.0, 1.0, 2.0]), np.array([0.0, 0.3, 0.3]), np.zeros(3)).tolist()
+        [0.0, 0.3, 0.0]
+    """
+    t, x, y = (np.asarray(a, dtype=np.float64) for a in (t, x, y))
+    v = np.zeros_like(t)
+    if len(t) > 1:
+        dt = np.diff(t)
+        dt[dt <= 0] = np.inf
+        v[1:] = np.hypot(np.diff(x), np.diff(y)) / dt
+    return v
+
+
+def sample_period_s(t: FloatArray) -> float:
+    """The recording period: the median step between samples (0 for fewer than two samples)."""
+    return float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+
+
+def time_below_s(t: FloatArray, separations: Sequence[FloatArray], limit: FloatArray | float) -> float:
+    """**The** time below a limit: samples at which *any* worker's separation is below ``limit`` (a
+    number, or one per sample such as S_p at the robot's speed), times the recording period.
+
+    One worker or several at once count the same: it is time of the run, not worker-seconds.
+
+    Example:
+        >>> t = np.arange(5.0)
+        >>> time_below_s(t, [np.array([2.0, 0.5, 0.5, 2, 2]), np.array([2, 2, 0.5, 0.5, 2.0])], 1.0)
+        3.0
+    """
+    t = np.asarray(t, dtype=np.float64)
+    lim = np.broadcast_to(np.asarray(limit, dtype=np.float64), t.shape)
+    below = np.zeros(t.shape, dtype=bool)
+    for s in separations:
+        below |= np.asarray(s, dtype=np.float64) < lim
+    return float(np.count_nonzero(below)) * sample_period_s(t)
 
 
 def hazard_rects(robot: Sequence[Rect], element_rects: Mapping[str, Rect] | None, mode: str) -> list[Rect]:

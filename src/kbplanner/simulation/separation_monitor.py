@@ -12,7 +12,8 @@ S_p(v) fits the measured separation:
   scan is skipped while every worker is farther from the footprint than S_p at full speed, where it
   could not change the outcome.
 - **Human speed.** A person seen in consecutive scans is tracked (the centroid of their hits): v_h is
-  their measured speed towards the robot, at least ``TRACKED_SPEED_FLOOR_MPS``; a person seen for the
+  their measured speed towards the robot, at least the skill's ``trackedApproachSpeed`` (knowledge base
+  default 0.3 m/s, ``TRACKED_SPEED_FLOOR_MPS`` when a skill lacks it); a person seen for the
   first time approaches at ``humanApproachSpeed`` (ISO 13855's 1.6 m/s), as ISO/TS 15066 prescribes
   for an operator whose speed is not monitored.
 - **Speed.** The speed that matters is the fastest point of the footprint: translation plus yaw rate
@@ -26,7 +27,8 @@ S_p(v) fits the measured separation:
 
 The parameters are the step's effective skill parameters (knowledge base defaults, jobsite
 overrides): ``maxSpeed``, ``minSpeed``, ``safetyStopDistance``, ``humanApproachSpeed``,
-``reactionTime``, ``brakingDeceleration``, ``intrusionDistance``, ``positionUncertainty``.
+``reactionTime``, ``brakingDeceleration``, ``intrusionDistance``, ``positionUncertainty``,
+``trackedApproachSpeed``.
 """
 
 from __future__ import annotations
@@ -43,7 +45,7 @@ from kbplanner.simulation.sim_env import SimEnv
 from kbplanner.world.footprint import Rect
 
 Pose2D = tuple[float, float, float]
-TRACKED_SPEED_FLOOR_MPS = 0.3  # a tracked person's approach speed is taken as at least this
+TRACKED_SPEED_FLOOR_MPS = 0.3  # fallback of kbp:trackedApproachSpeed (ontology/kb/skills.ttl, NV-1/NV-2)
 
 
 @dataclass(frozen=True)
@@ -85,9 +87,15 @@ class SeparationMonitor:
         self.max_speed = max_speed
         stop = params.get("safetyStopDistance", 0.5)
         lo = params.get("minSpeed", 0.05)
+        floor = params.get("trackedApproachSpeed", TRACKED_SPEED_FLOOR_MPS)
+        self.tracked_floor = (
+            float(floor)
+            if isinstance(floor, (int, float)) and math.isfinite(float(floor)) and float(floor) > 0
+            else TRACKED_SPEED_FLOOR_MPS
+        )
         self.stop_m = max(
             float(stop) if isinstance(stop, (int, float)) else 0.5,
-            float(replace(self.ssm, human_speed_mps=TRACKED_SPEED_FLOOR_MPS).separation_m(0.0)),
+            float(replace(self.ssm, human_speed_mps=self.tracked_floor).separation_m(0.0)),
         )
         self.min_speed = float(lo) if isinstance(lo, (int, float)) else 0.05
         self._tracks: dict[str, tuple[float, np.ndarray]] = {}
@@ -120,7 +128,7 @@ class SeparationMonitor:
             last = self._tracks.get(w.slug)
             if last is not None and 0 < env.t - last[0] <= 0.25:
                 vel = (centroid - last[1]) / (env.t - last[0])
-                v_h = max(TRACKED_SPEED_FLOOR_MPS, -float(vel[0] * ux[k] + vel[1] * uy[k]))
+                v_h = max(self.tracked_floor, -float(vel[0] * ux[k] + vel[1] * uy[k]))
             tracks[w.slug] = (env.t, centroid)
             out.append(Sensed(w.slug, float(d[k]), pts, v_h))
         self._tracks = tracks
