@@ -14,12 +14,14 @@ import argparse
 import sys
 from collections import Counter
 from pathlib import Path
-
-from rich.console import Console
+from typing import TYPE_CHECKING
 
 from kbplanner.cli.arguments import add_force, check_out, int_at_least, seed_int
-from kbplanner.cli.progress import status
-from kbplanner.scale.project_init import TASK_TYPES, InitResult, init_project
+from kbplanner.scale.init_tasks import TASK_TYPES
+
+if TYPE_CHECKING:
+
+    from kbplanner.scale.project_init import InitResult
 
 SHOWN = 20  # walls not chosen listed one by one; the rest summarised by reason
 
@@ -91,6 +93,11 @@ def _kind(reason: str) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    from rich.console import Console
+
+    from kbplanner.cli.progress import status
+    from kbplanner.scale.project_init import init_project
+
     check_out(args.out)
     walls = [w.strip() for w in (args.walls or "").split(",") if w.strip()]
     with status(Console(stderr=True), f"reading {args.ifc}") as say:

@@ -45,6 +45,7 @@ from kbplanner.scale import init_layout as L
 from kbplanner.scale import init_site as site
 from kbplanner.scale.init_ifc import FrameRecord, write_frames
 from kbplanner.scale.init_storage import place_storages
+from kbplanner.scale.init_tasks import TASK_TYPES
 from kbplanner.scale.init_walls import (
     InitError,
     PanelSpot,
@@ -66,7 +67,6 @@ from kbplanner.world.maps import storey_map
 from kbplanner.world.site_checks import check_pickup_locations
 
 Say = Callable[[str], None]
-TASK_TYPES = {"frame-interior-walls": "InteriorWallFraming"}  # init's task types -> KB task kind
 MAX_STACK = 8  # frames per stack: the top one stays within the arm's reach
 
 
