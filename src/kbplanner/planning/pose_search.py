@@ -55,6 +55,10 @@ class RefineSettings:
     escape_radius_m: float = 3.0  # after an install the robot must get this far (escapes())
     bearing_spread_rad: float = math.radians(70.0)
     yaw_spread_rad: float = math.radians(60.0)
+    # the deterministic second pass of the base-pose search (PoseSearch.closest_free)
+    fixed_bearing_step_rad: float = math.radians(10.0)
+    fixed_radial_step_m: float = 0.02
+    fixed_turns_rad: tuple[float, ...] = tuple(math.radians(t) for t in (0.0, -20.0, 20.0, -40.0, 40.0))
 
 
 class PoseSearch:
@@ -167,6 +171,46 @@ class PoseSearch:
             out.append(pose2(x, y, yaw))
         out.sort(key=lambda b: (math.hypot(b.x - ref.x, b.y - ref.y), b.x, b.y, b.yaw))
         return out
+
+    def closest_free(self, target: npt.NDArray[np.float64], checker: PoseChecker,
+                     side: tuple[float, float] | None, ref: Pose2) -> list[Pose2]:
+        """Seed-independent base poses: per bearing and turn, the free one whose arm mount is closest.
+
+        The second pass of the base-pose search, independent of the seed: on a regular set of bearings
+        (every ``fixed_bearing_step_rad`` around the target, or within ``bearing_spread_rad`` of
+        ``side``) and base turns (``fixed_turns_rad`` off facing the target), the arm mount steps out
+        from ``min_reach_m`` by ``fixed_radial_step_m`` until the base footprint is free on
+        ``checker``. The target's near side of a stack or a wall, where random samples rarely land,
+        is always covered. Sorted by mount-target distance (closest first, the most reachable), then
+        by distance to ``ref``.
+        """
+        reach = self.horizontal_reach(float(target[2]))
+        if reach <= self.s.min_reach_m:
+            return []
+        mx, my = self.robot.spec.arm_mount_xyz[0], self.robot.spec.arm_mount_xyz[1]
+        if side is None:
+            n = max(1, round(2 * math.pi / self.s.fixed_bearing_step_rad))
+            bearings = [-math.pi + i * 2 * math.pi / n for i in range(n)]
+        else:
+            centre = math.atan2(side[1], side[0])
+            k = int(self.s.bearing_spread_rad // self.s.fixed_bearing_step_rad)
+            bearings = [centre + i * self.s.fixed_bearing_step_rad for i in range(-k, k + 1)]
+        steps = int((reach - self.s.min_reach_m) // self.s.fixed_radial_step_m) + 1
+        found: list[tuple[float, Pose2]] = []
+        for bearing in bearings:
+            cb, sb = math.cos(bearing), math.sin(bearing)
+            for turn in self.s.fixed_turns_rad:
+                for i in range(steps):
+                    r = self.s.min_reach_m + i * self.s.fixed_radial_step_m
+                    ax, ay = float(target[0]) + r * cb, float(target[1]) + r * sb
+                    yaw = math.atan2(float(target[1]) - ay, float(target[0]) - ax) + turn
+                    x = ax - (math.cos(yaw) * mx - math.sin(yaw) * my)
+                    y = ay - (math.sin(yaw) * mx + math.cos(yaw) * my)
+                    if checker.free(self.base_fp, x, y, yaw):
+                        found.append((round(r, 6), pose2(x, y, yaw)))
+                        break
+        found.sort(key=lambda t: (t[0], math.hypot(t[1].x - ref.x, t[1].y - ref.y), t[1].x, t[1].y, t[1].yaw))
+        return [b for _, b in found]
 
     def carry_free(self, checker: PoseChecker, geo: CarryGeometry, base: Pose2) -> list[str]:
         """The carry modes whose footprint is free at ``base``."""
