@@ -180,9 +180,9 @@ class PoseSearch:
         (every ``fixed_bearing_step_rad`` around the target, or within ``bearing_spread_rad`` of
         ``side``) and base turns (``fixed_turns_rad`` off facing the target), the arm mount steps out
         from ``min_reach_m`` by ``fixed_radial_step_m`` until the base footprint is free on
-        ``checker``. The target's near side of a stack or a wall, where random samples rarely land,
-        is always covered. Sorted by mount-target distance (closest first, the most reachable), then
-        by distance to ``ref``.
+        ``checker`` (each pose at the centre of its grid cell, :meth:`_cell_centre`). The target's near
+        side of a stack or a wall, where random samples rarely land, is always covered. Sorted by
+        mount-target distance (closest first, the most reachable), then by distance to ``ref``.
         """
         reach = self.horizontal_reach(float(target[2]))
         if reach <= self.s.min_reach_m:
@@ -206,11 +206,27 @@ class PoseSearch:
                     yaw = math.atan2(float(target[1]) - ay, float(target[0]) - ax) + turn
                     x = ax - (math.cos(yaw) * mx - math.sin(yaw) * my)
                     y = ay - (math.sin(yaw) * mx + math.cos(yaw) * my)
+                    x, y = self._cell_centre(checker, x, y)
                     if checker.free(self.base_fp, x, y, yaw):
                         found.append((round(r, 6), pose2(x, y, yaw)))
                         break
         found.sort(key=lambda t: (t[0], math.hypot(t[1].x - ref.x, t[1].y - ref.y), t[1].x, t[1].y, t[1].yaw))
         return [b for _, b in found]
+
+    @staticmethod
+    def _cell_centre(checker: PoseChecker, x: float, y: float) -> tuple[float, float]:
+        """(x, y) moved to the centre of its grid cell.
+
+        The free test depends only on the cell of (x, y) and the yaw bin. A pose on a cell border
+        (the first free pose along a ray often is one) may fall into the next cell on the grid window
+        the navigation plans in (another origin, another rounding) and be called blocked there; at a
+        cell's centre it falls into the same cell on every window of the grid.
+        """
+        g = checker.grid
+        res = g.resolution
+        ix = math.floor((x - g.origin[0]) / res)
+        iy = math.floor((y - g.origin[1]) / res)
+        return g.origin[0] + (ix + 0.5) * res, g.origin[1] + (iy + 0.5) * res
 
     def carry_free(self, checker: PoseChecker, geo: CarryGeometry, base: Pose2) -> list[str]:
         """The carry modes whose footprint is free at ``base``."""
