@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from rdflib import Graph, Literal, URIRef
 from rdflib.term import Node
@@ -52,6 +52,7 @@ class ElementOrder:
     elements: tuple[URIRef, ...]
     rule: str
     distances_m: dict[URIRef, float | None]
+    sequences: dict[URIRef, int] = field(default_factory=dict)  # kbp:workSequence where given
 
 
 @dataclass
@@ -173,4 +174,5 @@ def element_order(model: Graph, task: URIRef,
         rule = f"{rule}; then {RULE_STACK}"
     ordered = tuple(r.element for r in ordered_rows)
     log.info("element order of %s: %d elements, %s", task, len(ordered), rule)
-    return ElementOrder(elements=ordered, rule=rule, distances_m=distances)
+    return ElementOrder(elements=ordered, rule=rule, distances_m=distances,
+                        sequences={r.element: r.sequence for r in rows if r.sequence is not None})

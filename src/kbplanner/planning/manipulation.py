@@ -69,6 +69,7 @@ from collections.abc import Callable
 from kbplanner.core.vocab import KBP
 from kbplanner.planning.base_poses import element_polygon, mark_polygon
 from kbplanner.planning.grasp_poses import Pick, PickSearch
+from kbplanner.planning.install_order import blocked_move, installable, move_before, stack_above
 from kbplanner.planning.install_poses import InstallSearch
 from kbplanner.planning.plan_model import Plan, SkillCall
 from kbplanner.planning.pose_frames import as_joints, as_pose6_list, joints, pose2, pose6_matrix
@@ -294,15 +295,62 @@ def refine_plan(
     grid: OccupancyGrid | None = None,
     settings: RefineSettings | None = None,
     progress: Callable[[str, int, int], None] | None = None,
+    reorder: bool = True,
 ) -> Plan:
     """B4: a copy of ``plan`` with base and arm poses for every step (see module docstring).
 
     ``grid`` is the task storey's occupancy grid (default: :func:`kbplanner.world.maps.storey_map`
-    of the world). ``progress(label, done, total)`` is called after each element.
+    of the world). ``progress(label, done, total)`` is called after each element. With ``reorder``,
+    an element whose install B4 finds blocked by elements installed before it is moved before them
+    and B4 runs again (:mod:`kbplanner.planning.install_order`; kept when more elements become
+    installable, and said in ``order_rule`` and the notes).
 
     Raises:
         InputFileError: the plan names a robot whose URDF cannot be loaded.
     """
+    if grid is None and plan.robot_id:
+        from kbplanner.world.maps import storey_map
+
+        grid = storey_map(world).grid
+    out = _refine_once(plan, world, seed=seed, grid=grid, settings=settings, progress=progress)
+    if not reorder or not out.robot_id or grid is None:
+        return out
+    used = settings or RefineSettings()
+    current = plan
+    tried: set[tuple[str, str]] = set()
+    moves: list[str] = []
+    above = stack_above(world)
+    for _ in range(min(len(plan.elements), used.max_reorder_rounds)):
+        move = blocked_move(current, out, above, used.blocking_radius_m, tried)
+        if move is None:
+            break
+        tried.add(move)
+        candidate_in = move_before(current, *move)
+        candidate = _refine_once(candidate_in, world, seed=seed, grid=grid, settings=settings,
+                                 progress=progress)
+        if installable(candidate) <= installable(out):
+            continue
+        labels = {e.iri: e.label for e in plan.elements}
+        moves.append(f"{labels[move[0]]} before {labels[move[1]]}")
+        current, out = candidate_in, candidate
+    if moves:
+        text = (f"B4 moved {'; '.join(moves)} (the install base poses were blocked by the elements "
+                "installed before)")
+        out.order_rule = f"{plan.order_rule}; then {text}"
+        out.notes.append(text)
+    return out
+
+
+def _refine_once(
+    plan: Plan,
+    world: World,
+    *,
+    seed: int,
+    grid: OccupancyGrid | None,
+    settings: RefineSettings | None,
+    progress: Callable[[str, int, int], None] | None,
+) -> Plan:
+    """B4 once, in the plan's order."""
     out = copy.deepcopy(plan)
     if not out.robot_id:
         out.notes.append("B4 not run: no robot selected")

@@ -53,6 +53,8 @@ class RefineSettings:
     ik_method: IkMethod = "closed_form"
     fallback_ik_method: IkMethod | None = "numeric"
     escape_radius_m: float = 3.0  # after an install the robot must get this far (escapes())
+    blocking_radius_m: float = 3.0  # elements installed this near an unreachable install may block it
+    max_reorder_rounds: int = 6  # B4 runs again at most this often with a blocked element moved first
     bearing_spread_rad: float = math.radians(70.0)
     yaw_spread_rad: float = math.radians(60.0)
     # the deterministic second pass of the base-pose search (PoseSearch.closest_free)
