@@ -2,12 +2,21 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from rdflib import Graph, Literal, URIRef
 
 from kb_fixtures import BASE, frame_gid, make_model
 from kbplanner.core.iris import element_iri, task_iri
 from kbplanner.core.vocab import KBP
+from kbplanner.model.dates import parse_date
 from kbplanner.planning.element_order import RULE_NEAREST, RULE_SEQUENCE, RULE_STACK, element_order
+from kbplanner.planning.manipulation import refine_plan
+from kbplanner.planning.planner import plan_task
+from kbplanner.project import Project
+from kbplanner.world.build import build_world
+from kbplanner.world.maps import storey_map
+from sim_project_factory import DATE, make_sim_project
 
 
 def _frames(n: int) -> list[URIRef]:
@@ -66,3 +75,17 @@ def test_elements_in_different_storages_do_not_constrain_each_other() -> None:
     order = element_order(g, task_iri(BASE, "T1"), robot_start=(5.5, 4.5))  # the other has no pickup
     assert order.elements == (f[0], f[1])  # nearest first (0 m from the start), each alone on its stack
     assert RULE_STACK not in order.rule
+
+
+def test_without_a_work_sequence_b4_picks_the_stack_from_the_top(tmp_path: Path) -> None:
+    """The small executor project with its kbp:workSequence removed: P1 lies on P2 (nearest P2 first
+    would leave P1 on it); the stack order makes both installable (P3 is out of reach anyway)."""
+    make_sim_project(tmp_path)
+    project = Project.load(tmp_path, scenario="stored")
+    project.model.remove((None, KBP.workSequence, None))
+    world = build_world(project, parse_date(DATE))
+    plan = plan_task(project, world=world)
+    assert [e.label for e in plan.elements][:2] == ["Panel P1", "Panel P2"]
+    refined = refine_plan(plan, world, seed=3, grid=storey_map(world).grid)
+    ok = {e.label: all(s.feasible for s in refined.steps_for(e.iri)) for e in refined.elements}
+    assert ok == {"Panel P1": True, "Panel P2": True, "Panel P3": False}
