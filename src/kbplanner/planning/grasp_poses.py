@@ -119,6 +119,8 @@ class PickSearch(PoseSearch):
             direction = (toward[0] / norm, toward[1] / norm)
             done = False
             for grasp in grasp_candidates(we.local_bounds, frame, gp, direction, (tilt,)):
+                if (grasp.tilt_deg, grasp.flip_x) in self.excluded_grasps:
+                    continue  # its install failed (manipulation._Refiner._element_regrasp)
                 if not self.ik(grasp.tool_at(frame), seeds, fallback=False).reachable:
                     continue
                 res = self._pick_at(base, grasp, frame, we, nav_q, carry_seed)

@@ -67,11 +67,11 @@ import logging
 from collections.abc import Callable
 
 from kbplanner.core.vocab import KBP
-from kbplanner.planning.base_poses import element_polygon, mark_polygon
+from kbplanner.planning.base_poses import PoseChecker, element_polygon, mark_polygon
 from kbplanner.planning.grasp_poses import Pick, PickSearch
 from kbplanner.planning.install_order import blocked_move, installable, move_before, stack_above
 from kbplanner.planning.install_poses import InstallSearch
-from kbplanner.planning.plan_model import Plan, SkillCall
+from kbplanner.planning.plan_model import Plan, Pose2, SkillCall
 from kbplanner.planning.pose_frames import as_joints, as_pose6_list, joints, pose2, pose6_matrix
 from kbplanner.planning.pose_search import RefineSettings
 from kbplanner.robot.robot_model import RobotModel
@@ -91,6 +91,10 @@ NAVIGATION_KINDS = (KIND_NAVIGATION, KIND_NAVIGATION_WITH_OBJECT)
 # Reasons of B4 failures that do not depend on the IK (no retry with the fallback IK).
 _NOT_IK_FAILURES = ("no free base pose", "the element lies under", "the element is not at a storage",
                     "out of reach from any base pose", "skipped", "the element weighs")
+
+
+_StepState = tuple[bool, str | None, Pose2 | None, dict[str, list[float]], list[str]]
+_State = tuple[list[_StepState], set[str], Pose2, PoseChecker]
 
 
 class _Refiner(PickSearch, InstallSearch):
@@ -118,26 +122,64 @@ class _Refiner(PickSearch, InstallSearch):
         steps = self.plan.steps_for(iri)
         if not steps:
             return
-        saved = ([(s.feasible, s.reason, s.base_pose, dict(s.arm_poses), list(s.notes)) for s in steps],
-                 set(self.picked), self.robot_at, self.checker)
+        saved = self._state(steps)
         self.method = self.s.ik_method
-        self._element(iri, steps)
+        self._element_regrasp(iri, steps, saved)
         fallback = self.s.fallback_ik_method
         if fallback is None or fallback == self.method or all(s.feasible for s in steps):
             return
         first = next(s.reason for s in steps if not s.feasible) or ""
         if first.startswith(_NOT_IK_FAILURES):
             return  # another IK cannot help
-        for s, (feasible, reason, base, arm, notes) in zip(steps, saved[0], strict=True):
-            s.feasible, s.reason, s.base_pose, s.arm_poses, s.notes = feasible, reason, base, arm, notes
-        self.picked, self.robot_at, self.checker = saved[1], saved[2], saved[3]
+        self._restore(steps, saved)
         self.method = fallback
-        self._element(iri, steps)
+        self._element_regrasp(iri, steps, saved)
         self.method = self.s.ik_method
         self.fallbacks += 1
         if all(s.feasible for s in steps):
             steps[0].notes.append(f"B4 arm poses by the {fallback} IK (the {self.s.ik_method} IK gave: "
                                   f"{first})")
+
+    def grasp_used(self) -> tuple[float, bool] | None:
+        """(tilt, flip) of the grasp of the last pick found, or None."""
+        return self.last_grasp
+
+    def _state(self, steps: list[SkillCall]) -> _State:
+        return ([(s.feasible, s.reason, s.base_pose, dict(s.arm_poses), list(s.notes)) for s in steps],
+                set(self.picked), self.robot_at, self.checker)
+
+    def _restore(self, steps: list[SkillCall], saved: _State) -> None:
+        for s, (feasible, reason, base, arm, notes) in zip(steps, saved[0], strict=True):
+            s.feasible, s.reason, s.base_pose, s.arm_poses, s.notes = feasible, reason, base, arm, list(notes)
+        self.picked, self.robot_at, self.checker = set(saved[1]), saved[2], saved[3]
+
+    def _element_regrasp(self, iri: str, steps: list[SkillCall], saved: _State) -> None:
+        """The element; when its install fails, again with another grasp (the carried element's footprint
+        and the install arm poses depend on the grasp), at most ``max_regrasps`` times. When none helps,
+        the first result stays (its install failure is the reason to report)."""
+        self.excluded_grasps = set()
+        self.last_grasp = None
+        self._element(iri, steps)
+        first: _State | None = None
+        for _ in range(self.s.max_regrasps):
+            bad = next((s for s in steps if not s.feasible), None)
+            used = self.grasp_used()
+            if bad is None or bad.skill_kind != KIND_RELEASE or used is None:
+                break
+            if first is None:
+                first = self._state(steps)
+            self.excluded_grasps.add(used)
+            self._restore(steps, saved)
+            self._element(iri, steps)
+            now = self.grasp_used()
+            if all(s.feasible for s in steps) and now is not None:
+                tilt, flip = now
+                steps[1 if len(steps) > 1 else 0].notes.append(
+                    f"grasp chosen again after the install failed with {len(self.excluded_grasps)} other "
+                    f"grasp(s) (now tilt {tilt:g} deg{', tool x reversed' if flip else ''})")
+                return
+        if first is not None and not all(s.feasible for s in steps):
+            self._restore(steps, first)
 
     def _element(self, iri: str, steps: list[SkillCall]) -> None:
         bad = next((i for i, s in enumerate(steps) if not s.feasible), None)
@@ -191,6 +233,7 @@ class _Refiner(PickSearch, InstallSearch):
                     _fail(steps, i, res)
                     return
                 pick = res
+                self.last_grasp = (res.grasp.tilt_deg, res.grasp.flip_x)
                 self.picked.add(we.iri)
                 s.base_pose = res.base
                 s.arm_poses = res.poses

@@ -54,6 +54,7 @@ class RefineSettings:
     fallback_ik_method: IkMethod | None = "numeric"
     escape_radius_m: float = 3.0  # after an install the robot must get this far (escapes())
     blocking_radius_m: float = 3.0  # elements installed this near an unreachable install may block it
+    max_regrasps: int = 3  # an element whose install fails is picked again with another grasp
     max_reorder_rounds: int = 6  # B4 runs again at most this often with a blocked element moved first
     bearing_spread_rad: float = math.radians(70.0)
     yaw_spread_rad: float = math.radians(60.0)
@@ -83,6 +84,8 @@ class PoseSearch:
         self.carry_cache: dict[bytes, CarryGeometry] = {}
         self.method: IkMethod = settings.ik_method
         self.fallbacks = 0
+        self.excluded_grasps: set[tuple[float, bool]] = set()  # (tilt, flip) whose install failed
+        self.last_grasp: tuple[float, bool] | None = None
         self._nav_pose_cache: dict[tuple[float, ...] | None, tuple[tuple[float, ...], str]] = {}
         assert robot.spec.arm is not None
         self.arm = robot.spec.arm
