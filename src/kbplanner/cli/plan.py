@@ -37,6 +37,7 @@ from kbplanner.planning.manipulation import refine_plan, robot_name
 from kbplanner.planning.plan_model import Plan
 from kbplanner.planning.plan_rdf import plan_turtle
 from kbplanner.planning.planner import plan_task
+from kbplanner.planning.task_and_robot import resolve_task
 from kbplanner.project import Project
 from kbplanner.robot.robot_table import load_robot_specs
 from kbplanner.world.build import build_world
@@ -183,8 +184,9 @@ def run(args: argparse.Namespace) -> int:
     if args.no_feasibility:
         plan = plan_task(project, args.task, args.robot, at=at)
     else:
-        world = build_world(project, at if at is not None else project.world_date(args.task), args.task)
-        plan = plan_task(project, args.task, args.robot, world=world)
+        task = resolve_task(project, args.task).task_id  # an unknown task: the planner's error (exit 2)
+        world = build_world(project, at if at is not None else project.world_date(task), task)
+        plan = plan_task(project, task, args.robot, world=world)
         if plan.robot_id:
             grid = storey_map(world).grid
             seed = args.seed if args.seed is not None else project.manifest.seed
