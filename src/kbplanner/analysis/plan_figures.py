@@ -93,7 +93,10 @@ def element_figure(grid: OccupancyGrid, world: World, plan: Plan, verdict: Eleme
     if me.storage_pose is not None:
         ax.add_patch(MplPolygon(_footprint(world, me, me.storage_pose), closed=True, facecolor="none",
                                 edgecolor="#d62728", linestyle="--", linewidth=1.2, label="where it lies"))
-    x, y = verdict.at
+    pose = me.storage_pose if me.storage_pose is not None and (verdict.at == (me.storage_pose.x,
+                                                                              me.storage_pose.y)) else None
+    x, y = (np.asarray(_footprint(world, me, pose if pose is not None else me.installed_pose)).mean(axis=0)
+            .tolist())  # the element's centre where the failing step acts (its pose may be at its foot)
     if spec is not None and spec.arm is not None:
         ax.add_patch(Circle((x, y), spec.arm.reach_m + spec.tcp_m, fill=False, edgecolor="#ff7f0e",
                             linestyle=":", linewidth=1.2,
