@@ -39,14 +39,20 @@ installed elements of earlier steps and the element's own installed footprint ma
 for at least one carry footprint (base + held element), and every arm pose of the step must be
 reachable without the held element touching the robot. Candidates are tried in order of distance to
 where the incoming path starts (the robot's previous base pose), so the choice is deterministic; it
-is written into ``SkillCall.notes``. After an install the robot must not be shut in by what it
-installed (:func:`escapes`). A stud frame whose box is symmetric about its vertical axis may be
-placed turned by 180 degrees about it when only that way the gripper (which holds the face that was
-up at the storage) can reach. The held element should stay clear of the arm and base; when no
-candidate achieves that, the best one overlapping by at most ``max_arm_penetration_m`` is used and
-the overlap is written in the notes. A pick also needs the element to be on top of its stack (no
-element still at the storage lies on it) and its mass within the arm's payload. When nothing works
-the step is infeasible with the reason, and the element's later steps are infeasible as "skipped".
+is written into ``SkillCall.notes``. When the seeded samples give no clear pose, a second pass that
+does not depend on the seed tries, per bearing and base turn, the free pose whose arm mount is
+closest to the target (:meth:`~kbplanner.planning.pose_search.PoseSearch.closest_free`). An element
+whose install fails is picked again with another grasp (at most ``max_regrasps``), and one whose
+install is blocked by elements installed before it is moved before them
+(:mod:`~kbplanner.planning.install_order`, in :func:`refine_plan`). After an install the robot must
+not be shut in by what it installed (:func:`escapes`). A stud frame whose box is symmetric about its
+vertical axis may be placed turned by 180 degrees about it when only that way the gripper (which
+holds the face that was up at the storage) can reach. The held element should stay clear of the arm
+and base; when no candidate achieves that, the best one overlapping by at most
+``max_arm_penetration_m`` is used and the overlap is written in the notes. A pick also needs the
+element to be on top of its stack (no element still at the storage lies on it) and its mass within
+the arm's payload. When nothing works the step is infeasible with the reason, and the element's
+later steps are infeasible as "skipped".
 
 This module drives B4 element by element (:func:`refine_plan`); the search is split by what it finds:
 :mod:`~kbplanner.planning.base_poses` (where the robot can stand), :mod:`~kbplanner.planning.pose_search`
