@@ -155,6 +155,8 @@ def verdict_text(verdicts: list[ElementVerdict], figures: dict[str, str]) -> str
         out.append(f"      fix: {v.fix}")
         if v.iri in figures:
             out.append(f"      figure: {figures[v.iri]}")
+    if bad and not figures:
+        out.append("  (a figure per infeasible element: run again with --out DIR)")
     return "\n".join(out) + "\n"
 
 
