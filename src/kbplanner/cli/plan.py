@@ -155,7 +155,7 @@ def verdict_text(verdicts: list[ElementVerdict], figures: dict[str, str]) -> str
         out.append(f"      fix: {v.fix}")
         if v.iri in figures:
             out.append(f"      figure: {figures[v.iri]}")
-    if bad and not figures:
+    if not figures and any(needs_figure(v) for v in bad):
         out.append("  (a figure per infeasible element: run again with --out DIR)")
     return "\n".join(out) + "\n"
 
