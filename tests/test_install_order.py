@@ -54,10 +54,15 @@ def test_no_move_for_a_reason_that_no_neighbour_causes_or_without_a_neighbour() 
     assert blocked_move(plan, _refined(plan, "C"), {}, 3.0, {("urn:C", "urn:A")}) is None  # tried
 
 
-def test_the_stack_holds_an_element_under_another_is_not_moved_before_it() -> None:
+def test_the_stack_holds_the_elements_lying_on_it_move_with_it() -> None:
     plan = _plan({"A": 0.0, "B": 0.5, "C": 1.0})  # C blocked, A and B near; B lies on C at the storage
-    move = blocked_move(plan, _refined(plan, "C"), {"urn:C": {"urn:B"}}, 3.0, set())
-    assert move is None  # before A, B would still lie on C; before B, the same
+    above = {"urn:C": {"urn:B"}}
+    move = blocked_move(plan, _refined(plan, "C"), above, 3.0, set())
+    assert move == ("urn:C", "urn:A")
+    moved = move_before(plan, *move, above["urn:C"])
+    assert [e.label for e in moved.elements] == ["B", "C", "A"]  # B is still taken before C
+    with_sequence = _plan({"A": 0.0, "B": 0.5, "C": 1.0}, sequences={"B": 2})
+    assert blocked_move(with_sequence, _refined(with_sequence, "C"), above, 3.0, set()) is None
 
 
 def test_an_explicit_work_sequence_wins() -> None:

@@ -6,9 +6,9 @@ each element. When B4 finds no base pose to install an element E (no free base p
 in, no carry footprint or arm pose that fits) while elements installed earlier stand within
 ``RefineSettings.blocking_radius_m`` of E's installed pose, E is moved before the earliest of them
 (:func:`blocked_move`, :func:`move_before`) and B4 runs again; the new order is kept only when more
-elements become installable. The stack still holds (E is not moved before an element lying on it at
-the same storage), and an explicit ``kbp:workSequence`` wins: an element that carries one is neither
-moved nor passed.
+elements become installable. The stack still holds (the elements lying on E at its storage move with
+it, in their order), and an explicit ``kbp:workSequence`` wins: an element that carries one is
+neither moved nor passed.
 
 Takes the B1-B3 plan, the plan refined by B4, and the world (for the stack); gives the move (E, X)
 and the reordered B1-B3 plan, whose steps are numbered again in the new order.
@@ -19,7 +19,7 @@ from __future__ import annotations
 import copy
 import math
 import re
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 
 from kbplanner.core.vocab import KBP
 from kbplanner.planning.plan_model import Plan
@@ -76,21 +76,29 @@ def blocked_move(plan: Plan, refined: Plan, above: Mapping[str, set[str]], radiu
             o = info[other]
             if not ok.get(other) or o.work_sequence is not None or (iri, other) in tried:
                 continue
+            if any(info[i].work_sequence is not None for i in order[k:n] if i in lying_on):
+                continue  # an element lying on it that would move with it has a work sequence
             near = math.hypot(o.installed_pose.x - me.installed_pose.x,
                               o.installed_pose.y - me.installed_pose.y) <= radius_m
             if not near:
                 continue
-            if any(a in order[k:] for a in lying_on):
-                continue  # an element lying on it would still be at the storage: the stack holds
-            return iri, other
+            return iri, other  # with the elements lying on it (move_before), so the stack holds
     return None
 
 
-def move_before(plan: Plan, iri: str, before: str) -> Plan:
-    """A copy of the B1-B3 ``plan`` with element ``iri`` (and its steps) moved before ``before``."""
+def move_before(plan: Plan, iri: str, before: str, lying_on: Collection[str] = ()) -> Plan:
+    """A copy of the B1-B3 ``plan`` with element ``iri`` (and its steps) moved before ``before``.
+
+    Elements of ``lying_on`` (those lying on it at its storage) that come between ``before`` and it
+    move with it, in their order, so that the stack still holds.
+    """
     out = copy.deepcopy(plan)
-    order = [e.iri for e in out.elements if e.iri != iri]
-    order.insert(order.index(before), iri)
+    order = [e.iri for e in out.elements]
+    k, n = order.index(before), order.index(iri)
+    group = [i for i in order[k:n] if i in lying_on] + [iri]
+    order = [i for i in order if i not in group]
+    k = order.index(before)
+    order[k:k] = group
     by_iri = {e.iri: e for e in out.elements}
     out.elements = [by_iri[i] for i in order]
     steps = []

@@ -374,13 +374,17 @@ def refine_plan(
         if move is None:
             break
         tried.add(move)
-        candidate_in = move_before(current, *move)
+        candidate_in = move_before(current, *move, above.get(move[0], set()))
         candidate = _refine_once(candidate_in, world, seed=seed, grid=grid, settings=settings,
                                  progress=progress)
         if installable(candidate) <= installable(out):
             continue
         labels = {e.iri: e.label for e in plan.elements}
-        moves.append(f"{labels[move[0]]} before {labels[move[1]]}")
+        order = [e.iri for e in current.elements]
+        with_it = sum(1 for i in order[order.index(move[1]):order.index(move[0])]
+                      if i in above.get(move[0], set()))
+        lying = f" (with the {with_it} element(s) lying on it)" if with_it else ""
+        moves.append(f"{labels[move[0]]}{lying} before {labels[move[1]]}")
         current, out = candidate_in, candidate
     if moves:
         text = (f"B4 moved {'; '.join(moves)} (the install base poses were blocked by the elements "
