@@ -57,6 +57,11 @@ def geom_settings() -> Any:
     return s
 
 
+def gypsum_boards(f: ifcopenshell.file) -> list[Any]:
+    boards = [m for m in f.by_type("IfcPlate") if m.ObjectType == EXPECTED["boards"]["object_type"]]
+    return sorted(boards, key=lambda m: m.Name)
+
+
 def frame_panels(f: ifcopenshell.file) -> list[Any]:
     panels = [m for m in f.by_type("IfcMember") if m.ObjectType == EXPECTED["frames"]["object_type"]]
     return sorted(panels, key=lambda m: m.Name)
@@ -182,7 +187,8 @@ def test_the_frames_model_is_the_duplex_plus_eleven_frame_panels_contained_in_le
         assert mat is not None and mat.Name == exp["material"]
     source = ifcopenshell.open(str(CASE / "model" / "Duplex_A_20110907.ifc"))
     assert {e.GlobalId for e in ifc.by_type("IfcRoot")} >= {e.GlobalId for e in source.by_type("IfcRoot")}
-    assert len(building_elements(ifc)) == len(building_elements(source)) + exp["count"]
+    assert len(building_elements(ifc)) == (len(building_elements(source)) + exp["count"]
+                                           + EXPECTED["boards"]["count"])
 
 
 def test_every_frame_panel_is_38x89_studs_at_most_600_mm_apart_between_plates(ifc: Any) -> None:
@@ -250,14 +256,65 @@ def test_frame_global_ids_avoid_dollar_signs_and_name_their_element_iris(ifc: An
         assert unquote(str(element_iri(BASE, p.GlobalId)).rsplit("/", 1)[-1]) == p.GlobalId
 
 
+def test_one_gypsum_board_stands_against_the_living_room_face_of_each_panel_of_its_wall(
+        ifc: Any, geom_settings: Any) -> None:
+    exp = EXPECTED["boards"]
+    boards = gypsum_boards(ifc)
+    assert [b.Name for b in boards] == [f"Gypsum board B{i:02d}" for i in range(1, exp["count"] + 1)]
+    panels = {p.Tag: p for p in frame_panels(ifc)}
+    room = next(s for s in ifc.by_type("IfcSpace") if s.Name == exp["side_space"])
+    room_centre = mesh(geom_settings, room).bounds.mean(axis=0)
+    for b, tag in zip(boards, exp["frames"], strict=True):
+        assert storeys_of(b) == {exp["storey"]}
+        assert ifcopenshell.util.element.get_material(b).Name == exp["material"]
+        qto = ifcopenshell.util.element.get_psets(b)["BaseQuantities"]
+        assert qto["NetWeight"] == pytest.approx(exp["mass_kg"]) and qto["Width"] == exp["thickness_m"]
+        m_b = ifcopenshell.util.placement.get_local_placement(b.ObjectPlacement)
+        m_p = ifcopenshell.util.placement.get_local_placement(panels[tag].ObjectPlacement)
+        assert np.allclose(m_b[:3, :3], m_p[:3, :3])  # same orientation as its panel
+        offset = (m_b[:3, 3] - m_p[:3, 3]) @ m_p[:3, 1]  # across the wall
+        assert abs(offset) == pytest.approx(EXPECTED["frames"]["thickness_m"] / 2 + exp["gap_m"]
+                                            + exp["thickness_m"] / 2, abs=1e-4)
+        assert np.sign(offset) == np.sign((room_centre - m_p[:3, 3]) @ m_p[:3, 1])  # on the room's side
+        vb, vp = mesh(geom_settings, b).bounds, mesh(geom_settings, panels[tag]).bounds
+        assert vb[1][2] - vb[0][2] == pytest.approx(vp[1][2] - vp[0][2], abs=1e-6)  # as high as its panel
+        assert not (np.all(vb[0] < vp[1] - 1e-6) and np.all(vp[0] < vb[1] - 1e-6))  # not inside it
+
+
+def test_the_board_task_builds_the_five_boards_after_the_frames_robotized() -> None:
+    exp = EXPECTED["schedule"]
+    row = next(r for r in schedule_rows() if r["task_id"] == exp["board_task"])
+    assert (row["start"], row["finish"], row["robotized"], row["task_specification"]) == (
+        exp["board_start"], exp["board_finish"], "true", exp["board_specification"])
+    framing = next(r for r in schedule_rows() if r["task_id"] == exp["framing_task"])
+    assert row["predecessors"] == exp["framing_task"] and framing["finish"] < row["start"]
+
+
 def test_rebuilding_frames_and_scenarios_reproduces_the_checked_in_files(tmp_path: Path) -> None:
     build_frames = load_tool("build_frames")
+    build_boards = load_tool("build_boards")
     build_scenarios = load_tool("build_scenarios")
     build_frames.main(tmp_path)
+    build_boards.main(tmp_path)
     build_scenarios.main(tmp_path / "model" / "frames.json", tmp_path)
     for rel in ("model/Duplex_A_frames.ifc", "model/frames.json", "augmentation/grasp_points.ttl",
-                "scenarios/storage_outside.ttl", "scenarios/storage_inside.ttl"):
+                "scenarios/storage_outside.ttl", "scenarios/storage_inside.ttl", "model/boards.json",
+                "augmentation/boards.ttl", "scenarios/boards_outside.ttl", "scenarios/boards_inside.ttl"):
         assert (tmp_path / rel).read_bytes() == (CASE / rel).read_bytes(), rel
+
+
+def test_the_readme_table_is_printed_from_comparison_csv_in_the_readme_format(tmp_path: Path) -> None:
+    readme_table = load_tool("readme_table")
+    (tmp_path / "comparison.csv").write_text(
+        "scenario,installed,first frame (min),per frame (min),total (min),min separation (m),time < 1 m (s),"
+        "time < ISO/TS 15066 S_p (s),stops for workers,stopped (s),slow-downs,time lost to monitoring (s),"
+        "collisions\nstorage-inside,11/11,1.910,1.200,13.170,1.490,0.000,18.600,0,0.000,2,0.220,0\n",
+        encoding="utf-8")
+    lines = readme_table.table(tmp_path).splitlines()
+    readme = (CASE.parents[1] / "README.md").read_text(encoding="utf-8")
+    assert lines[0] in readme and lines[1] in readme  # the README's header
+    assert lines[2] == ("| storage inside | 11/11 | 1.9 min | 1.2 min | 13.2 min | 1.49 m | 0 s | 18.6 s | "
+                        "2 (0.2 s) | 0 |")
 
 
 def test_expected_counts_match_the_ifc(ifc: Any) -> None:
@@ -274,7 +331,7 @@ def test_expected_counts_match_the_ifc(ifc: Any) -> None:
     assert len(level1_interior) == exp["level1_interior_walls"]
     counts = {k: len(ifc.by_type(c)) for k, c in [("doors", "IfcDoor"), ("windows", "IfcWindow"),
               ("spaces", "IfcSpace"), ("slabs", "IfcSlab"), ("furniture", "IfcFurnishingElement"),
-              ("members", "IfcMember"), ("openings", "IfcOpeningElement")]}
+              ("members", "IfcMember"), ("plates", "IfcPlate"), ("openings", "IfcOpeningElement")]}
     assert counts == {k: exp[k] for k in counts}
     assert len(building_elements(ifc)) == exp["building_elements"]
 
@@ -327,7 +384,10 @@ def test_the_framing_task_selector_matches_exactly_the_eleven_frames(ifc: Any) -
 
 
 def test_the_schedule_builds_every_element_exactly_once(ifc: Any) -> None:
-    built = Counter(e.GlobalId for row in schedule_rows() for e in task_elements(ifc, row))
+    # the layout-marking task works on the partitions (marks their axes) but does not build them
+    marking = EXPECTED["schedule"]["marking_task"]
+    built = Counter(e.GlobalId for row in schedule_rows() if row["task_id"] != marking
+                    for e in task_elements(ifc, row))
     assert sorted(built) == sorted(e.GlobalId for e in building_elements(ifc))
     assert set(built.values()) == {1}
     assert sum(built.values()) == EXPECTED["schedule"]["scheduled_elements"]
@@ -337,7 +397,8 @@ def test_every_task_starts_after_its_predecessors_finish() -> None:
     rows = {r["task_id"]: r for r in schedule_rows()}
     for r in rows.values():
         for p in r["predecessors"].split():
-            assert date.fromisoformat(rows[p]["finish"]) < date.fromisoformat(r["start"]), (p, r["task_id"])
+            start = datetime.fromisoformat(r["start"]).date()  # a start may give a time (work start)
+            assert date.fromisoformat(rows[p]["finish"]) < start, (p, r["task_id"])
     exp = EXPECTED["schedule"]
     assert len(rows) == exp["tasks"]
     assert [t for t, r in rows.items() if r["robotized"] == "true"] == exp["robotized"]
@@ -361,8 +422,9 @@ def test_on_the_simulation_date_roof_and_framing_are_in_progress_and_level_1_par
             assert span(r)[1] < at
     partitions = {w.GlobalId for w in ifc.by_type("IfcWall") if storeys_of(w) == {"Level 1"}
                   and "Interior - Partition" in w.Name}
-    for r in rows:
-        if partitions & {e.GlobalId for e in task_elements(ifc, r)}:
+    for r in rows:  # the layout marking only marks them (the day before): it builds nothing
+        if r["task_id"] != EXPECTED["schedule"]["marking_task"] and partitions & {
+                e.GlobalId for e in task_elements(ifc, r)}:
             assert r["task_id"] == EXPECTED["schedule"]["level1_interior_walls_task"]
             assert span(r)[0] > at
 
@@ -455,17 +517,20 @@ def scenario_graph(name: str) -> Graph:
 def test_each_scenario_stacks_every_frame_once_in_one_storage_with_a_grasp_point(ifc: Any, name: str) -> None:
     g = scenario_graph(name)
     frames = {element_iri(BASE, p.GlobalId) for p in frame_panels(ifc)}
+    boards = {element_iri(BASE, p.GlobalId) for p in gypsum_boards(ifc)}
     named = {o for t in g for o in (t[0], t[2])
              if isinstance(o, URIRef) and str(o).startswith(f"{BASE}element/")}
-    assert named == frames  # every element named by the overlays is a frame panel of the IFC
-    storages = {g.value(f, KBP.storedIn) for f in frames}
-    assert len(storages) == 1
+    assert named == frames | boards  # every element the overlays name is a frame panel or board of the IFC
+    storages = {g.value(f, KBP.storedIn) for f in frames | boards}
+    assert len(storages) == 1  # the boards use the frames' storage once the frames are installed
     storage = storages.pop()
     assert (storage, RDF.type, KBP.MaterialStorage) in g and g.value(storage, KBP.pickupLocation) is not None
-    assert sorted(int(g.value(f, KBP.stackIndex)) for f in frames) == list(range(len(frames)))
-    for f in frames:
-        grasp = pose_of(g, g.value(f, KBP.graspPoint))
-        assert grasp == pytest.approx((*EXPECTED["frames"]["grasp_point_local"], 0.0, 0.0, 0.0))
+    for group, local in ((frames, EXPECTED["frames"]["grasp_point_local"]),
+                         (boards, EXPECTED["boards"]["grasp_point_local"])):
+        assert sorted(int(g.value(f, KBP.stackIndex)) for f in group) == list(range(len(group)))
+        for f in group:
+            grasp = pose_of(g, g.value(f, KBP.graspPoint))
+            assert grasp == pytest.approx((*local, 0.0, 0.0, 0.0))
 
 
 @pytest.mark.parametrize("name", sorted(SCENARIOS))
@@ -579,8 +644,9 @@ def test_the_bare_model_needs_a_frame_storage_and_grasp_points_for_every_frame(
     result = derive_requirements(p.model, p.kb)
     exp = EXPECTED["requirements"]
     assert len(result.requirements) == exp["bare_model_requirements"]
-    assert sorted(r.skill_id for r in result.requirements) == ["MM-G-1", "NV-1"]
-    assert all(len(r.elements) == exp["bare_model_unmet_elements"] for r in result.requirements)
+    assert sorted((r.task_id, r.skill_id) for r in result.requirements) == [
+        ("T-BOARD", "MM-G-1"), ("T-BOARD", "NV-1"), ("T-FRAME", "MM-G-1"), ("T-FRAME", "NV-1")]
+    assert all(len(r.elements) == exp["bare_model_unmet_elements"][r.task_id] for r in result.requirements)
     unmet_install = [c for c in result.checks if c.skill_id in {"NV-2", "MM-R-1"}]
     assert unmet_install and all(c.unmet == 0 for c in unmet_install)  # the installed pose is in the 4D model
 

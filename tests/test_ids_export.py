@@ -40,13 +40,15 @@ def files(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     r = run("requirements", str(CASE), "--scenario", "storage-outside", "--ids", str(out / "req.ids"),
             "--augmented-ifc", str(out / "augmented.ifc"))
     assert r.returncode == 0, r.stderr
-    assert "wrote IDS" in r.stderr and "77 properties on 11 element(s)" in r.stderr
+    assert "wrote IDS" in r.stderr and "112 properties on 16 element(s)" in r.stderr  # 11 frames, 5 boards
     return out / "req.ids", out / "augmented.ifc"
 
 
 def test_the_ids_is_valid_ids_1_0_and_says_what_it_cannot_express(files: tuple[Path, Path]) -> None:
     doc = ids.open(str(files[0]), validate=True)  # raises on an XML schema violation
     assert [s.name for s in doc.specifications] == [
+        "T-BOARD action 1 'navigate to board pickup location': NV-1 destination",
+        "T-BOARD action 2 'pick board': MM-G-1 grasp point",
         "T-FRAME action 1 'navigate to frame pickup location': NV-1 destination",
         "T-FRAME action 2 'pick frame': MM-G-1 grasp point"]
     assert 'identifier="T-FRAME/2/MM-G-1/grasp point"' in files[0].read_text(encoding="utf-8")
@@ -66,7 +68,7 @@ def test_the_bare_ifc_fails_on_exactly_the_shacl_elements_and_the_augmented_one_
              {e.global_id for e in r.elements} for r in project.requirements().requirements}
     doc = ids.open(str(files[0]))
     assert failing(doc, project.manifest.ifc) == shacl
-    assert all(len(v) == 11 for v in shacl.values())
+    assert sorted(len(v) for v in shacl.values()) == [5, 5, 11, 11]  # boards, frames
     assert failing(doc, files[1]) == {k: set() for k in shacl}
     assert all(s.status for s in doc.specifications)
     # the values are the scenario's: F01's grasp point is 1.2 m up, all frames in the outside storage
@@ -113,10 +115,10 @@ def test_a_range_the_shacl_shapes_put_on_a_property_becomes_an_ids_value_restric
     export.write(tmp_path / "r.ids")
     doc = ids.open(str(tmp_path / "r.ids"), validate=True)
     ifc = ifcopenshell.open(str(Project.load(CASE).manifest.ifc))
-    doc.validate(ifc)  # the bare IFC still fails on the 11 frames, now also for the value range
-    assert [len(s.failed_entities) for s in doc.specifications] == [11, 11]
+    doc.validate(ifc)  # the bare IFC still fails on 5 boards and 11 frames, now also for the value range
+    assert [len(s.failed_entities) for s in doc.specifications] == [5, 5, 11, 11]
     assert '<xs:maxExclusive value="3.0"' in (tmp_path / "r.ids").read_text(encoding="utf-8")
     aug = write_augmented_ifc(Project.load(CASE).manifest.ifc, tmp_path / "a.ifc", export,
                               Project.load(CASE, scenario="storage-outside").model)
     doc.validate(ifcopenshell.open(str(aug.path)))  # grasp points 1.2 m up: within [0, 3)
-    assert [len(s.failed_entities) for s in doc.specifications] == [0, 0]
+    assert [len(s.failed_entities) for s in doc.specifications] == [0, 0, 0, 0]

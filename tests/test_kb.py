@@ -49,9 +49,17 @@ def test_the_knowledge_base_traces_every_skill_and_specification_to_its_file(kb:
     assert source_of(kb, URIRef("https://example.org/nothing")) is None
 
 
-def test_the_knowledge_base_holds_the_papers_skills_and_three_specifications(kb: Graph) -> None:
+def test_the_knowledge_base_holds_the_papers_skills_and_its_specifications(kb: Graph) -> None:
     assert {"NV-1", "NV-2", "MM-G-1", "MM-R-1", "MK-1"} <= set(skill_ids(kb))
-    assert specification_ids(kb) == ["I-W-F-#1", "I-W-F-#2", "L-M-#1"]
+    assert {"I-W-F-#1", "I-W-F-#2", "L-M-#1", "B-I-#1"} <= set(specification_ids(kb))
+
+
+def test_board_installation_is_a_turtle_only_task_of_the_existing_skills(kb: Graph) -> None:
+    spec = task_specification(kb, "B-I-#1")
+    assert source_of(kb, spec.iri) == "ontology/kb/board_installation.ttl"
+    assert [a.skill.skill_id for a in spec.actions] == ["NV-1", "MM-G-1", "NV-2", "MM-R-1"]
+    assert spec.task_kind == KB["BoardInstallation"]
+    assert dict((p.kind, v) for p, v in spec.actions[2].settings) == {KBP.maxSpeed: 0.25}
 
 
 def test_I_W_F_1_is_the_papers_four_actions_with_their_skills_and_bindings(kb: Graph) -> None:

@@ -43,8 +43,10 @@ def test_jobsite_values_apply_per_skill_and_site_wide_with_their_source(kb: Grap
     model = make_model(n_frames=2, jobsite=True)  # NV-2 limit 0.1..0.4 m/s, site-wide stop distance 0.8 m
     aps = action_parameters(task_specification(kb, "I-W-F-#1"), jobsite_parameters(model))
     nv2 = {p.name: p for p in aps[2].parameters}
-    assert (nv2["minSpeed"].value, nv2["maxSpeed"].value) == (0.1, 0.4)
-    assert "jobsite limit" in nv2["maxSpeed"].source and "for NV-2" in nv2["maxSpeed"].source
+    # the limit's 0.4 m/s is a maximum: NV-2's own 0.3 m/s stays; its minimum 0.1 replaces 0.05
+    assert (nv2["minSpeed"].value, nv2["maxSpeed"].value) == (0.1, 0.3)
+    assert "jobsite limit" in nv2["minSpeed"].source and "for NV-2" in nv2["minSpeed"].source
+    assert nv2["maxSpeed"].source == "default of skill NV-2"
     # a site-wide stop distance is a minimum: NV-1 (0.5 m) is raised, NV-2 (1.0 m) keeps its own
     assert aps[0].value(KBP.safetyStopDistance) == 0.8 and aps[2].value(KBP.safetyStopDistance) == 1.0
     assert "site-wide minimum" in next(p.source for p in aps[0].parameters if p.name == "safetyStopDistance")
@@ -56,7 +58,7 @@ def test_a_site_wide_maximum_speed_caps_every_action(kb: Graph) -> None:
     model.add((js, KBP.maxSpeed, Literal(0.25)))
     v = _values(kb, "I-W-F-#1", model)
     assert v[(1, "maxSpeed")] == 0.25  # NV-1 0.5 capped
-    assert v[(3, "maxSpeed")] == 0.4  # the NV-2 limit comes after the site-wide cap
+    assert v[(3, "maxSpeed")] == 0.25  # the NV-2 limit (0.4) does not raise the site-wide cap
 
 
 def test_a_limit_on_one_action_beats_a_limit_on_its_skill(kb: Graph) -> None:
@@ -71,6 +73,21 @@ def test_a_limit_on_one_action_beats_a_limit_on_its_skill(kb: Graph) -> None:
     assert v[(3, "maxSpeed")] == 0.15 and v[(3, "minSpeed")] == 0.1
 
 
+def test_a_limit_caps_a_slower_action_setting_and_never_raises_it(kb: Graph) -> None:
+    # issue 12: an action setting of 0.25 m/s ran at 0.3 because the limit replaced it
+    model = make_model(n_frames=2)
+    add_jobsite(model, max_speed=0.3)  # a limit for NV-2: at most 0.3 m/s
+    aps = action_parameters(task_specification(kb, "I-W-F-#2"), jobsite_parameters(model))
+    carry = {p.name: p for p in aps[2].parameters}
+    assert carry["maxSpeed"].value == 0.2 and carry["maxSpeed"].source == "action 3 of I-W-F-#2"
+    assert carry["safetyStopDistance"].value == 1.5  # the action's 1.5 m is above the site minimum 0.8
+    model = make_model(n_frames=2)
+    add_jobsite(model, max_speed=0.15)
+    aps = action_parameters(task_specification(kb, "I-W-F-#2"), jobsite_parameters(model))
+    carry = {p.name: p for p in aps[2].parameters}
+    assert carry["maxSpeed"].value == 0.15 and "limit cap" in carry["maxSpeed"].source
+
+
 def test_a_scenario_node_overrides_the_project_wide_node(kb: Graph) -> None:
     model = make_model(n_frames=2)
     add_jobsite(model, max_width=0.8)
@@ -79,7 +96,7 @@ def test_a_scenario_node_overrides_the_project_wide_node(kb: Graph) -> None:
     inside = jobsite_parameters(model, "storage-inside")
     assert inside.max_robot_width_m == 0.7 and len(inside.nodes) == 2
     assert _values(kb, "I-W-F-#1", model, "storage-inside")[(3, "maxSpeed")] == 0.25
-    assert _values(kb, "I-W-F-#1", model)[(3, "maxSpeed")] == 0.4
+    assert _values(kb, "I-W-F-#1", model)[(3, "maxSpeed")] == 0.3
 
 
 def test_no_go_zones_are_read_with_their_size(kb: Graph) -> None:

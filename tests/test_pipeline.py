@@ -30,7 +30,7 @@ def run_dir(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, subprocess.
 def test_run_exits_0_and_prints_a_summary_naming_the_results(run_dir: Run) -> None:
     out, proc = run_dir
     assert proc.returncode == 0, proc.stderr
-    assert "2 additional modeling requirement(s)" in proc.stdout
+    assert "4 additional modeling requirement(s)" in proc.stdout  # 2 for T-FRAME, 2 for T-BOARD
     assert str(out) in proc.stdout.replace("\n", "")
     assert not out.with_name(out.name + ".partial").exists()
 
@@ -38,7 +38,7 @@ def test_run_exits_0_and_prints_a_summary_naming_the_results(run_dir: Run) -> No
 def test_the_run_directory_holds_requirements_validation_and_worlds(run_dir: Run) -> None:
     out, _ = run_dir
     reqs = (out / "requirements.csv").read_text().splitlines()
-    assert len(reqs) == 1 + 22  # one row per (requirement, element): 2 requirements x 11 frames
+    assert len(reqs) == 1 + 32  # one row per (requirement, element): 2 x 11 frames, 2 x 5 boards
     assert (out / "requirements_template.ttl").is_file()
     for scenario in ("storage-inside", "storage-outside"):
         s = out / "scenarios" / scenario

@@ -122,7 +122,7 @@ def test_a_complete_small_model_gives_one_step_per_element_and_action_with_input
     assert plan.steps[1].inputs == {"grasp point": [0.0, 0.0, 1.2, 0.0, 0.0, 0.0],
                                     "object": str(_frames(3)[2])}
     nv2 = plan.steps[2].parameters
-    assert (nv2["maxSpeed"], nv2["minSpeed"]) == (0.4, 0.1)  # the jobsite limit for NV-2 replaces defaults
+    assert (nv2["maxSpeed"], nv2["minSpeed"]) == (0.3, 0.1)  # the limit caps the 0.3 default, sets the min.
     assert nv2["safetyStopDistance"] == 1.0  # skill default above the site minimum 0.8
     assert plan.steps[0].parameters["safetyStopDistance"] == 0.8  # site minimum above the 0.5 default
     assert plan.steps[0].parameters["armPose"] == [0.0, -2.9, 2.7, -1.4, -1.5708, 0.0]
@@ -161,7 +161,8 @@ def test_robots_are_ranked_fit_first_then_smallest_footprint_then_payload_margin
     plan = plan_task(small_project(tmp_path, make_model(2, storage=True, grasp_points=True)))
     ranks = [(r["robot_id"], r["fit"], r["chosen"]) for r in plan.selection]
     # both Huskies fit with the same footprint: the UR16e has the larger payload margin over 4.5 kg
-    assert ranks == [("husky-ur16e", True, True), ("husky-ur5", True, False), ("jackal", False, False)]
+    assert ranks == [("husky-ur16e", True, True), ("husky-ur5", True, False), ("jackal", False, False),
+                     ("jackal-marker", False, False)]
     assert plan.robot_id == "husky-ur16e" and plan.robot_urdf == "husky_ur16e.urdf"
     assert plan.selection[1]["payload_margin_kg"] == pytest.approx(0.5)
     assert plan.selection[2]["reasons"]
@@ -175,7 +176,7 @@ def test_when_no_robot_fits_the_plan_is_made_with_every_step_infeasible_and_the_
     assert len(plan.steps) == 8 and not any(s.feasible for s in plan.steps)
     assert all(s.reason and s.reason.startswith("no robot of the knowledge base fits")
                and "payload 16 kg below" in s.reason for s in plan.steps)
-    assert [r["fit"] for r in plan.selection] == [False, False, False]
+    assert [r["fit"] for r in plan.selection] == [False, False, False, False]
 
 
 def test_a_given_robot_that_does_not_fit_makes_every_step_infeasible_with_its_reasons(tmp_path: Path) -> None:
@@ -195,15 +196,14 @@ def _screw_spec(tmp_path: Path) -> Path:
 
 t:screwPoint a owl:ObjectProperty ; rdfs:range kbp:Pose ; rdfs:label "screw point" .
 t:torque a owl:DatatypeProperty ; rdfs:label "torque (N m)" .
-t:Screwing a kbp:SkillKind ; rdfs:label "screwing" .
 
-t:SC-1 a kbp:Skill ; kbp:skillId "SC-1" ; rdfs:label "screw" ; kbp:skillKind t:Screwing ;
+t:SC-1 a kbp:Skill ; kbp:skillId "SC-1" ; rdfs:label "screw" ; kbp:skillKind kbp:Fasten ;
     kbp:hasInput t:SC-1-point , t:SC-1-object ; kbp:hasParameter t:SC-1-torque ;
     kbp:requiresCapability kbp:Manipulation6DoF .
 t:SC-1-point a kbp:SkillInput ; kbp:inputName "screw point" ; kbp:valueClass kbp:Pose ;
-    kbp:inputSource kbp:FromModel .
+    kbp:inputSource kbp:FromModel ; kbp:inputRole kbp:TargetPoseRole .
 t:SC-1-object a kbp:SkillInput ; kbp:inputName "element" ; kbp:valueClass kbp:Element ;
-    kbp:inputSource kbp:FromTaskElement .
+    kbp:inputSource kbp:FromTaskElement ; kbp:inputRole kbp:WorkElementRole .
 t:SC-1-torque a kbp:SkillParameter ; kbp:parameterKind t:torque ; kbp:defaultValue 5.0 ; kbp:unit "N m" .
 
 t:S a kbp:TaskSpecification ; kbp:specificationId "SCREW-#1" ; rdfs:label "fasten frames" ;
@@ -232,7 +232,8 @@ def test_a_specification_written_only_in_a_test_turtle_file_gives_a_different_pl
     assert plan.spec_id == "SCREW-#1" and len(plan.steps) == 6 and plan.feasible
     assert [(s.action_label, s.skill_id) for s in plan.steps[:3]] == [
         ("drive to the frame", "NV-1"), ("screw the top", "SC-1"), ("screw the bottom", "SC-1")]
-    assert plan.steps[1].skill_kind == TEST + "Screwing"
+    assert plan.steps[1].skill_kind == str(KBP.Fasten)
+    assert plan.steps[1].roles == {"TargetPoseRole": "screw point", "WorkElementRole": "element"}
     assert plan.steps[1].inputs == {"element": str(_frames(2)[0]),
                                     "screw point": [0.0, 0.0, 2.0, 0.0, 0.0, 0.0]}
     assert (plan.steps[1].parameters, plan.steps[2].parameters) == ({"torque": 8.0}, {"torque": 5.0})
@@ -290,3 +291,27 @@ def test_a_robotized_task_without_elements_gives_an_empty_plan_with_a_note(tmp_p
     plan = plan_task(small_project(tmp_path, g))
     assert plan.steps == [] and plan.elements == []
     assert any("builds no elements" in n for n in plan.notes)
+
+
+@pytest.mark.parametrize(("old", "new", "words"), [
+    ("kbp:skillKind kbp:Fasten", "kbp:skillKind t:Screwing",
+     ["skill SC-1 has kind t:Screwing, which the executor does not implement",
+      "kbp:Fasten, kbp:FollowToolPath", "kbp:Inspect"]),
+    ("kbp:inputRole kbp:TargetPoseRole", "kbp:inputRole kbp:ToolPathRole",
+     ["input 'screw point' of skill SC-1 has role kbp:ToolPathRole", "cannot use",
+      "kbp:ContactForceRole, kbp:DwellTimeRole"]),
+    ("kbp:inputRole kbp:TargetPoseRole", "",
+     ["input 'screw point' of skill SC-1 has no kbp:inputRole", "kbp:TargetPoseRole"]),
+])
+def test_a_kind_outside_the_set_or_an_unusable_role_is_an_error_before_planning(
+        tmp_path: Path, old: str, new: str, words: list[str]) -> None:
+    spec = _screw_spec(tmp_path)
+    kind = "t:Screwing a kbp:SkillKind .\n"
+    spec.write_text(spec.read_text().replace(old, new).replace("t:torque a owl:", kind + "t:torque a owl:"))
+    g = make_model(2, spec_id="SCREW-#1")
+    with pytest.raises(KnowledgeBaseError) as err:
+        plan_task(small_project(tmp_path, g, kb_extra=(spec,)))
+    text = str(err.value)
+    assert "screw.ttl" in text and "fix:" in text
+    for w in words:
+        assert w in text

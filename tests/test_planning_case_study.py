@@ -72,7 +72,7 @@ def test_the_robot_is_chosen_by_the_ranking_with_every_robot_and_reason_listed(
     _, plan = outside
     assert (plan.robot_id, plan.robot_urdf) == ("husky-ur16e", "husky_ur16e.urdf")
     by_id = {r["robot_id"]: r for r in plan.selection}
-    assert set(by_id) == {"husky-ur16e", "husky-ur5", "jackal"}
+    assert set(by_id) == {"husky-ur16e", "husky-ur5", "jackal", "jackal-marker"}
     assert by_id["husky-ur16e"]["chosen"] and by_id["husky-ur16e"]["rank"] == 1
     assert any("payload 5 kg below" in r for r in by_id["husky-ur5"]["reasons"])  # the paper's robot
     assert not by_id["jackal"]["fit"]
@@ -104,7 +104,7 @@ def test_the_bare_model_is_planned_with_missing_storage_and_grasp_point_reasons_
     reqs = derive_requirements(project.model, project.kb, task_id="T-FRAME").requirements
     unmet = {(r.action_order, str(e.iri)) for r in reqs for e in r.elements}
     assert unmet == {(s.action_order, s.element) for s in bad}
-    assert len(reqs) == EXPECTED["requirements"]["bare_model_requirements"]
+    assert len(reqs) == 2  # T-FRAME's share of the bare model's requirements (NV-1, MM-G-1)
     assert all(e.storage_pose is None for e in plan.elements)
 
 

@@ -9,7 +9,7 @@ import json
 from pathlib import Path
 
 import pytest
-from rdflib import RDF, Graph, Literal
+from rdflib import RDF, Graph, Literal, URIRef
 from rdflib.compare import isomorphic
 
 from kb_fixtures import BASE, add_pose, frame_gid, make_model
@@ -21,6 +21,7 @@ from kbplanner.knowledge.requirement_rows import MISSING, WRONG_TYPE
 from kbplanner.knowledge.requirements import derive_requirements
 
 EXTENSION = Path(__file__).parent / "kb_extension" / "fixing_point.ttl"
+EXT_FIXING_POINT = URIRef("https://example.org/kb-extension#fixingPoint")
 
 
 @pytest.fixture(scope="module")
@@ -124,6 +125,20 @@ def test_a_template_for_an_extension_input_is_met_once_applied() -> None:
     kb = load_kb([EXTENSION])
     model = make_model(n_frames=4, storage=True, grasp_points=True)
     skeleton = Graph().parse(data=derive_requirements(model, kb).template(), format="turtle")
+    model += skeleton
+    assert derive_requirements(model, kb).requirements == []
+
+
+def test_template_iris_are_unique_per_requirement() -> None:
+    # issue 12: one pose IRI was reused for every requirement that adds a pose to the same element
+    kb = load_kb([EXTENSION])
+    model = make_model(n_frames=2, storage=True)  # no grasp point, no fixing point
+    text = derive_requirements(model, kb).template()
+    skeleton = Graph().parse(data=text, format="turtle")
+    grasp = set(skeleton.objects(None, KBP.graspPoint))
+    fixing = set(skeleton.objects(None, EXT_FIXING_POINT))
+    assert len(grasp) == 2 and len(fixing) == 2 and not grasp & fixing
+    assert all((p, RDF.type, KBP.Pose) in skeleton for p in grasp | fixing)
     model += skeleton
     assert derive_requirements(model, kb).requirements == []
 

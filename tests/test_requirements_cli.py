@@ -28,18 +28,19 @@ def run(*args: str) -> subprocess.CompletedProcess[str]:
 def test_the_bare_case_study_needs_a_frame_storage_and_grasp_points_for_eleven_frames() -> None:
     out = run("requirements", str(CASE))
     assert out.returncode == 0, out.stderr
-    assert "Additional modeling requirements (2)" in out.stdout
+    assert "Additional modeling requirements (4)" in out.stdout  # two for T-FRAME, two for T-BOARD
     assert "NV-1" in out.stdout and "MM-G-1" in out.stdout and out.stdout.count("11: ") == 2
+    assert out.stdout.count("5: ") == 2
     assert "already in the model: T-FRAME action 4 MM-R-1 'target pose'" in out.stdout
 
 
 def test_csv_has_one_row_per_frame_and_requirement_and_json_and_turtle_parse() -> None:
     rows = list(csv.DictReader(io.StringIO(run("requirements", str(CASE), "--format", "csv").stdout)))
-    assert len(rows) == 22 and {r["skill"] for r in rows} == {"NV-1", "MM-G-1"}
+    assert len(rows) == 2 * 11 + 2 * 5 and {r["skill"] for r in rows} == {"NV-1", "MM-G-1"}
     data = json.loads(run("requirements", str(CASE), "--format", "json").stdout)
-    assert [r["input"] for r in data["requirements"]] == ["destination", "grasp point"]
+    assert [r["input"] for r in data["requirements"]] == ["destination", "grasp point"] * 2
     g = Graph().parse(data=run("requirements", str(CASE), "--format", "ttl").stdout, format="turtle")
-    assert len(list(g.subjects(RDF.type, KBP.ModelingRequirement))) == 2
+    assert len(list(g.subjects(RDF.type, KBP.ModelingRequirement))) == 4
 
 
 def test_a_scenario_meets_every_requirement() -> None:

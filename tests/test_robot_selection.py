@@ -24,9 +24,9 @@ def _verdicts(model: Graph, kb: Graph, task: str = "T1") -> dict[str, tuple[bool
     return {a.robot.label: (a.fit, [r.check for r in a.reasons]) for a in sel.assessments}
 
 
-def test_the_knowledge_base_has_three_robots_with_sourced_figures(kb: Graph) -> None:
+def test_the_knowledge_base_has_four_robots_with_sourced_figures(kb: Graph) -> None:
     robots = {r.iri: r for r in load_robots(kb)}
-    assert set(robots) == {KB["husky-ur5"], KB["husky-ur16e"], KB["jackal"]}
+    assert set(robots) == {KB["husky-ur5"], KB["husky-ur16e"], KB["jackal"], KB["jackal-marker"]}
     ur5 = robots[KB["husky-ur5"]]
     assert (ur5.length_m, ur5.width_m, ur5.base_mass_kg, ur5.arm_mass_kg) == (0.99, 0.67, 50.0, 18.4)
     assert (ur5.payload_kg, ur5.reach_m, ur5.max_speed_mps, ur5.urdf, ur5.arm_model) == (
@@ -100,17 +100,18 @@ def test_the_door_clearance_of_the_jobsite_is_added_on_both_sides(kb: Graph) -> 
     assert "+ 2 x 0.1 m clearance" in ur5.reasons[0].message
 
 
-def test_layout_marking_needs_a_marking_tool_that_no_robot_has(kb: Graph) -> None:
+def test_layout_marking_needs_a_marking_tool_that_only_the_marking_jackal_has(kb: Graph) -> None:
     sel = select_robots(make_model(storage=True, spec_id="L-M-#1"), kb, "T1")
-    assert sel.fit == []
+    assert [a.robot.iri for a in sel.fit] == [KB["jackal-marker"]]
     assert not any(c.check == PAYLOAD for a in sel.assessments for c in a.checks)  # nothing is carried
     for a in sel.assessments:
-        assert any("floor marking tool" in r.message and "MK-1" in r.message for r in a.reasons)
+        if a.robot.iri != KB["jackal-marker"]:
+            assert any("floor marking tool" in r.message and "MK-1" in r.message for r in a.reasons)
 
 
 def test_the_text_report_lists_every_robot_and_reason(kb: Graph) -> None:
     text = select_robots(make_model(storage=True, frame_mass=9.7), kb, "T1").text()
-    assert text.count("- Clearpath") == 3 and "NOT FIT" in text and "FIT" in text
+    assert text.count("- Clearpath") == 4 and "NOT FIT" in text and "FIT" in text
     assert "heaviest element: 9.70 kg" in text and "narrowest door to pass: 0.800 m" in text
 
 

@@ -60,3 +60,19 @@ def test_bad_input_exits_2_with_a_message_and_no_traceback(two_panels: Path, tmp
     assert needle in res.stderr and "fix:" in res.stderr
     assert "Traceback" not in res.stderr
     assert not (tmp_path / "run").exists()
+
+
+def test_max_elements_simulates_the_first_elements_and_names_the_rest(two_panels: Path,
+                                                                      tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    res = kbplanner("simulate", str(two_panels), "--scenario", "stored", "--max-elements", "1",
+                    "--out", str(out), "--no-keyframes")
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert "installed 1 of 1" in res.stdout and "Panel P1" in res.stdout and "Panel P2" not in res.stdout
+    assert "simulating 1 of 2 elements; left out: Panel P2" in " ".join(res.stderr.split())
+    assert json.loads((out / "metrics.json").read_text())["totals"]["elements"] == 1
+
+
+def test_max_elements_must_be_positive(two_panels: Path, tmp_path: Path) -> None:
+    res = kbplanner("simulate", str(two_panels), "--max-elements", "0", "--out", str(tmp_path / "run"))
+    assert res.returncode == 2 and "Traceback" not in res.stderr and not (tmp_path / "run").exists()

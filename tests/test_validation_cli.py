@@ -25,10 +25,12 @@ def test_the_bare_case_study_does_not_conform_and_exits_1(tmp_path: Path) -> Non
     report = tmp_path / "validation.ttl"
     out = run("validate", str(CASE), "--report", str(report))
     assert out.returncode == 1, out.stderr
-    assert out.stdout.startswith("The model does not conform: 22 violation(s).")
+    # two requirements per element: 11 frames (T-FRAME) and 5 boards (T-BOARD)
+    assert out.stdout.startswith("The model does not conform: 32 violation(s).")
     assert "Stud frame panel F01" in out.stdout and "NV-1 destination" in out.stdout
+    assert "Gypsum board B01" in out.stdout
     g = Graph().parse(report, format="turtle")
-    assert len(list(g.subjects(RDF.type, SH.ValidationResult))) == 22
+    assert len(list(g.subjects(RDF.type, SH.ValidationResult))) == 32
 
 
 def test_a_storage_scenario_conforms_and_exits_0(tmp_path: Path) -> None:

@@ -82,7 +82,10 @@ def _short(text: str) -> str:
     return text.rsplit("#", 1)[-1].rsplit("/", 1)[-1]
 
 
-def _value(v: Any) -> str:
+def _value(v: Any, box: bool = False) -> str:
+    if box and isinstance(v, list) and len(v) == 6:  # a tool path box: min and max corner
+        return "box (" + ", ".join(f"{float(a):.2f}" for a in v[:3]) + ") - (" + ", ".join(
+            f"{float(a):.2f}" for a in v[3:]) + ")"
     if isinstance(v, list) and len(v) == 6 and all(isinstance(x, int | float) for x in v):
         x, y, z, _roll, _pitch, yaw = (float(a) for a in v)
         return f"({x:.2f}, {y:.2f}, {z:.2f}; yaw {yaw:.2f})"
@@ -98,7 +101,8 @@ def plan_rows(plan: Plan) -> list[tuple[Any, ...]]:
     labels = {e.iri: e.label for e in plan.elements}
     rows = []
     for s in plan.steps:
-        inputs = "; ".join(f"{k} {_value(v)}" for k, v in s.inputs.items() if v != s.element)
+        boxes = {s.roles.get("ToolPathRole")}
+        inputs = "; ".join(f"{k} {_value(v, k in boxes)}" for k, v in s.inputs.items() if v != s.element)
         verdict = "yes" if s.feasible else f"NO: {s.reason}"
         rows.append((s.step, labels.get(s.element, _short(s.element)), f"{s.action_order} {s.action_label}",
                      s.skill_id, inputs, verdict))

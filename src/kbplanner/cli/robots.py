@@ -21,14 +21,15 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("robots", help="assess every robot of the knowledge base for a robotized task (B3)")
     p.add_argument("project", help="project directory (holding project.toml)")
     p.add_argument("--scenario", help="scenario overlay to apply (default: the bare model)")
-    p.add_argument("--task", help="robotized task id (default: the only robotized task)")
+    p.add_argument("--task",
+                   help="robotized task id (default: [simulation] task, else the only robotized task)")
     p.add_argument("--format", choices=("text", "table", "json"), default="text")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     project = Project.load(args.project, scenario=args.scenario)
-    task = args.task
+    task = args.task or project.default_task()
     if task is None:
         ids = [t.task_id for t in robotized_tasks(project.model)]
         if len(ids) != 1:

@@ -1,10 +1,11 @@
-"""``kbplanner simulate PROJECT [--scenario S] [--seed N] [--task ID] [--robot R] [--gui] --out DIR`` (B1-B5).
+"""``kbplanner simulate PROJECT [--scenario S] [--seed N] [--task ID] [--robot R] [--max-elements N] ...``.
 
 Builds the world at the project's ``[simulation] date``, the action-level plan (B1-B3,
 :func:`kbplanner.planning.planner.plan_task`), refines it with arm and base poses (B4,
 :func:`kbplanner.planning.manipulation.refine_plan`) and executes it in PyBullet (B5,
 :func:`kbplanner.simulation.executor.simulate`), writing the run directory ``DIR`` atomically. Shows progress
-over elements and steps and a summary table at the end.
+over elements and steps and a summary table at the end. ``--max-elements N`` simulates the first N
+elements of the plan's order only (a quick look; the elements left out are named on stderr).
 
 Exit codes: 0 every element installed; 1 some element not installed (the reasons are in the table
 and in ``DIR/metrics.json``), or no robot fits the task (nothing simulated); 2 bad input (unknown
@@ -17,7 +18,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from kbplanner.cli.arguments import add_force, check_out, seed_int
+from kbplanner.cli.arguments import add_force, check_out, positive_int, seed_int
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -32,6 +33,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--seed", type=seed_int, help="random seed (default: [project] seed of project.toml)")
     p.add_argument("--task", help="robotized task id (default: [simulation] task)")
     p.add_argument("--robot", help="robot id of the knowledge base (default: the first fitting one)")
+    p.add_argument("--max-elements", type=positive_int, metavar="N",
+                   help="simulate the first N elements of the task's order only (a quick look)")
     p.add_argument("--gui", action="store_true", help="show the PyBullet GUI when a display exists")
     p.add_argument("--no-keyframes", action="store_true", help="do not render key frame images")
     p.add_argument("--monitoring", choices=("ssm", "off"), default="ssm",
@@ -71,6 +74,11 @@ def run(args: argparse.Namespace) -> int:
         for r in reasons[:5]:
             sys.stdout.write(f"  {r}\n")
         return 1
+    if args.max_elements is not None and args.max_elements < len(plan.elements):
+        left = [e.label or e.global_id for e in plan.elements[args.max_elements:]]
+        console.print(f"--max-elements {args.max_elements}: simulating {args.max_elements} of "
+                      f"{len(plan.elements)} elements; left out: {', '.join(left)}", highlight=False)
+        plan.keep_first(args.max_elements)
     grid = storey_map(world).grid
     settings = ExecSettings(keyframes=not args.no_keyframes, monitoring=args.monitoring,
                             reactive_workers=not args.scripted_workers)

@@ -25,29 +25,40 @@ class KBP(DefinedNamespace):
     ConstructionSchedule: URIRef
     ConstructionTask: URIRef
     ConstructionTaskKind: URIRef
+    ContactForceRole: URIRef
     Covering: URIRef
     DepthCamera: URIRef
+    DestinationRole: URIRef
     Door: URIRef
+    DwellTimeRole: URIRef
     Element: URIRef
+    ElementPoseRole: URIRef
     ElementState: URIRef
     Equipment: URIRef
+    Fasten: URIRef
+    FollowToolPath: URIRef
     Footing: URIRef
     FromModel: URIRef
     FromRobot: URIRef
     FromTaskElement: URIRef
     FromWorld: URIRef
     Furniture: URIRef
+    GraspFrameRole: URIRef
     Gripping: URIRef
+    HeldElementRole: URIRef
     InProgress: URIRef
     InputBinding: URIRef
+    InputRole: URIRef
     InputSource: URIRef
+    Inspect: URIRef
     InteriorWallFraming: URIRef
     JobsiteParameters: URIRef
     LaserScan: URIRef
     LayoutMarking: URIRef
     Lidar2D: URIRef
-    LineMarking: URIRef
+    LocalisationReferenceRole: URIRef
     Manipulation6DoF: URIRef
+    MapRole: URIRef
     MarkingTool: URIRef
     MaterialStorage: URIRef
     Member: URIRef
@@ -64,14 +75,17 @@ class KBP(DefinedNamespace):
     OtherElement: URIRef
     ParameterSetting: URIRef
     PathStart: URIRef
+    PathStartRole: URIRef
     Plan: URIRef
     PlanStep: URIRef
     Pose: URIRef
     Railing: URIRef
     Robot: URIRef
+    RobotPoseRole: URIRef
     Roof: URIRef
     RouteStop: URIRef
     SafetyFence: URIRef
+    ScanRole: URIRef
     Scenario: URIRef
     SiteLayout: URIRef
     SiteObject: URIRef
@@ -85,10 +99,14 @@ class KBP(DefinedNamespace):
     StartAtElement: URIRef
     StartAtTask: URIRef
     StepInput: URIRef
+    TargetPoseRole: URIRef
     TaskSpecification: URIRef
     TemporaryStructure: URIRef
+    ToolPathRole: URIRef
+    ViewTargetRole: URIRef
     Wall: URIRef
     Window: URIRef
+    WorkElementRole: URIRef
     Worker: URIRef
     Workspace: URIRef
     appliesTo: URIRef
@@ -104,6 +122,7 @@ class KBP(DefinedNamespace):
     brakingDeceleration: URIRef
     buildsElement: URIRef
     comfortDistance: URIRef
+    contactForce: URIRef
     defaultValue: URIRef
     doorClearance: URIRef
     dwellTime: URIRef
@@ -143,6 +162,7 @@ class KBP(DefinedNamespace):
     ifcSchema: URIRef
     infeasibleReason: URIRef
     inputName: URIRef
+    inputRole: URIRef
     inputSource: URIRef
     installedPose: URIRef
     intrusionDistance: URIRef
@@ -156,6 +176,7 @@ class KBP(DefinedNamespace):
     mass: URIRef
     massAssumption: URIRef
     material: URIRef
+    materialStoragePath: URIRef
     maxRobotHeight: URIRef
     maxRobotLength: URIRef
     maxRobotMass: URIRef
@@ -221,11 +242,13 @@ class KBP(DefinedNamespace):
     taskId: URIRef
     taskKind: URIRef
     taskSpecificationId: URIRef
+    toolSpeed: URIRef
     unit: URIRef
     urdf: URIRef
     usesSkill: URIRef
     value: URIRef
     valueClass: URIRef
+    viewDistance: URIRef
     volume: URIRef
     walkingSpeed: URIRef
     workSequence: URIRef

@@ -4,13 +4,17 @@ A project (or one scenario) describes its jobsite in Turtle: a ``kbp:JobsitePara
 allowable robot width, length, height and mass, a door clearance, site-wide skill parameters
 (``kbp:maxSpeed`` caps every action's maximum speed, ``kbp:safetyStopDistance`` is a minimum for
 every action, other kinds replace the value), per-action limits (``kbp:hasActionLimit`` nodes that
-``kbp:appliesTo`` a skill or one action and set parameter kinds such as ``kbp:minSpeed``) and no-go
+``kbp:appliesTo`` a skill or one action and set parameter kinds such as ``kbp:minSpeed``; like the
+site-wide values, a limit's ``kbp:maxSpeed`` is a maximum: it lowers a faster setting or default and
+never raises a slower one, its ``kbp:safetyStopDistance`` a minimum) and no-go
 zones. ``jobsite_parameters(model, scenario=...)`` reads them (a node with ``kbp:forScenario`` applies
 to that scenario only and overrides the project-wide node); ``action_parameters(spec, jobsite)`` gives
 the effective value of every skill parameter of every action, with where it came from:
 
     skill default  <  action setting (knowledge base)  <  site-wide value  <  limit for the skill
     <  limit for the action
+
+(each later one replaces the value, except that caps take the minimum and floors the maximum).
 
 Their well-formedness (positive values, min <= max, zones inside the site extent) is checked by
 ``shapes/jobsite.ttl`` in :func:`kbplanner.knowledge.validation.validate_model`; contradictions that only
@@ -223,6 +227,17 @@ def _name(kind: URIRef) -> str:
     return str(kind).rsplit("#", 1)[-1]
 
 
+def _apply(kind: URIRef, value: ParamValue | None, source: str, site: ParamValue, where: str,
+           what: str) -> tuple[ParamValue | None, str]:
+    """Combine a jobsite value with the value so far: a cap (maximum speed) only lowers it, a floor
+    (safety stop distance) only raises it, any other kind replaces it."""
+    if kind in _CAPS and isinstance(site, float) and isinstance(value, float):
+        return (site, f"{where} ({what} cap)") if site < value else (value, source)
+    if kind in _FLOORS and isinstance(site, float) and isinstance(value, float):
+        return (site, f"{where} ({what} minimum)") if site > value else (value, source)
+    return site, where
+
+
 def action_parameters(spec: TaskSpecification, jobsite: JobsiteParameters | None = None
                       ) -> list[ActionParameters]:
     """A5: the effective parameters of every action of ``spec`` under the jobsite parameters.
@@ -245,22 +260,16 @@ def action_parameters(spec: TaskSpecification, jobsite: JobsiteParameters | None
             if p.iri in settings:
                 value, source = settings[p.iri], f"action {action.order} of {spec.spec_id}"
             if p.kind in js.site_values:
-                site = js.site_values[p.kind]
-                where = f"jobsite {js.source(p.kind)}"
-                if p.kind in _CAPS and isinstance(site, float) and isinstance(value, float):
-                    if site < value:
-                        value, source = site, f"{where} (site-wide cap)"
-                elif p.kind in _FLOORS and isinstance(site, float) and isinstance(value, float):
-                    if site > value:
-                        value, source = site, f"{where} (site-wide minimum)"
-                else:
-                    value, source = site, where
+                value, source = _apply(p.kind, value, source, js.site_values[p.kind],
+                                       f"jobsite {js.source(p.kind)}", "site-wide")
             for lim in js.limits:
                 if lim.applies_to == action.skill.iri and p.kind in lim.values:
-                    value, source = lim.values[p.kind], f"jobsite limit {lim.iri} for {action.skill.skill_id}"
+                    value, source = _apply(p.kind, value, source, lim.values[p.kind],
+                                           f"jobsite limit {lim.iri} for {action.skill.skill_id}", "limit")
             for lim in js.limits:
                 if lim.applies_to == action.iri and p.kind in lim.values:
-                    value, source = lim.values[p.kind], f"jobsite limit {lim.iri} for action {action.order}"
+                    value, source = _apply(p.kind, value, source, lim.values[p.kind],
+                                           f"jobsite limit {lim.iri} for action {action.order}", "limit")
             params.append(EffectiveParameter(kind=p.kind, name=_name(p.kind), value=value, unit=p.unit,
                                              source=source))
         ap = ActionParameters(action=action, parameters=tuple(params))

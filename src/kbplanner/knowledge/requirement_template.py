@@ -62,6 +62,7 @@ class _Template:
         self.ns = Graph()
         bind_prefixes(self.ns)
         self.minted: dict[tuple[Any, ...], URIRef] = {}
+        self.taken: set[URIRef] = set()
         self.keys: dict[Node, str] = {}
 
     def _local(self, node: Node) -> str:
@@ -81,7 +82,12 @@ class _Template:
             return self.minted[key], False
         kind = slug(label(self.kb, cls)) if cls is not None else "node"
         iri = mint(base, kind, local)
+        n = 2
+        while iri in self.taken:  # another node (another path or requirement) has this name: never share it
+            iri = mint(base, kind, f"{local}-{n}")
+            n += 1
         self.minted[key] = iri
+        self.taken.add(iri)
         self.keys[iri] = local
         return iri, True
 
@@ -132,7 +138,9 @@ class _Template:
                 step_pred = pred if pred is not None else inv
                 p_label = slug(label(self.kb, step_pred)) if step_pred is not None else "value"
                 if last or parent != el.iri:
-                    key: tuple[Any, ...] = ("node", parent, i)
+                    # one node per subject and predicate: the same path from the same node is one value,
+                    # any other predicate (another requirement's) gets a node of its own
+                    key: tuple[Any, ...] = ("node", parent, step_pred, inv is not None, cls)
                     local = f"{self._local(parent)}-{p_label}"
                 else:
                     key = ("shared", req.number, i)

@@ -20,7 +20,8 @@ from rdflib.term import Node
 
 from kbplanner.core.errors import KnowledgeBaseError
 from kbplanner.core.vocab import KBP
-from kbplanner.knowledge.binding_paths import ShaclPath, path_words, read_path
+from kbplanner.knowledge.binding_check import check_binding
+from kbplanner.knowledge.binding_paths import ShaclPath, path_words
 from kbplanner.knowledge.knowledge_base import curie, is_datatype, is_declared_class, label, select, source_of
 
 log = logging.getLogger(__name__)
@@ -50,6 +51,7 @@ class SkillInput:
     value_class: URIRef | None
     source: URIRef | None
     description: str
+    role: URIRef | None = None  # kbp:inputRole: what the executor binds the input by (the name is a label)
 
     @property
     def from_model(self) -> bool:
@@ -82,6 +84,10 @@ class Skill:
     def input(self, name: str) -> SkillInput | None:
         """The input called ``name``."""
         return next((i for i in self.inputs if i.name == name), None)
+
+    def input_with_role(self, role: URIRef) -> SkillInput | None:
+        """The input whose kbp:inputRole is ``role``."""
+        return next((i for i in self.inputs if i.role == role), None)
 
 
 @dataclass(frozen=True)
@@ -220,7 +226,8 @@ def load_skill(kb: Graph, skill: URIRef) -> Skill:
         inputs.append(SkillInput(iri=inp, name=str(r["name"]),
                                  value_class=vc if isinstance(vc, URIRef) else None,
                                  source=src if isinstance(src, URIRef) else None,
-                                 description=str(r["description"] or "")))
+                                 description=str(r["description"] or ""),
+                                 role=r["role"] if isinstance(r["role"], URIRef) else None))
     params = []
     for r in select(kb, "skill_parameters", skill=skill):
         p, kind = r["parameter"], r["kind"]
@@ -241,9 +248,13 @@ def _load_bindings(kb: Graph, action: URIRef, skill: Skill, spec_id: str, order:
     bindings: list[Binding] = []
     inputs = {i.iri: i for i in skill.inputs}
     where = f"action {order} of {spec_id}"
+    done: set[Node] = set()
     for r in select(kb, "action_bindings", action=action):
         b = r["binding"]
         assert b is not None
+        if b in done:  # several rows: repeated values, which check_binding reports below
+            continue
+        done.add(b)
         file = source_of(kb, b) or source_of(kb, action)
         name = curie(kb, b) if isinstance(b, URIRef) else f"a binding of {where}"
         inp = r["input"]
@@ -253,20 +264,17 @@ def _load_bindings(kb: Graph, action: URIRef, skill: Skill, spec_id: str, order:
                 f"binding of {where} binds {curie(kb, inp) if inp is not None else 'no input'}, which is "
                 f"not an input of skill {skill.skill_id}", file=file, element=name,
                 fix=f"set kbp:bindsInput to one of the skill's inputs: {known}")
-        if r["path"] is None:
-            raise KnowledgeBaseError(
-                f"binding of input '{inputs[inp].name}' ({where}) has no kbp:bindingPath",
-                file=file, element=name,
-                fix="add kbp:bindingPath with a SHACL path, e.g. ( kbp:storedIn kbp:pickupLocation )")
-        path = read_path(kb, r["path"], owner=b)
-        start = r["pathStart"]
-        if start not in (None, KBP.StartAtElement, KBP.StartAtTask):
-            raise KnowledgeBaseError(f"unknown kbp:pathStart {curie(kb, start)}", file=file, element=name,
-                                     fix="use kbp:StartAtElement or kbp:StartAtTask")
+        path = check_binding(kb, b, action=action)
         si = inputs[inp]
-        bindings.append(Binding(iri=b, input=si, path=path, path_node=r["path"],
-                                starts_at_task=start == KBP.StartAtTask, hint=str(r["hint"] or ""),
-                                words=path_words(kb, path, si.value_class)))
+        if any(x.input.iri == inp for x in bindings):
+            raise KnowledgeBaseError(
+                f"{where} binds input '{si.name}' of {skill.skill_id} twice", file=file, element=name,
+                fix="keep one kbp:InputBinding per skill input of an action")
+        path_node = kb.value(b, KBP.bindingPath)
+        assert path_node is not None
+        bindings.append(Binding(iri=b, input=si, path=path, path_node=path_node,
+                                starts_at_task=kb.value(b, KBP.pathStart) == KBP.StartAtTask,
+                                hint=str(r["hint"] or ""), words=path_words(kb, path, si.value_class)))
     bound = {b.input.iri for b in bindings}
     for si in skill.inputs:
         if si.from_model and si.iri not in bound:

@@ -315,6 +315,9 @@ def _load_kb(extra: Sequence[Path]) -> tuple[Graph, list[Path]]:
         for p in files:
             parse_turtle(p, into=g)
         return g, files
+    from kbplanner.knowledge.binding_check import check_bindings
+
     kb = knowledge_base.load_kb(list(extra))
+    check_bindings(kb)  # a malformed binding is an error naming its file now, never a SHACL engine error
     files = [*ontology_files(), *extra]
     return kb, files

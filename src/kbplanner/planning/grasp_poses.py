@@ -57,7 +57,7 @@ class PickSearch(PoseSearch):
              carry_seed: tuple[float, ...] | None) -> Pick | str:
         assert we.pose is not None and we.local_bounds is not None
         frame = pose6_matrix([we.pose.x, we.pose.y, we.pose.z, we.pose.roll, we.pose.pitch, we.pose.yaw])
-        gp_in = as_pose6_list(step.inputs.get("grasp point"))
+        gp_in = as_pose6_list(step.by_role("GraspFrameRole"))
         gp: tuple[float, float, float] = (
             (gp_in[0], gp_in[1], gp_in[2]) if gp_in is not None else we.local_bounds.center)
         target = (frame @ np.array([*gp, 1.0]))[:3]

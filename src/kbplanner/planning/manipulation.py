@@ -192,6 +192,9 @@ class _Refiner(PickSearch, InstallSearch):
         if bad is not None:
             _skip_after(steps, bad)
             return
+        if not any(s.skill_kind in (KIND_GRASP, KIND_RELEASE) for s in steps):
+            _refine_in_place(steps)  # no material handled: the element is a target (marking, inspection)
+            return
         we = self.world.element(iri)
         if we is None or not we.is_movable or we.pose is None or we.local_bounds is None:
             why = next((o.reason for o in self.world.omitted if o.iri == iri), "not in the world")
@@ -227,7 +230,7 @@ class _Refiner(PickSearch, InstallSearch):
                     return
                 nominal = None
                 if pending is not None:
-                    dest = as_pose6_list(pending.inputs.get("destination"))
+                    dest = as_pose6_list(pending.by_role("DestinationRole"))
                     if dest is not None:
                         nominal = pose2(dest[0], dest[1], dest[5])
                 carry_seed = None
@@ -256,7 +259,7 @@ class _Refiner(PickSearch, InstallSearch):
                 if pick is None:
                     _fail(steps, i, "nothing is held: no pick step before this release")
                     return
-                target_in = as_pose6_list(s.inputs.get("target pose"))
+                target_in = as_pose6_list(s.by_role("TargetPoseRole"))
                 inst = we.installed_pose
                 if target_in is None and inst is not None:
                     target_in = [inst.x, inst.y, inst.z, inst.roll, inst.pitch, inst.yaw]
@@ -290,11 +293,21 @@ class _Refiner(PickSearch, InstallSearch):
                 continue
             s.notes.append(f"no B4 refinement for skill kind {s.skill_kind}")
         if pending is not None:
-            dest = as_pose6_list(pending.inputs.get("destination"))
+            dest = as_pose6_list(pending.by_role("DestinationRole"))
             if dest is not None:
                 pending.base_pose = pose2(dest[0], dest[1], dest[5])
                 self.robot_at = pending.base_pose
         log.info("B4 %s: %s", we.label, "refined" if installed else "refined (no install step)")
+
+
+def _refine_in_place(steps: list[SkillCall]) -> None:
+    """B4 for steps that handle no material: a navigation drives to its destination input; the
+    other kinds (tool path, fastening, inspection) work from where the robot stands."""
+    for s in steps:
+        if s.skill_kind in NAVIGATION_KINDS:
+            dest = as_pose6_list(s.by_role("DestinationRole"))
+            if dest is not None:
+                s.base_pose = pose2(dest[0], dest[1], dest[5])
 
 
 def _fail(steps: list[SkillCall], i: int, reason: str) -> None:

@@ -83,6 +83,21 @@ class SkillCall:
     notes: list[str] = field(default_factory=list)
     feasible: bool = True
     reason: str | None = None
+    roles: dict[str, str] = field(default_factory=dict)  # kbp:InputRole local name -> input name
+
+    def by_role(self, role: str) -> JsonValue:
+        """The value of the input with role ``role`` (a local name such as ``DestinationRole``), or None.
+
+        The executor and B4 read inputs only this way: the input's name is a label.
+
+        Example:
+            >>> c = SkillCall(1, "e", "a", "go", 1, "s", "NV-1", "k", inputs={"goal": [1, 2, 0, 0, 0, 0]},
+            ...               roles={"DestinationRole": "goal"})
+            >>> c.by_role("DestinationRole")
+            [1, 2, 0, 0, 0, 0]
+        """
+        name = self.roles.get(role)
+        return self.inputs.get(name) if name is not None else None
 
 
 @dataclass

@@ -18,6 +18,7 @@ from kbplanner.core.errors import KnowledgeBaseError
 from kbplanner.core.vocab import KBP
 from kbplanner.knowledge.jobsite import ActionParameters
 from kbplanner.knowledge.knowledge_base import curie, source_of
+from kbplanner.knowledge.skill_kinds import local
 from kbplanner.knowledge.task_specs import Action, RobotizedTask, TaskSpecification
 from kbplanner.model.project_data import ProjectData
 from kbplanner.planning.plan_model import ElementInfo, JsonValue, SkillCall
@@ -131,10 +132,12 @@ def _step(model: Graph, n: int, el: URIRef, name: str, task: RobotizedTask, task
         else:
             missing.append(v.missing)
     reasons = [*robot_reasons, *missing]
+    roles = {local(si.role): si.name for si in action.skill.inputs if si.role is not None}
     return SkillCall(
         step=n, element=str(el), action=str(action.iri), action_label=action.label, action_order=action.order,
         skill=str(action.skill.iri), skill_id=action.skill.skill_id,
         skill_kind=str(action.skill.kind) if action.skill.kind is not None else "",
         inputs=dict(sorted(inputs.items())), parameters=dict(parameters), notes=notes,
-        feasible=not reasons, reason="; ".join(reasons) if reasons else None)
+        feasible=not reasons, reason="; ".join(reasons) if reasons else None,
+        roles=dict(sorted(roles.items())))
 

@@ -49,6 +49,7 @@ from rdflib import URIRef
 from kbplanner.core.errors import KnowledgeBaseError, ProjectError
 from kbplanner.knowledge.jobsite import action_parameters, jobsite_parameters
 from kbplanner.knowledge.robot_selection import select_robots
+from kbplanner.knowledge.skill_kinds import check_executable
 from kbplanner.knowledge.task_specs import RobotizedTask, robotized_tasks, task_specification
 from kbplanner.model.dates import parse_date
 from kbplanner.model.project_data import ProjectData
@@ -113,6 +114,7 @@ def _plan(project: ProjectData, task: RobotizedTask, robot_id: str | None, *, at
                                  file=project.manifest.path, element=task.task_id,
                                  fix="set kbp:taskSpecificationId (the schedule's task_specification column)")
     spec = task_specification(project.kb, task.spec_id, task=task.task_id)  # A1-A2
+    check_executable(project.kb, spec)  # every skill of an executable kind, every input with a usable role
     params = action_parameters(spec, jobsite_parameters(project.model, project.scenario))  # A5
     sel = select_robots(project.model, project.kb, task.task_id, scenario=project.scenario)  # B3
     chosen, robot_reasons, table = choose_robot(sel, robot_id)

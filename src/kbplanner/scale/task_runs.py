@@ -32,6 +32,7 @@ from typing import Any
 from kbplanner.analysis.comparison import ScenarioRun, simulate_scenario
 from kbplanner.analysis.report import scenario_figures
 from kbplanner.analysis.run_record import RunRecord
+from kbplanner.analysis.work_done import work_done
 from kbplanner.core.errors import KbplannerError
 from kbplanner.core.outputs import atomic_write_text, write_json
 from kbplanner.core.tables import render
@@ -42,7 +43,7 @@ log = logging.getLogger(__name__)
 Say = Callable[[str], None]
 
 TASK_COLUMNS = ["task", "label", "world date", "installed", "elements", "simulated (min)",
-                "per element (min)", "min separation (m)", "time < 1 m (s)", "stops for workers"]
+                "per element (min)", "min separation (m)", "time < 1 m (s)", "stops for workers", "work done"]
 
 
 @dataclass(frozen=True)
@@ -60,13 +61,15 @@ class TaskFigures:
     below_threshold_s: float
     worker_stops: int
     run_dir: str  # relative to the tasks directory (``out_dir``)
+    work: str = ""  # what the run did in words (kbplanner.analysis.work_done)
 
     def row(self) -> list[Any]:
         """One row of ``tasks.csv``."""
         return [self.task_id, self.label, self.world_date, self.installed, self.elements,
                 round(self.sim_time_s / 60.0, 2),
                 None if self.per_element_min is None else round(self.per_element_min, 2),
-                round(self.min_separation_m, 2), round(self.below_threshold_s, 1), self.worker_stops]
+                round(self.min_separation_m, 2), round(self.below_threshold_s, 1), self.worker_stops,
+                self.work]
 
 
 @dataclass
@@ -105,7 +108,7 @@ class TaskRunsResult:
                     round(self.sim_time_s / 60.0 / self.installed, 2) if self.installed else None,
                     round(min(seps), 2) if seps else None,
                     round(sum(t.below_threshold_s for t in self.tasks), 1),
-                    sum(t.worker_stops for t in self.tasks)])
+                    sum(t.worker_stops for t in self.tasks), ""])
         return out
 
     def text(self) -> str:
@@ -163,7 +166,8 @@ def _run(job: _Job) -> tuple[TaskFigures, ScenarioRun | None, float]:
         task_id=job.task_id, label=job.label, world_date=world_date, installed=fig.installed,
         elements=fig.elements, sim_time_s=float(rec.metrics.get("totals", {}).get("sim_time_s", 0.0)),
         per_element_min=fig.per_element_min, min_separation_m=fig.min_separation_m,
-        below_threshold_s=fig.below_threshold_s, worker_stops=fig.worker_stops, run_dir=job.rel_dir)
+        below_threshold_s=fig.below_threshold_s, worker_stops=fig.worker_stops, run_dir=job.rel_dir,
+        work=work_done(rec.metrics))
     return figures, (run if job.main else None), time.perf_counter() - t0
 
 

@@ -11,12 +11,15 @@ robotized task to simulate; returns a :class:`World`: what stands on site at tha
   listed in :attr:`World.open_doors`, never as static geometry. Openings (voids) are never elements
   of the world.
 - **Task elements**: the elements of the robotized task (``task_id``, default the manifest's
-  ``[simulation] task``) are separate movable bodies at their material storage (``kbp:storedIn``),
-  whatever their state at the date. Layout, deterministic: each element lies flat on the storage
-  top: its longest side along the storage's local x, its middle side along local y, its thinnest
-  side (its thickness) vertical; elements of one storage are stacked in ``kbp:stackIndex`` order
-  (0 = bottom; elements without an index follow, by IRI), each resting on the one below (heights
-  add up, so elements of different thickness never overlap), centred on the storage footprint.
+  ``[simulation] task``) are separate movable bodies at their material storage (the path of the task
+  specification's ``kbp:materialStoragePath``, :mod:`kbplanner.knowledge.material_flow`), whatever
+  their state at the date. A specification that picks nothing handles no material: its elements
+  are targets and stand (or not) by their state like any other element. Layout, deterministic:
+  each element lies flat on the storage top: its longest side along the storage's local x, its
+  middle side along local y, its thinnest side (its thickness) vertical; elements of one storage
+  are stacked in ``kbp:stackIndex`` order (0 = bottom; elements without an index follow, by IRI),
+  each resting on the one below (heights add up, so elements of different thickness never
+  overlap), centred on the storage footprint.
   Sizes are the element's extents in its own frame (its mesh seen from its installed pose).
   A task element with no storage or no geometry cannot be placed: it is reported in
   :attr:`World.omitted` with the reason and the fix (an expected outcome on a bare model).
@@ -132,8 +135,10 @@ def build_world(
             storage = storage_by_iri.get(storage_iri) if storage_iri else None
             reason = ""
             if storage_iri is None:
-                reason = ("task element without material storage: add kbp:storedIn (and kbp:stackIndex) "
-                          "to the model, e.g. by loading a scenario that places the material")
+                reason = task.storage_note if task is not None and task.storage_note else (
+                    "task element without material storage: the path of the task specification's "
+                    "kbp:materialStoragePath (e.g. kbp:storedIn) reaches no storage; add it to the model, "
+                    "e.g. by loading a scenario that places the material")
             elif storage is None:
                 reason = (f"its storage {storage_iri} has no pose or size: give it kbp:installedPose "
                           "and kbp:sizeX/Y/Z")

@@ -3,17 +3,16 @@
 A material storage's ``kbp:pickupLocation`` is where the robot stands to pick (the NV-1 destination).
 Before B4 uses it, :func:`check_pickup_locations` checks, for every storage that holds an element of
 the task: inside the site extent, on a free cell of the task storey's occupancy map (not inside a wall,
-the storage itself or a solid site object such as the office), outside every no-go zone, and
-connected to the robot start by free map cells (when the start is on the same map). A location
+the storage itself or a solid site object such as the office), and outside every no-go zone. A location
 that fails is bad input: :class:`~kbplanner.core.errors.SiteLocationError` (exit 2) naming the storage,
-the location, the reason and the fix, never silently replaced by another base pose.
+the location, the reason and the fix, never silently replaced by another base pose. A location that
+is valid ground but walled off from the robot (no free path) is not bad input but an infeasible plan:
+B4 and the executor record each element it holds as failed with the reason "walled off" (exit 1).
 """
 
 from __future__ import annotations
 
 import math
-
-from scipy import ndimage
 
 from kbplanner.core.errors import SiteLocationError
 from kbplanner.world.occupancy import OccupancyGrid
@@ -52,13 +51,6 @@ def pickup_problem(world: World, grid: OccupancyGrid, storage: SiteObject) -> st
     if grid.is_occupied(p.x, p.y):
         return (f"pickup location {where} is on an occupied cell of the {grid.resolution:g} m map of the "
                 "task storey (inside a wall or another element)")
-    start = world.robot_start
-    if start is not None and not grid.is_occupied(start.x, start.y) and (
-            storey is None or abs(start.z - storey.elevation_m) <= SAME_STOREY_M):
-        labels, _ = ndimage.label(~grid.occupied)  # 4-connected free regions of the map
-        if labels[grid.cell_of(p.x, p.y)[::-1]] != labels[grid.cell_of(start.x, start.y)[::-1]]:
-            return (f"pickup location {where} is unreachable: no free path on the task storey's map "
-                    f"from the robot start ({start.x:.2f}, {start.y:.2f})")
     return None
 
 

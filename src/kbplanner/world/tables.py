@@ -12,10 +12,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from rdflib import URIRef
 
 from kbplanner.core.errors import WorldError
 from kbplanner.core.iris import slug
 from kbplanner.core.named_queries import run_named
+from kbplanner.knowledge.material_flow import MaterialFlow, material_flow
+from kbplanner.knowledge.task_specs import robotized_tasks, task_specification
 from kbplanner.model.ifc_geometry import Pose, matrix_to_pose
 from kbplanner.world.world_types import (
     BUILT,
@@ -66,6 +69,8 @@ class TaskInfo:
     task_id: str
     label: str
     elements: dict[str, tuple[str | None, int | None]]  # element IRI -> (storage, stack index)
+    material: bool = True  # False: the specification picks nothing, its elements are targets, not material
+    storage_note: str = ""  # why an element has no storage (for World.omitted)
 
 
 def resolve_task(project: ProjectData, task_id: str | None,
@@ -92,14 +97,26 @@ def resolve_task(project: ProjectData, task_id: str | None,
                          fix="choose one of the schedule's tasks: " + (", ".join(known) or "none"))
     row = next(r for r in tasks if str(r[1]) == task_id)
     elements: dict[str, tuple[str | None, int | None]] = {}
+    flow, note = _material_flow(project, task_id)
+    if flow is not None and not flow.handles_material:
+        return TaskInfo(str(row[0]), task_id, str(row[2] or task_id), {}, material=False)
     rows = run_named(project.model, "world_task_elements", taskId=task_id).rows
-    for _task, _tid, el, storage, index in rows:
-        prev = elements.get(str(el))
-        if prev is not None and prev[0] is not None:
-            continue  # several storages: the first (by IRI) wins, deterministically
-        elements[str(el)] = (str(storage) if storage is not None else None,
+    for _task, _tid, el, index in rows:
+        storages = flow.storages(project.model, URIRef(str(el))) if flow is not None else []
+        # several storages: the first (by IRI) wins, deterministically
+        elements[str(el)] = (str(storages[0]) if storages else None,
                              int(index) if index is not None else None)
-    return TaskInfo(str(row[0]), task_id, str(row[2] or task_id), elements)
+    return TaskInfo(str(row[0]), task_id, str(row[2] or task_id), elements, storage_note=note)
+
+
+def _material_flow(project: ProjectData, task_id: str) -> tuple[MaterialFlow | None, str]:
+    """The material flow of the task's specification (None, with why, when the task has none)."""
+    found = [t for t in robotized_tasks(project.model, task_id) if t.task_id == task_id]
+    spec_id = found[0].spec_id if found else None
+    if spec_id is None:
+        return None, ("task element without material storage: the task has no task specification "
+                      "(kbp:taskSpecificationId) to say where its material waits (kbp:materialStoragePath)")
+    return material_flow(project.kb, task_specification(project.kb, spec_id, task=task_id)), ""
 
 
 def _storeys(project: ProjectData) -> tuple[tuple[StoreyInfo, ...], dict[str, str]]:

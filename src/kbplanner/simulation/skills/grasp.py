@@ -60,7 +60,7 @@ class GraspSkill(Skill):
                     return Status.RUNNING
             # at the grasp pose: check the tool is at the grasp point, then link the element
             frame = env.element_frame(call.element)
-            gp = as_pose6_list(call.inputs.get("grasp point"))
+            gp = as_pose6_list(call.by_role("GraspFrameRole"))
             e = env.element(call.element)
             assert e.local_bounds is not None
             local = np.array([*(gp[:3] if gp is not None else e.local_bounds.center), 1.0])

@@ -141,7 +141,7 @@ class NavigationSkill(Skill):
         call = self.step
         goal = call.base_pose
         if goal is None:
-            dest = as_pose6_list(call.inputs.get("destination"))
+            dest = as_pose6_list(call.by_role("DestinationRole"))
             if dest is not None:
                 goal = Pose2(dest[0], dest[1], dest[5])
         if goal is None:

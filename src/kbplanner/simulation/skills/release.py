@@ -47,7 +47,7 @@ class ReleaseSkill(Skill):
             if off > self.c.settings.pose_tol_m:
                 self.fail(f"the robot stands {off:.3f} m from the install base pose")
                 return
-        target = as_pose6_list(call.inputs.get("target pose"))
+        target = as_pose6_list(call.by_role("TargetPoseRole"))
         e = env.element(call.element)
         if target is None and e.installed_pose is not None:
             p = e.installed_pose
