@@ -1,4 +1,5 @@
-"""``kbplanner plan``: table, plan.json + plan.ttl, exit codes 0 / 1 / 2, byte-identical reruns."""
+"""``kbplanner plan`` on the case study: table, B4 verdicts, plan.json + plan.ttl + feasibility.json,
+exit codes 0 / 1 / 2 (byte-identical reruns: tests/test_plan_feasibility.py, on a small project)."""
 
 from __future__ import annotations
 
@@ -30,25 +31,39 @@ def test_plan_writes_json_and_turtle_prints_the_table_and_exits_0_when_every_ste
     assert "robot: Clearpath Husky A200 + UR16e (husky-ur16e, husky_ur16e.urdf)" in r.stdout
     assert "1. husky-ur16e (Clearpath Husky A200 + UR16e): fit, chosen" in r.stdout
     assert "destination (17.50, -16.00, 0.00; yaw 0.00)" in r.stdout
-    assert sorted(p.name for p in out.iterdir()) == [".kbplanner-run", "plan.json", "plan.ttl"]
+    assert sorted(p.name for p in out.iterdir()) == [".kbplanner-run", "feasibility.json", "plan.json",
+                                                     "plan.png", "plan.ttl"]
+    assert "feasibility (B4): 11 of 11 elements installable" in r.stdout
     plan = Plan.from_json((out / "plan.json").read_text())
     assert len(plan.steps) == 44 and plan.feasible
+    assert all(s.base_pose is not None for s in plan.steps)  # B4 ran: every step has its base pose
     g = Graph().parse(out / "plan.ttl", format="turtle")
     assert len(set(g.subjects(KBP.forSkill, None))) == 44
-    # a second run writes the same bytes
-    again = tmp_path / "again"
-    assert main(["plan", str(CASE_STUDY), "--scenario", "storage-outside", "--out", str(again)]) == 0
-    for name in ("plan.json", "plan.ttl"):
-        assert (again / name).read_bytes() == (out / name).read_bytes(), name
+    verdicts = json.loads((out / "feasibility.json").read_text())
+    assert (verdicts["installable"], verdicts["total"]) == (11, 11)
+
+
+def test_no_feasibility_gives_the_action_level_plan_only(tmp_path: Path) -> None:
+    assert main(["plan", str(CASE_STUDY), "--scenario", "storage-outside", "--no-feasibility",
+                 "--out", str(tmp_path / "run")]) == 0
+    assert sorted(p.name for p in (tmp_path / "run").iterdir()) == [".kbplanner-run", "plan.json", "plan.ttl"]
+    plan = Plan.from_json((tmp_path / "run" / "plan.json").read_text())
+    assert all(s.base_pose is None for s in plan.steps)
 
 
 def test_an_infeasible_plan_is_printed_and_written_and_exits_1(tmp_path: Path) -> None:
     r = _kbplanner("plan", str(CASE_STUDY), "--out", str(tmp_path))
     assert r.returncode == 1, r.stderr
-    assert "22 of 44 steps are infeasible" in r.stdout
+    assert "44 of 44 steps are infeasible (22 skipped after an infeasible step of their element)" in r.stdout
     assert "missing input 'grasp point'" in r.stdout and "Traceback" not in r.stderr
+    assert "feasibility (B4): 0 of 11 elements installable" in r.stdout
+    assert "fix: add the missing model information" in r.stdout
     data = json.loads((tmp_path / "plan.json").read_text())
-    assert sum(1 for s in data["steps"] if not s["feasible"]) == 22
+    assert sum(1 for s in data["steps"] if not s["feasible"]) == 44
+    assert sum(1 for s in data["steps"] if s["reason"].startswith("skipped")) == 22
+    verdicts = json.loads((tmp_path / "feasibility.json").read_text())["elements"]
+    assert all(v["figure"] and (tmp_path / v["figure"]).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+               for v in verdicts)
 
 
 def test_an_unknown_task_or_robot_exits_2_naming_the_known_ids() -> None:

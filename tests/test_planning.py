@@ -72,9 +72,15 @@ def test_the_work_sequence_orders_the_elements_when_it_is_modelled() -> None:
     assert order.rule == RULE_SEQUENCE
 
 
+def _restack(g: Graph, top_first: list[URIRef]) -> None:
+    for n, el in enumerate(top_first):
+        g.set((el, KBP.stackIndex, Literal(len(top_first) - 1 - n)))
+
+
 def test_without_a_work_sequence_the_install_location_nearest_the_pickup_comes_first() -> None:
     g = make_model(4, storage=True)  # pickup at (-4.2, 3.0); frames at x = 5.5, 6.5, 7.5, 8.5, y = 4.5
     f = _frames(4)
+    _restack(g, f)  # the nearest on top: the stack does not change the order
     order = element_order(g, task_iri(BASE, "T1"), robot_start=(20.0, 4.5))
     assert order.elements == tuple(f)  # measured from the pickup, not from the robot start
     assert order.rule == RULE_NEAREST
@@ -94,6 +100,7 @@ def test_without_a_storage_the_distance_is_from_the_robot_start_and_ties_go_by_g
 def test_elements_with_a_work_sequence_come_first_and_the_rest_by_distance() -> None:
     g = make_model(3, storage=True)
     f = _frames(3)
+    _restack(g, [f[2], f[0], f[1]])
     g.add((f[2], KBP.workSequence, Literal(1)))
     order = element_order(g, task_iri(BASE, "T1"))
     assert order.elements == (f[2], f[0], f[1])
@@ -110,9 +117,10 @@ def test_a_complete_small_model_gives_one_step_per_element_and_action_with_input
     assert [(s.step, s.action_order, s.skill_id) for s in plan.steps[:4]] == [
         (1, 1, "NV-1"), (2, 2, "MM-G-1"), (3, 3, "NV-2"), (4, 4, "MM-R-1")]
     assert len(plan.steps) == 12 and plan.feasible
-    assert [s.element for s in plan.steps[::4]] == [str(e) for e in _frames(3)]
+    # frame 1 is nearest but lies at the bottom of the stack (stackIndex 0): top of the stack first
+    assert [s.element for s in plan.steps[::4]] == [str(e) for e in reversed(_frames(3))]
     assert plan.steps[1].inputs == {"grasp point": [0.0, 0.0, 1.2, 0.0, 0.0, 0.0],
-                                    "object": str(_frames(3)[0])}
+                                    "object": str(_frames(3)[2])}
     nv2 = plan.steps[2].parameters
     assert (nv2["maxSpeed"], nv2["minSpeed"]) == (0.3, 0.1)  # the limit caps the 0.3 default, sets the min.
     assert nv2["safetyStopDistance"] == 1.0  # skill default above the site minimum 0.8

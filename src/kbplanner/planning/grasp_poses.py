@@ -16,6 +16,7 @@ import zlib
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from kbplanner.planning.carry import (
     CarryGeometry,
@@ -71,41 +72,28 @@ class PickSearch(PoseSearch):
         tried = free_count = 0
         best: Pick | None = None
         last_reason = "no base pose around the grasp point is free"
-        for base, how in bases:
-            if not self.checker.free(self.base_fp, base.x, base.y, base.yaw):
-                continue
-            free_count += 1
-            if tried >= self.s.max_ik_bases:
-                break
-            tried += 1
-            self.robot.set_base_pose(base.x, base.y, base.yaw)
-            mount_h = np.array([*self.robot.spec.arm_mount_xyz, 1.0])
-            mount = (base_transform(base.x, base.y, base.yaw) @ mount_h)[:2]
-            toward = (float(mount[0] - target[0]), float(mount[1] - target[1]))
-            norm = math.hypot(*toward) or 1.0
-            seeds = [nav_q, *(self.robot.spec.poses[k] for k in ("pre_grasp",) if k in self.robot.spec.poses)]
-            for tilt in self.s.grasp_tilts_deg:
-                direction = (toward[0] / norm, toward[1] / norm)
-                cands = grasp_candidates(we.local_bounds, frame, gp, direction, (tilt,))
-                done = False
-                for grasp in cands:
-                    if not self.ik(grasp.tool_at(frame), seeds, fallback=False).reachable:
-                        continue
-                    res = self._pick_at(base, grasp, frame, we, nav_q, carry_seed)
-                    if isinstance(res, str):
-                        last_reason = res
-                        continue
-                    done = True  # larger tilts only bring the forearm closer to the element
-                    nearest = "" if how.startswith("the") else f", nearest of {free_count} free samples"
-                    res.note = (f"base pose: {how} ({base.x:.3f}, {base.y:.3f}, "
-                                f"{math.degrees(base.yaw):.1f} deg){nearest}; grasp {grasp.label}; "
-                                f"{res.note}")
-                    if res.clearance_m >= 0.0:
-                        return res
-                    if best is None or res.clearance_m > best.clearance_m:
-                        best = res
-                if done:
+        # Pass 1: the pickup location and the seeded samples (nearest to the robot first); pass 2, when
+        # pass 1 found no clear grasp: the deterministic closest free poses (PoseSearch.closest_free),
+        # so that a pick at the edge of the arm's reach does not depend on the seed.
+        for pass_no in (1, 2):
+            if pass_no == 2:
+                bases = [(b, "closest free") for b in self.closest_free(target, self.checker, None, ref)]
+            budget = tried + self.s.max_ik_bases
+            for base, how in bases:
+                if not self.checker.free(self.base_fp, base.x, base.y, base.yaw):
+                    continue
+                free_count += 1
+                if tried >= budget:
                     break
+                tried += 1
+                res = self._pick_from(base, how, free_count, target, frame, gp, we, nav_q, carry_seed)
+                if isinstance(res, str):
+                    last_reason = res
+                    continue
+                if res.clearance_m >= 0.0:
+                    return res
+                if best is None or res.clearance_m > best.clearance_m:
+                    best = res
         if best is not None:
             log.info("%s: no collision-free grasp; the best reachable one overlaps by %.3f m", we.label,
                         -best.clearance_m)
@@ -113,6 +101,45 @@ class PickSearch(PoseSearch):
         if nominal is not None and tried == 0 and free_count == 0:
             return "no free base pose near the grasp point (pickup location and samples blocked)"
         return f"grasp point out of reach from {tried} free base pose(s) tried: {last_reason}"
+
+    def _pick_from(self, base: Pose2, how: str, free_count: int, target: npt.NDArray[np.float64],
+                   frame: Matrix, gp: tuple[float, float, float], we: WorldElement, nav_q: tuple[float, ...],
+                   carry_seed: tuple[float, ...] | None) -> Pick | str:
+        """The best grasp from one base pose: the first clear one by tilt, else the least overlapping."""
+        assert we.local_bounds is not None
+        self.robot.set_base_pose(base.x, base.y, base.yaw)
+        mount_h = np.array([*self.robot.spec.arm_mount_xyz, 1.0])
+        mount = (base_transform(base.x, base.y, base.yaw) @ mount_h)[:2]
+        toward = (float(mount[0] - target[0]), float(mount[1] - target[1]))
+        norm = math.hypot(*toward) or 1.0
+        seeds = [nav_q, *(self.robot.spec.poses[k] for k in ("pre_grasp",) if k in self.robot.spec.poses)]
+        best: Pick | None = None
+        last_reason = "grasp out of reach"
+        for tilt in self.s.grasp_tilts_deg:
+            direction = (toward[0] / norm, toward[1] / norm)
+            done = False
+            for grasp in grasp_candidates(we.local_bounds, frame, gp, direction, (tilt,)):
+                if (grasp.tilt_deg, grasp.flip_x) in self.excluded_grasps:
+                    continue  # its install failed (manipulation._Refiner._element_regrasp)
+                if not self.ik(grasp.tool_at(frame), seeds, fallback=False).reachable:
+                    continue
+                res = self._pick_at(base, grasp, frame, we, nav_q, carry_seed)
+                if isinstance(res, str):
+                    last_reason = res
+                    continue
+                done = True  # larger tilts only bring the forearm closer to the element
+                nearest = {"sampled": f", nearest of {free_count} free samples",
+                           "closest free": " (arm mount closest to the grasp point; seed-independent pass)"
+                           }.get(how, "")
+                res.note = (f"base pose: {how} ({base.x:.3f}, {base.y:.3f}, "
+                            f"{math.degrees(base.yaw):.1f} deg){nearest}; grasp {grasp.label}; {res.note}")
+                if res.clearance_m >= 0.0:
+                    return res
+                if best is None or res.clearance_m > best.clearance_m:
+                    best = res
+            if done:
+                break
+        return best if best is not None else last_reason
 
     def _pick_at(self, base: Pose2, grasp: Grasp, frame: Matrix, we: WorldElement, nav_q: tuple[float, ...],
                  carry_seed: tuple[float, ...] | None) -> Pick | str:

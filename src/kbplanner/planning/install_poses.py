@@ -97,34 +97,43 @@ class InstallSearch(PoseSearch):
         last = "no base pose near the installed pose is free"
         best: Install | None = None
         try:
-            for base in bases:
-                if not checker.free(self.base_fp, base.x, base.y, base.yaw):
-                    continue
-                modes = self.carry_free(checker, pick.geometry, base)
-                if not modes:
-                    continue
-                free_count += 1
-                if tried >= self.s.max_ik_bases:
-                    break
-                tried += 1
-                self.robot.set_base_pose(base.x, base.y, base.yaw)
-                res = self._install_at(tool, back, up, pick, nav_q, probe)
-                if isinstance(res, str):
-                    last = res
-                    continue
-                poses, clear = res
-                if not escapes(checker.grid, self.base_fp, base, radius_m=self.s.escape_radius_m):
-                    last = "the robot would be shut in by the installed element"
-                    continue
-                note = (f"base pose: sampled ({base.x:.3f}, {base.y:.3f}, {math.degrees(base.yaw):.1f} deg), "
-                        f"nearest to the pick base pose of {free_count} free samples; arrives carrying "
-                        f"{'/'.join(modes)}; element-robot clearance {clear:.3f} m"
-                        f"{' (the element reaches into the robot: not resolved)' if clear < 0 else ''}")
-                found = Install(base, poses, note, clear)
-                if clear >= 0.0:
-                    return found
-                if best is None or clear > best.clearance_m:
-                    best = found
+            # Pass 1: seeded samples nearest to the pick base pose; pass 2 (no clear install yet): the
+            # deterministic closest free poses (PoseSearch.closest_free), independent of the seed.
+            for pass_no in (1, 2):
+                if pass_no == 2:
+                    bases = self.closest_free(tool[:3, 3], checker, side, pick.base)
+                how = "sampled" if pass_no == 1 else "closest free"
+                budget = tried + self.s.max_ik_bases
+                for base in bases:
+                    if not checker.free(self.base_fp, base.x, base.y, base.yaw):
+                        continue
+                    modes = self.carry_free(checker, pick.geometry, base)
+                    if not modes:
+                        continue
+                    free_count += 1
+                    if tried >= budget:
+                        break
+                    tried += 1
+                    self.robot.set_base_pose(base.x, base.y, base.yaw)
+                    res = self._install_at(tool, back, up, pick, nav_q, probe)
+                    if isinstance(res, str):
+                        last = res
+                        continue
+                    poses, clear = res
+                    if not escapes(checker.grid, self.base_fp, base, radius_m=self.s.escape_radius_m):
+                        last = "the robot would be shut in by the installed element"
+                        continue
+                    which = (f"nearest to the pick base pose of {free_count} free samples" if pass_no == 1
+                             else "arm mount closest to the installed pose; seed-independent pass")
+                    note = (f"base pose: {how} ({base.x:.3f}, {base.y:.3f}, {math.degrees(base.yaw):.1f} "
+                            f"deg), {which}; arrives carrying {'/'.join(modes)}; element-robot clearance "
+                            f"{clear:.3f} m"
+                            f"{' (the element reaches into the robot: not resolved)' if clear < 0 else ''}")
+                    found = Install(base, poses, note, clear)
+                    if clear >= 0.0:
+                        return found
+                    if best is None or clear > best.clearance_m:
+                        best = found
         finally:
             probe.close()
         if best is not None:

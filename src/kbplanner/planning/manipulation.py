@@ -39,14 +39,20 @@ installed elements of earlier steps and the element's own installed footprint ma
 for at least one carry footprint (base + held element), and every arm pose of the step must be
 reachable without the held element touching the robot. Candidates are tried in order of distance to
 where the incoming path starts (the robot's previous base pose), so the choice is deterministic; it
-is written into ``SkillCall.notes``. After an install the robot must not be shut in by what it
-installed (:func:`escapes`). A stud frame whose box is symmetric about its vertical axis may be
-placed turned by 180 degrees about it when only that way the gripper (which holds the face that was
-up at the storage) can reach. The held element should stay clear of the arm and base; when no
-candidate achieves that, the best one overlapping by at most ``max_arm_penetration_m`` is used and
-the overlap is written in the notes. A pick also needs the element to be on top of its stack (no
-element still at the storage lies on it) and its mass within the arm's payload. When nothing works
-the step is infeasible with the reason, and the element's later steps are infeasible as "skipped".
+is written into ``SkillCall.notes``. When the seeded samples give no clear pose, a second pass that
+does not depend on the seed tries, per bearing and base turn, the free pose whose arm mount is
+closest to the target (:meth:`~kbplanner.planning.pose_search.PoseSearch.closest_free`). An element
+whose install fails is picked again with another grasp (at most ``max_regrasps``), and one whose
+install is blocked by elements installed before it is moved before them
+(:mod:`~kbplanner.planning.install_order`, in :func:`refine_plan`). After an install the robot must
+not be shut in by what it installed (:func:`escapes`). A stud frame whose box is symmetric about its
+vertical axis may be placed turned by 180 degrees about it when only that way the gripper (which
+holds the face that was up at the storage) can reach. The held element should stay clear of the arm
+and base; when no candidate achieves that, the best one overlapping by at most
+``max_arm_penetration_m`` is used and the overlap is written in the notes. A pick also needs the
+element to be on top of its stack (no element still at the storage lies on it) and its mass within
+the arm's payload. When nothing works the step is infeasible with the reason, and the element's
+later steps are infeasible as "skipped".
 
 This module drives B4 element by element (:func:`refine_plan`); the search is split by what it finds:
 :mod:`~kbplanner.planning.base_poses` (where the robot can stand), :mod:`~kbplanner.planning.pose_search`
@@ -67,10 +73,11 @@ import logging
 from collections.abc import Callable
 
 from kbplanner.core.vocab import KBP
-from kbplanner.planning.base_poses import element_polygon, mark_polygon
+from kbplanner.planning.base_poses import PoseChecker, element_polygon, mark_polygon
 from kbplanner.planning.grasp_poses import Pick, PickSearch
+from kbplanner.planning.install_order import blocked_move, installable, move_before, stack_above
 from kbplanner.planning.install_poses import InstallSearch
-from kbplanner.planning.plan_model import Plan, SkillCall
+from kbplanner.planning.plan_model import Plan, Pose2, SkillCall
 from kbplanner.planning.pose_frames import as_joints, as_pose6_list, joints, pose2, pose6_matrix
 from kbplanner.planning.pose_search import RefineSettings
 from kbplanner.robot.robot_model import RobotModel
@@ -90,6 +97,10 @@ NAVIGATION_KINDS = (KIND_NAVIGATION, KIND_NAVIGATION_WITH_OBJECT)
 # Reasons of B4 failures that do not depend on the IK (no retry with the fallback IK).
 _NOT_IK_FAILURES = ("no free base pose", "the element lies under", "the element is not at a storage",
                     "out of reach from any base pose", "skipped", "the element weighs")
+
+
+_StepState = tuple[bool, str | None, Pose2 | None, dict[str, list[float]], list[str]]
+_State = tuple[list[_StepState], set[str], Pose2, PoseChecker]
 
 
 class _Refiner(PickSearch, InstallSearch):
@@ -117,26 +128,64 @@ class _Refiner(PickSearch, InstallSearch):
         steps = self.plan.steps_for(iri)
         if not steps:
             return
-        saved = ([(s.feasible, s.reason, s.base_pose, dict(s.arm_poses), list(s.notes)) for s in steps],
-                 set(self.picked), self.robot_at, self.checker)
+        saved = self._state(steps)
         self.method = self.s.ik_method
-        self._element(iri, steps)
+        self._element_regrasp(iri, steps, saved)
         fallback = self.s.fallback_ik_method
         if fallback is None or fallback == self.method or all(s.feasible for s in steps):
             return
         first = next(s.reason for s in steps if not s.feasible) or ""
         if first.startswith(_NOT_IK_FAILURES):
             return  # another IK cannot help
-        for s, (feasible, reason, base, arm, notes) in zip(steps, saved[0], strict=True):
-            s.feasible, s.reason, s.base_pose, s.arm_poses, s.notes = feasible, reason, base, arm, notes
-        self.picked, self.robot_at, self.checker = saved[1], saved[2], saved[3]
+        self._restore(steps, saved)
         self.method = fallback
-        self._element(iri, steps)
+        self._element_regrasp(iri, steps, saved)
         self.method = self.s.ik_method
         self.fallbacks += 1
         if all(s.feasible for s in steps):
             steps[0].notes.append(f"B4 arm poses by the {fallback} IK (the {self.s.ik_method} IK gave: "
                                   f"{first})")
+
+    def grasp_used(self) -> tuple[float, bool] | None:
+        """(tilt, flip) of the grasp of the last pick found, or None."""
+        return self.last_grasp
+
+    def _state(self, steps: list[SkillCall]) -> _State:
+        return ([(s.feasible, s.reason, s.base_pose, dict(s.arm_poses), list(s.notes)) for s in steps],
+                set(self.picked), self.robot_at, self.checker)
+
+    def _restore(self, steps: list[SkillCall], saved: _State) -> None:
+        for s, (feasible, reason, base, arm, notes) in zip(steps, saved[0], strict=True):
+            s.feasible, s.reason, s.base_pose, s.arm_poses, s.notes = feasible, reason, base, arm, list(notes)
+        self.picked, self.robot_at, self.checker = set(saved[1]), saved[2], saved[3]
+
+    def _element_regrasp(self, iri: str, steps: list[SkillCall], saved: _State) -> None:
+        """The element; when its install fails, again with another grasp (the carried element's footprint
+        and the install arm poses depend on the grasp), at most ``max_regrasps`` times. When none helps,
+        the first result stays (its install failure is the reason to report)."""
+        self.excluded_grasps = set()
+        self.last_grasp = None
+        self._element(iri, steps)
+        first: _State | None = None
+        for _ in range(self.s.max_regrasps):
+            bad = next((s for s in steps if not s.feasible), None)
+            used = self.grasp_used()
+            if bad is None or bad.skill_kind != KIND_RELEASE or used is None:
+                break
+            if first is None:
+                first = self._state(steps)
+            self.excluded_grasps.add(used)
+            self._restore(steps, saved)
+            self._element(iri, steps)
+            now = self.grasp_used()
+            if all(s.feasible for s in steps) and now is not None:
+                tilt, flip = now
+                steps[1 if len(steps) > 1 else 0].notes.append(
+                    f"grasp chosen again after the install failed with {len(self.excluded_grasps)} other "
+                    f"grasp(s) (now tilt {tilt:g} deg{', tool x reversed' if flip else ''})")
+                return
+        if first is not None and not all(s.feasible for s in steps):
+            self._restore(steps, first)
 
     def _element(self, iri: str, steps: list[SkillCall]) -> None:
         bad = next((i for i, s in enumerate(steps) if not s.feasible), None)
@@ -193,6 +242,7 @@ class _Refiner(PickSearch, InstallSearch):
                     _fail(steps, i, res)
                     return
                 pick = res
+                self.last_grasp = (res.grasp.tilt_deg, res.grasp.flip_x)
                 self.picked.add(we.iri)
                 s.base_pose = res.base
                 s.arm_poses = res.poses
@@ -307,15 +357,66 @@ def refine_plan(
     grid: OccupancyGrid | None = None,
     settings: RefineSettings | None = None,
     progress: Callable[[str, int, int], None] | None = None,
+    reorder: bool = True,
 ) -> Plan:
     """B4: a copy of ``plan`` with base and arm poses for every step (see module docstring).
 
     ``grid`` is the task storey's occupancy grid (default: :func:`kbplanner.world.maps.storey_map`
-    of the world). ``progress(label, done, total)`` is called after each element.
+    of the world). ``progress(label, done, total)`` is called after each element. With ``reorder``,
+    an element whose install B4 finds blocked by elements installed before it is moved before them
+    and B4 runs again (:mod:`kbplanner.planning.install_order`; kept when more elements become
+    installable, and said in ``order_rule`` and the notes).
 
     Raises:
         InputFileError: the plan names a robot whose URDF cannot be loaded.
     """
+    if grid is None and plan.robot_id:
+        from kbplanner.world.maps import storey_map
+
+        grid = storey_map(world).grid
+    out = _refine_once(plan, world, seed=seed, grid=grid, settings=settings, progress=progress)
+    if not reorder or not out.robot_id or grid is None:
+        return out
+    used = settings or RefineSettings()
+    current = plan
+    tried: set[tuple[str, str]] = set()
+    moves: list[str] = []
+    above = stack_above(world)
+    for _ in range(min(len(plan.elements), used.max_reorder_rounds)):
+        move = blocked_move(current, out, above, used.blocking_radius_m, tried)
+        if move is None:
+            break
+        tried.add(move)
+        candidate_in = move_before(current, *move, above.get(move[0], set()))
+        candidate = _refine_once(candidate_in, world, seed=seed, grid=grid, settings=settings,
+                                 progress=progress)
+        if installable(candidate) <= installable(out):
+            continue
+        labels = {e.iri: e.label for e in plan.elements}
+        order = [e.iri for e in current.elements]
+        with_it = sum(1 for i in order[order.index(move[1]):order.index(move[0])]
+                      if i in above.get(move[0], set()))
+        lying = f" (with the {with_it} element(s) lying on it)" if with_it else ""
+        moves.append(f"{labels[move[0]]}{lying} before {labels[move[1]]}")
+        current, out = candidate_in, candidate
+    if moves:
+        text = (f"B4 moved {'; '.join(moves)} (the install base poses were blocked by the elements "
+                "installed before)")
+        out.order_rule = f"{plan.order_rule}; then {text}"
+        out.notes.append(text)
+    return out
+
+
+def _refine_once(
+    plan: Plan,
+    world: World,
+    *,
+    seed: int,
+    grid: OccupancyGrid | None,
+    settings: RefineSettings | None,
+    progress: Callable[[str, int, int], None] | None,
+) -> Plan:
+    """B4 once, in the plan's order."""
     out = copy.deepcopy(plan)
     if not out.robot_id:
         out.notes.append("B4 not run: no robot selected")

@@ -61,6 +61,7 @@ class ElementInfo:
     installed_pose: Pose6
     storage_pose: Pose6 | None  # where it lies at the start (None: already in place)
     mesh_file: str | None
+    work_sequence: int | None = None  # kbp:workSequence (an explicit order B4 does not change)
 
 
 @dataclass
@@ -160,6 +161,7 @@ class Plan:
                 iri=e["iri"], global_id=e["global_id"], label=e["label"], mass_kg=e["mass_kg"],
                 size_m=tuple(e["size_m"]), installed_pose=Pose6(**e["installed_pose"]),
                 storage_pose=pose6(e["storage_pose"]), mesh_file=e["mesh_file"],
+                work_sequence=e.get("work_sequence"),
             )
             for e in d.pop("elements")
         ]

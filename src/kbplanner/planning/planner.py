@@ -38,10 +38,13 @@ B4 (base poses, IK arm poses) is not done here: ``base_pose`` and ``arm_poses`` 
 from __future__ import annotations
 
 import copy
+import dataclasses
 import logging
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
+
+from rdflib import URIRef
 
 from kbplanner.core.errors import KnowledgeBaseError, ProjectError
 from kbplanner.knowledge.jobsite import action_parameters, jobsite_parameters
@@ -125,7 +128,8 @@ def _plan(project: ProjectData, task: RobotizedTask, robot_id: str | None, *, at
                             element=task.task_id, fix="build the world with the same task id")
     start = world.robot_start
     order = element_order(project.model, task.iri, (start.x, start.y) if start is not None else None)  # B1
-    elements = plan_elements(project, task, order.elements, world, notes)
+    elements = [dataclasses.replace(e, work_sequence=order.sequences.get(URIRef(e.iri)))
+                for e in plan_elements(project, task, order.elements, world, notes)]
     if not elements:
         notes.append(f"task {task.task_id} builds no elements: the plan has no steps "
                      "(link its elements with kbp:buildsElement, e.g. by the schedule's elements column)")

@@ -53,8 +53,15 @@ class RefineSettings:
     ik_method: IkMethod = "closed_form"
     fallback_ik_method: IkMethod | None = "numeric"
     escape_radius_m: float = 3.0  # after an install the robot must get this far (escapes())
+    blocking_radius_m: float = 3.0  # elements installed this near an unreachable install may block it
+    max_regrasps: int = 3  # an element whose install fails is picked again with another grasp
+    max_reorder_rounds: int = 6  # B4 runs again at most this often with a blocked element moved first
     bearing_spread_rad: float = math.radians(70.0)
     yaw_spread_rad: float = math.radians(60.0)
+    # the deterministic second pass of the base-pose search (PoseSearch.closest_free)
+    fixed_bearing_step_rad: float = math.radians(10.0)
+    fixed_radial_step_m: float = 0.02
+    fixed_turns_rad: tuple[float, ...] = tuple(math.radians(t) for t in (0.0, -20.0, 20.0, -40.0, 40.0))
 
 
 class PoseSearch:
@@ -77,6 +84,8 @@ class PoseSearch:
         self.carry_cache: dict[bytes, CarryGeometry] = {}
         self.method: IkMethod = settings.ik_method
         self.fallbacks = 0
+        self.excluded_grasps: set[tuple[float, bool]] = set()  # (tilt, flip) whose install failed
+        self.last_grasp: tuple[float, bool] | None = None
         self._nav_pose_cache: dict[tuple[float, ...] | None, tuple[tuple[float, ...], str]] = {}
         assert robot.spec.arm is not None
         self.arm = robot.spec.arm
@@ -167,6 +176,62 @@ class PoseSearch:
             out.append(pose2(x, y, yaw))
         out.sort(key=lambda b: (math.hypot(b.x - ref.x, b.y - ref.y), b.x, b.y, b.yaw))
         return out
+
+    def closest_free(self, target: npt.NDArray[np.float64], checker: PoseChecker,
+                     side: tuple[float, float] | None, ref: Pose2) -> list[Pose2]:
+        """Seed-independent base poses: per bearing and turn, the free one whose arm mount is closest.
+
+        The second pass of the base-pose search, independent of the seed: on a regular set of bearings
+        (every ``fixed_bearing_step_rad`` around the target, or within ``bearing_spread_rad`` of
+        ``side``) and base turns (``fixed_turns_rad`` off facing the target), the arm mount steps out
+        from ``min_reach_m`` by ``fixed_radial_step_m`` until the base footprint is free on
+        ``checker`` (each pose at the centre of its grid cell, :meth:`_cell_centre`). The target's near
+        side of a stack or a wall, where random samples rarely land, is always covered. Sorted by
+        mount-target distance (closest first, the most reachable), then by distance to ``ref``.
+        """
+        reach = self.horizontal_reach(float(target[2]))
+        if reach <= self.s.min_reach_m:
+            return []
+        mx, my = self.robot.spec.arm_mount_xyz[0], self.robot.spec.arm_mount_xyz[1]
+        if side is None:
+            n = max(1, round(2 * math.pi / self.s.fixed_bearing_step_rad))
+            bearings = [-math.pi + i * 2 * math.pi / n for i in range(n)]
+        else:
+            centre = math.atan2(side[1], side[0])
+            k = int(self.s.bearing_spread_rad // self.s.fixed_bearing_step_rad)
+            bearings = [centre + i * self.s.fixed_bearing_step_rad for i in range(-k, k + 1)]
+        steps = int((reach - self.s.min_reach_m) // self.s.fixed_radial_step_m) + 1
+        found: list[tuple[float, Pose2]] = []
+        for bearing in bearings:
+            cb, sb = math.cos(bearing), math.sin(bearing)
+            for turn in self.s.fixed_turns_rad:
+                for i in range(steps):
+                    r = self.s.min_reach_m + i * self.s.fixed_radial_step_m
+                    ax, ay = float(target[0]) + r * cb, float(target[1]) + r * sb
+                    yaw = math.atan2(float(target[1]) - ay, float(target[0]) - ax) + turn
+                    x = ax - (math.cos(yaw) * mx - math.sin(yaw) * my)
+                    y = ay - (math.sin(yaw) * mx + math.cos(yaw) * my)
+                    x, y = self._cell_centre(checker, x, y)
+                    if checker.free(self.base_fp, x, y, yaw):
+                        found.append((round(r, 6), pose2(x, y, yaw)))
+                        break
+        found.sort(key=lambda t: (t[0], math.hypot(t[1].x - ref.x, t[1].y - ref.y), t[1].x, t[1].y, t[1].yaw))
+        return [b for _, b in found]
+
+    @staticmethod
+    def _cell_centre(checker: PoseChecker, x: float, y: float) -> tuple[float, float]:
+        """(x, y) moved to the centre of its grid cell.
+
+        The free test depends only on the cell of (x, y) and the yaw bin. A pose on a cell border
+        (the first free pose along a ray often is one) may fall into the next cell on the grid window
+        the navigation plans in (another origin, another rounding) and be called blocked there; at a
+        cell's centre it falls into the same cell on every window of the grid.
+        """
+        g = checker.grid
+        res = g.resolution
+        ix = math.floor((x - g.origin[0]) / res)
+        iy = math.floor((y - g.origin[1]) / res)
+        return g.origin[0] + (ix + 0.5) * res, g.origin[1] + (iy + 0.5) * res
 
     def carry_free(self, checker: PoseChecker, geo: CarryGeometry, base: Pose2) -> list[str]:
         """The carry modes whose footprint is free at ``base``."""
