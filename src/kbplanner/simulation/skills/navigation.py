@@ -47,6 +47,7 @@ from kbplanner.simulation.base_trajectory import time_parameterize
 from kbplanner.simulation.carry_paths import CarryPlan, plan_with_carry_modes
 from kbplanner.simulation.nav_path import NavSettings
 from kbplanner.simulation.navigation import plan_path
+from kbplanner.simulation.path_quality import YARDSTICK_MARGIN_M, shortest_path_m
 from kbplanner.simulation.separation_monitor import SeparationMonitor
 from kbplanner.simulation.skills.base import JointPath, Skill, Status
 from kbplanner.simulation.workers import WORKER_RADIUS_M
@@ -185,7 +186,18 @@ class NavigationSkill(Skill):
         if isinstance(result, str):
             self.fail(result)
             return
+        self._yardstick(start)
         self._enqueue(result, first=True)
+
+    def _yardstick(self, start: Pose2D) -> None:
+        """The shortest collision-free path for the step's most permissive footprint and the top speed
+        (:mod:`kbplanner.simulation.path_quality`)."""
+        normal, narrow = self._footprints()
+        grid = self.c.env.grid
+        near = window(grid, [(start[0], start[1]), (self.goal[0], self.goal[1])], YARDSTICK_MARGIN_M)
+        length = shortest_path_m(near, grid, start, self.goal, narrow or normal)
+        self.details.update(shortest_m=round(length, 4) if math.isfinite(length) else None,
+                            max_speed_mps=self.max_speed)
 
     # ---- planning ----------------------------------------------------------------------------------
     def _joint_path(self, waypoints: list[tuple[str, list[float] | tuple[float, ...]]]) -> JointPath:
