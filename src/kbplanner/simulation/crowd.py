@@ -86,6 +86,12 @@ class Crowd:
         self.t = 0.0
         delays = sorted({max(0, round(a.params.reaction_time_s * control_hz)) for a in self.agents})
         self._delays = delays
+        self._positions: tuple[FloatArray, list[tuple[float, float, float]]] | None = None
+        # per-worker constants of every step
+        self._params = [a.params for a in self.agents]
+        self._v0 = np.array([a.v0 for a in self.agents])
+        self._masks = [np.array([round(a.params.reaction_time_s / self.dt) == delay for a in self.agents])
+                       for delay in delays]
         self._history: deque[Obstacle | None] = deque(maxlen=(delays[-1] if delays else 0) + 1)
 
     def __len__(self) -> int:
@@ -129,14 +135,13 @@ class Crowd:
         if robot is not None:
             self._detours(robot)
         desired = self._desired()
-        params = [a.params for a in self.agents]
-        v0 = np.array([a.v0 for a in self.agents])
+        params = self._params
+        v0 = self._v0
         active = np.ones(len(self.agents), dtype=bool)
         acc = np.zeros_like(self.pos)
-        for delay in self._delays:
+        for delay, mask in zip(self._delays, self._masks, strict=True):
             idx = len(self._history) - 1 - delay
             seen = self._history[max(idx, 0)]
-            mask = np.array([round(a.params.reaction_time_s / self.dt) == delay for a in self.agents])
             if mask.any():
                 a_all = accelerations(self.pos, self.vel, desired, params, seen, active)
                 acc[mask] = a_all[mask]
@@ -256,7 +261,10 @@ class Crowd:
 
     def positions(self) -> list[tuple[float, float, float]]:
         """(x, y, heading) of every worker now."""
-        return [(float(p[0]), float(p[1]), float(h)) for p, h in zip(self.pos, self.heading, strict=True)]
+        if self._positions is None or self._positions[0] is not self.pos:
+            rows = [(float(p[0]), float(p[1]), float(h)) for p, h in zip(self.pos, self.heading, strict=True)]
+            self._positions = (self.pos, rows)
+        return list(self._positions[1])
 
     def speeds(self) -> FloatArray:
         """Walking speed (m/s) of every worker now."""
