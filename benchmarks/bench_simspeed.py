@@ -1,7 +1,7 @@
 """Simulation speed before/after (issue 14, items 2-3): the case study's ``kbplanner simulate``, run
 by a baseline's sources and by this tree's, alternately, in one run of this script.
 
-The baseline is a git ref (default ``main``) whose ``src/`` is exported (``git archive``) into a
+The baseline is a git ref (default ``main``) whose tree is exported (``git archive``) into a
 temporary folder; both run the same command with the same shared virtualenv, one after the other per
 round (baseline first, then this tree; rounds alternate the machine's load between them), with
 ``PYTHONPATH`` pointing at their sources::
@@ -37,18 +37,20 @@ DETERMINISTIC = ("trajectories.csv", "events.jsonl")
 
 
 def _export(ref: str, into: Path) -> Path:
-    """``src/`` of git ``ref`` under ``into``; returns that ``src`` folder."""
-    archive = subprocess.run(["git", "-C", str(REPO), "archive", ref, "src"], check=True,
-                             capture_output=True).stdout
+    """The tree of git ``ref`` under ``into`` (sources, ontology, shapes, robots); returns its ``src``."""
+    archive = subprocess.run(["git", "-C", str(REPO), "archive", ref], check=True, capture_output=True).stdout
     subprocess.run(["tar", "-x", "-C", str(into)], input=archive, check=True)
     return into / "src"
 
 
 def _run(src: Path, scenario: str, seed: int, out: Path, log: Path) -> dict[str, Any]:
     env = dict(os.environ, PYTHONPATH=str(src))
-    cmd = [sys.executable, "-m", "kbplanner", "simulate", str(REPO / "data" / "case_study"),
+    cmd = [sys.executable, "-m", "kbplanner", "simulate", str(src.parent / "data" / "case_study"),
            "--scenario", scenario, "--seed", str(seed), "--out", str(out)]
     measured = run_measured(cmd, log=log, timeout_s=1800.0, env=env)
+    if not (out / "timing.json").is_file():
+        tail = log.read_text()[-2000:]
+        raise SystemExit(f"{' '.join(cmd)} wrote no run (exit {measured['exit']}):\n{tail}")
     timing = json.loads((out / "timing.json").read_text()) if (out / "timing.json").is_file() else {}
     metrics = json.loads((out / "metrics.json").read_text()) if (out / "metrics.json").is_file() else {}
     quality = metrics.get("path_quality")
