@@ -84,6 +84,7 @@ def bench(before_src: Path, after_src: Path, scenario: str, seed: int, rounds: i
         sim = _median(rs, "sim_time_s")
         cmd, step = _median(rs, "command_s"), _median(rs, "simulation_s")
         row[label] = {"command_s": cmd, "simulation_s": step, "sim_time_s": sim,
+                      "command_cpu_s": _median(rs, "cpu_s"),
                       "x_real_time_command": round(sim / cmd, 1) if sim and cmd else None,
                       "x_real_time_simulation": round(sim / step, 1) if sim and step else None,
                       "planning_total_s": _median(rs, "planning_total_s"),
@@ -91,6 +92,8 @@ def bench(before_src: Path, after_src: Path, scenario: str, seed: int, rounds: i
     b, a = row["before"], row["after"]
     row["speedup_command"] = round(b["command_s"] / a["command_s"], 2) if a["command_s"] else None
     row["speedup_simulation"] = round(b["simulation_s"] / a["simulation_s"], 2) if a["simulation_s"] else None
+    cpu_b, cpu_a = b["command_cpu_s"], a["command_cpu_s"]
+    row["speedup_command_cpu"] = round(cpu_b / cpu_a, 2) if cpu_a else None
     row["path_quality_after"] = runs["after"][-1]["path_quality"]
     return row
 
@@ -123,6 +126,8 @@ def main(argv: list[str] | None = None) -> int:
           f"{b['simulation_s'] or 0:7.1f} / {a['simulation_s'] or 0:5.1f} "
           f"{b['x_real_time_simulation'] or 0:6.1f}/{a['x_real_time_simulation'] or 0:6.1f} "
           f"{'yes' if r['trajectories_and_events_identical'] else 'no':>5}\n")
+        w(f"{'':16} command CPU s {b['command_cpu_s']} / {a['command_cpu_s']} (x{r['speedup_command_cpu']}); "
+          f"speed-up wall: command x{r['speedup_command']}, simulation x{r['speedup_simulation']}\n")
         if r["path_quality_after"]:
             q = r["path_quality_after"]
             w(f"{'':16} path quality: time / lower bound median {q['time_over_lower_bound']['median']} max "
