@@ -1,11 +1,12 @@
 """B5 path quality: how far a run's motions are from a kinematic lower bound (run metrics).
 
 Per navigation step the executor records the **shortest collision-free path** from where the robot
-stood to its goal (:func:`shortest_path_m`: the grid yardstick of
-:mod:`kbplanner.simulation.grid_yardstick` - 8-connected shortest path over the cells where the
-footprint fits at some yaw, then line-of-sight shortcuts - on the map as it was at the step's start,
-for the most permissive footprint of the step: the base for NV-1, the narrow carry for NV-2) and the
-step's top speed; per step it records the **arm's minimum time**: for every control period the
+stood to its goal (the grid yardstick of :mod:`kbplanner.simulation.grid_yardstick` - 8-connected
+shortest path over the cells where the footprint fits at some yaw, then line-of-sight shortcuts - on
+the map as it was at the step's start): on the configuration space the step planned its path in (the
+planner's window; the base for NV-1, for NV-2 the normal carry, or the narrow one where the normal
+one could not pass), else (several legs, a start off the free cells) by :func:`shortest_path_m` for
+the step's most permissive footprint (the narrow carry for NV-2); and the step's top speed; per step it records the **arm's minimum time**: for every control period the
 largest joint move over that joint's speed limit (the executed joint path at the joint speed, each
 joint moving at its own limit; :class:`ArmClock`).
 
