@@ -6,15 +6,16 @@ shortest path over the cells where the footprint fits at some yaw, then line-of-
 the map as it was at the step's start): on the configuration space the step planned its path in (the
 planner's window; the base for NV-1, for NV-2 the normal carry, or the narrow one where the normal
 one could not pass), else (several legs, a start off the free cells) by :func:`shortest_path_m` for
-the step's most permissive footprint (the narrow carry for NV-2); and the step's top speed; per step it records the **arm's minimum time**: for every control period the
-largest joint move over that joint's speed limit (the executed joint path at the joint speed, each
+the step's most permissive footprint (the narrow carry for NV-2); and the step's top speed. Per step
+it records the **arm's minimum time**: for every control period the largest joint move over that
+joint's speed limit (the executed joint path - carry-mode turns included - at the joint speed, each
 joint moving at its own limit; :class:`ArmClock`).
 
 :func:`path_quality` turns them into the figures of ``metrics.json`` ``"path_quality"``: per
 installed element (frame) ``time_over_lower_bound`` = frame time / (sum of shortest paths / top
 speed + sum of arm minimum times), per navigation ``driven_over_shortest`` = driven length /
-shortest path, each with median and max over the run. Turning on the spot, speed and separation
-monitoring, acceleration and the carry-mode changes are what the lower bound leaves out.
+shortest path, each with median and max over the run. Turning on the spot, acceleration and speed
+and separation monitoring are what the lower bound leaves out.
 """
 
 from __future__ import annotations
