@@ -137,6 +137,11 @@ def test_the_run_directory_holds_every_output_with_the_inputs_hashed(runs: Runs)
     assert set(metrics["per_action"]) == {"navigate to frame pickup location", "pick frame",
                                           "navigate to install location", "install frame"}
     assert metrics["per_action"]["install frame"]["succeeded"] == 2
+    quality = metrics["path_quality"]  # every installed frame against its kinematic lower bound
+    assert quality["time_over_lower_bound"]["count"] == 2
+    assert 1.0 <= quality["time_over_lower_bound"]["median"] <= quality["time_over_lower_bound"]["max"]
+    assert all(f["time_over_lower_bound"] >= 1.0 for f in quality["per_element"])
+    assert quality["driven_over_shortest"]["count"] >= 2 and quality["driven_over_shortest"]["median"] >= 0.99
 
 
 def test_a_panel_heavier_than_the_payload_is_a_recorded_failure(runs: Runs, tmp_path: Path) -> None:

@@ -60,6 +60,7 @@ class CarryPlan:
     events: tuple[CarryEvent, ...] = ()
     normal_attempt: NavPath | None = None
     extra: dict[str, float] = field(default_factory=dict)
+    space: ConfigurationSpace | None = None  # the configuration space of the path's footprint
 
     @property
     def ok(self) -> bool:
@@ -150,7 +151,7 @@ def plan_with_carry_modes(
     cs_normal = ConfigurationSpace.build(grid, normal, settings.n_yaw_bins, settings.margin_m)
     first = plan_path(cs_normal, start, goal, settings=settings)
     if first.ok:
-        return CarryPlan(path=first, mode="normal", normal_attempt=first)
+        return CarryPlan(path=first, mode="normal", normal_attempt=first, space=cs_normal)
     cs_narrow = ConfigurationSpace.build(grid, narrow, settings.n_yaw_bins, settings.margin_m)
     second = plan_path(cs_narrow, start, goal, settings=settings)
     if not second.ok:
@@ -182,4 +183,4 @@ def plan_with_carry_modes(
                    footprint=narrow.name)
     narrow_len = sum(seg.end_s_m - seg.start_s_m for seg in segments)
     return CarryPlan(path=path, mode="narrow", segments=tuple(segments), events=tuple(events),
-                     normal_attempt=first, extra={"narrow_length_m": narrow_len})
+                     normal_attempt=first, extra={"narrow_length_m": narrow_len}, space=cs_narrow)

@@ -21,9 +21,8 @@ from kbplanner.world.footprint import ConfigurationSpace
 
 def face_connected(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D) -> bool:
     """Whether face-adjacent free cells of (x, y, yaw bin) join start and goal (see :func:`face_path`)."""
-    labels = cs.components(diagonal=False)
-    a = cs.component_of(labels, *start)
-    return a > 0 and a == cs.component_of(labels, *goal)
+    a, b = cs.components_of([start, goal], diagonal=False)
+    return a > 0 and a == b
 
 
 def face_path(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D) -> list[Pose2D] | None:

@@ -86,6 +86,12 @@ class Crowd:
         self.t = 0.0
         delays = sorted({max(0, round(a.params.reaction_time_s * control_hz)) for a in self.agents})
         self._delays = delays
+        self._positions: tuple[FloatArray, list[tuple[float, float, float]]] | None = None
+        # per-worker constants of every step
+        self._params = [a.params for a in self.agents]
+        self._v0 = np.array([a.v0 for a in self.agents])
+        self._masks = [np.array([round(a.params.reaction_time_s / self.dt) == delay for a in self.agents])
+                       for delay in delays]
         self._history: deque[Obstacle | None] = deque(maxlen=(delays[-1] if delays else 0) + 1)
 
     def __len__(self) -> int:
@@ -129,14 +135,13 @@ class Crowd:
         if robot is not None:
             self._detours(robot)
         desired = self._desired()
-        params = [a.params for a in self.agents]
-        v0 = np.array([a.v0 for a in self.agents])
+        params = self._params
+        v0 = self._v0
         active = np.ones(len(self.agents), dtype=bool)
         acc = np.zeros_like(self.pos)
-        for delay in self._delays:
+        for delay, mask in zip(self._delays, self._masks, strict=True):
             idx = len(self._history) - 1 - delay
             seen = self._history[max(idx, 0)]
-            mask = np.array([round(a.params.reaction_time_s / self.dt) == delay for a in self.agents])
             if mask.any():
                 a_all = accelerations(self.pos, self.vel, desired, params, seen, active)
                 acc[mask] = a_all[mask]
@@ -166,13 +171,17 @@ class Crowd:
             p = self.pos[i]
             goal = a.path[min(a.wp, len(a.path) - 1)]
             radius = reach_m(robot.rects) + WORKER_RADIUS_M + a.params.comfort_distance_m
+            vias = [
+                np.array([robot.pose[0] + radius * math.cos(j * math.pi / 8),
+                          robot.pose[1] + radius * math.sin(j * math.pi / 8)])
+                for j in range(16)
+            ]
+            first = self._clear_many([(p, via) for via in vias], robot)
+            ways = [via for via, ok in zip(vias, first, strict=True) if ok]
+            second = self._clear_many([(via, goal) for via in ways], robot)
             best: tuple[float, FloatArray] | None = None
-            for j in range(16):
-                ang = j * math.pi / 8
-                via = np.array(
-                    [robot.pose[0] + radius * math.cos(ang), robot.pose[1] + radius * math.sin(ang)]
-                )
-                if not (self._clear(p, via, robot) and self._clear(via, goal, robot)):
+            for via, ok in zip(ways, second, strict=True):
+                if not ok:
                     continue
                 cost = float(np.hypot(*(via - p)) + np.hypot(*(goal - via)))
                 if best is None or cost < best[0]:
@@ -180,14 +189,38 @@ class Crowd:
             if best is not None:
                 a.path = np.vstack([a.path[: a.wp], best[1][None, :], a.path[a.wp :]])
 
-    def _clear(self, p: FloatArray, q: FloatArray, robot: Obstacle) -> bool:
-        n = max(2, int(np.hypot(*(q - p)) / 0.1) + 1)
-        f = np.linspace(0.0, 1.0, n)[:, None]
-        pts = p[None, :] + f * (q - p)[None, :]
-        d, _, _ = rects_distance(pts[:, 0], pts[:, 1], robot.pose, robot.rects)
-        if float(d.min()) < WORKER_RADIUS_M + 0.3:
-            return False
-        return all(self._walkable(pts[k - 1], pts[k]) for k in range(1, n))
+    def _clear_many(self, legs: Sequence[tuple[FloatArray, FloatArray]], robot: Obstacle) -> list[bool]:
+        """Per leg (p, q): sampled every 0.1 m, clear of the footprint and walkable. One distance query
+        for all legs' samples (element-wise the same numbers as one query per leg)."""
+        if not legs:
+            return []
+        samples = []
+        for p, q in legs:
+            n = max(2, int(np.hypot(*(q - p)) / 0.1) + 1)
+            f = np.linspace(0.0, 1.0, n)[:, None]
+            samples.append(p[None, :] + f * (q - p)[None, :])
+        pts = np.concatenate(samples)
+        d_all, _, _ = rects_distance(pts[:, 0], pts[:, 1], robot.pose, robot.rects)
+        out = []
+        start = 0
+        for leg in samples:
+            d = d_all[start : start + len(leg)]
+            start += len(leg)
+            out.append(float(d.min()) >= WORKER_RADIUS_M + 0.3 and self._walkable_along(leg))
+        return out
+
+    def _walkable_along(self, pts: FloatArray) -> bool:
+        """:meth:`_walkable` for every step between consecutive points, vectorised."""
+        free = self.router.free
+        g = self.router.grid
+        if free is None or g is None:
+            return True
+        ix = np.floor((pts[:, 0] - g.origin[0]) / g.resolution).astype(np.int64)
+        iy = np.floor((pts[:, 1] - g.origin[1]) / g.resolution).astype(np.int64)
+        inside = (ix >= 0) & (iy >= 0) & (iy < free.shape[0]) & (ix < free.shape[1])
+        ok = np.zeros(len(pts), dtype=bool)
+        ok[inside] = free[iy[inside], ix[inside]].astype(bool)
+        return bool(np.all(ok[1:] | ~ok[:-1]))
 
     def _constrain(
         self, old: FloatArray, new: FloatArray, vel: FloatArray, robot: Obstacle | None
@@ -228,7 +261,10 @@ class Crowd:
 
     def positions(self) -> list[tuple[float, float, float]]:
         """(x, y, heading) of every worker now."""
-        return [(float(p[0]), float(p[1]), float(h)) for p, h in zip(self.pos, self.heading, strict=True)]
+        if self._positions is None or self._positions[0] is not self.pos:
+            rows = [(float(p[0]), float(p[1]), float(h)) for p, h in zip(self.pos, self.heading, strict=True)]
+            self._positions = (self.pos, rows)
+        return list(self._positions[1])
 
     def speeds(self) -> FloatArray:
         """Walking speed (m/s) of every worker now."""

@@ -56,6 +56,7 @@ from kbplanner.planning.carry import NARROW, NORMAL, geometry_from_joints, pose_
 from kbplanner.planning.manipulation import KIND_NAVIGATION_WITH_OBJECT, elements_in_order, robot_name
 from kbplanner.planning.plan_model import Plan, SkillCall
 from kbplanner.simulation.keyframes import render_png
+from kbplanner.simulation.path_quality import ArmClock, path_quality
 from kbplanner.simulation.recorder import Recorder, clean
 from kbplanner.simulation.safety import ContactMonitor, safety_summary
 from kbplanner.simulation.separation import SsmParameters, hazard_rects
@@ -319,11 +320,15 @@ class _Run:
             self.emit("step_failed", reason=reason)
             return StepOutcome(call.step, gid, call.action_label, call.skill_id, FAILED, reason, t0, t0)
         self.emit("step_start", skill=call.skill_id)
+        arm = env.robot.spec.arm
+        clock = ArmClock(env.robot.arm_positions(), [min(self.settings.joint_speed_rps, v) for v in
+                                                     (arm.velocity_rps if arm is not None else ())])
         skill.setup(self.ctx)
         skill.initialise(call)
         status = skill.status
         while status is Status.RUNNING:
             status = skill.update()
+            clock.update(env.robot.arm_positions())
             self.contact.after_robot()
             if status is not Status.RUNNING:
                 break
@@ -338,6 +343,8 @@ class _Run:
                                     "narrow": rect_dict(skill.geo.narrow.rect)}
         ok = status is Status.SUCCESS
         details = dict(skill.details)
+        if clock.total_s > 0:
+            details["arm_min_s"] = round(clock.total_s, 4)
         if ok:
             self.emit("step_end", duration_s=round(env.t - t0, 3))
         else:
@@ -367,7 +374,8 @@ def _metrics(plan: Plan, elements: list[ElementOutcome], sim_time: float, settin
                             "carry_modes": d["carry_modes"], "stops": d["stops"],
                             "stop_time_s": d["stop_time_s"], "replans": d["replans"],
                             "slowdowns": d.get("slowdowns", 0), "slow_time_s": d.get("slow_time_s", 0.0),
-                            "time_lost_s": d.get("time_lost_s", 0.0), "duration_s": s.duration_s})
+                            "time_lost_s": d.get("time_lost_s", 0.0), "duration_s": s.duration_s,
+                            "shortest_m": d.get("shortest_m")})
                 totals["stops"] += d["stops"]
                 totals["stop_time_s"] += d["stop_time_s"]
                 totals["slowdowns"] += d.get("slowdowns", 0)
@@ -402,6 +410,7 @@ def _metrics(plan: Plan, elements: list[ElementOutcome], sim_time: float, settin
         "per_action": dict(sorted(per_action.items())),
         "per_element": per_element,
         "navigation": nav,
+        "path_quality": path_quality(per_element, nav),
         "placement": {"max_error_m": max((a for a, _ in errors), default=None),
                       "max_error_deg": max((b for _, b in errors), default=None),
                       "tolerance_m": settings.place_tol_m, "tolerance_deg": settings.place_tol_deg},

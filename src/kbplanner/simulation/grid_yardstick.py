@@ -7,15 +7,49 @@ shortcutting: a slightly optimistic length to compare planned paths with (benchm
 
 from __future__ import annotations
 
-import heapq
 import math
 
 import numpy as np
+import numpy.typing as npt
 
 from kbplanner.core.errors import KbplannerError
 from kbplanner.simulation.nav_path import Pose2D
 from kbplanner.world.footprint import ConfigurationSpace, Footprint
 from kbplanner.world.occupancy import OccupancyGrid
+
+
+def _dijkstra_cells(
+    free: npt.NDArray[np.bool_], s: tuple[int, int], t: tuple[int, int]
+) -> list[tuple[int, int]] | None:
+    """Cells (iy, ix) of a shortest 8-connected path over ``free`` from ``s`` to ``t`` (scipy's
+    Dijkstra; steps cost 1 or sqrt 2 cells), or None."""
+    from scipy import sparse
+    from scipy.sparse import csgraph
+
+    ny, nx = free.shape
+    index = np.full(free.shape, -1, dtype=np.int64)
+    flat = np.flatnonzero(free)
+    index.ravel()[flat] = np.arange(len(flat))
+    rows, cols, costs = [], [], []
+    for dy, dx in ((0, 1), (1, 0), (1, 1), (1, -1)):
+        a = index[0 : ny - dy, max(0, -dx) : nx - max(0, dx)]  # cell (y, x) ...
+        b = index[dy:ny, max(0, dx) : nx - max(0, -dx)]  # ... and its neighbour (y + dy, x + dx)
+        both = (a >= 0) & (b >= 0)
+        rows.append(a[both])
+        cols.append(b[both])
+        costs.append(np.full(int(both.sum()), math.hypot(dy, dx)))
+    r, c, w = np.concatenate(rows), np.concatenate(cols), np.concatenate(costs)
+    n = len(flat)
+    graph = sparse.csr_matrix((w, (r, c)), shape=(n, n))
+    src, dst = int(index[s]), int(index[t])
+    dist, pred = csgraph.dijkstra(graph, directed=False, indices=src, return_predecessors=True)
+    if not math.isfinite(float(dist[dst])):
+        return None
+    out = [dst]
+    while out[-1] != src:
+        out.append(int(pred[out[-1]]))
+    out.reverse()
+    return [(int(flat[k]) // nx, int(flat[k]) % nx) for k in out]
 
 
 def grid_shortest_path_length(
@@ -46,34 +80,9 @@ def grid_shortest_path_length(
         return math.inf
     if not (free[sy, sx] and free[gy, gx]):
         return math.inf
-    dist = np.full((ny, nx), np.inf)
-    prev = np.full((ny, nx), -1, dtype=np.int64)
-    dist[sy, sx] = 0.0
-    heap: list[tuple[float, int, int]] = [(0.0, sy, sx)]
-    moves = [(dy, dx, math.hypot(dy, dx)) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx]
-    free_l = free.tolist()
-    dist_l = dist.tolist()
-    while heap:
-        d, y, x = heapq.heappop(heap)
-        if d > dist_l[y][x]:
-            continue
-        if y == gy and x == gx:
-            break
-        for dy, dx, c in moves:
-            yy, xx = y + dy, x + dx
-            if 0 <= yy < ny and 0 <= xx < nx and free_l[yy][xx]:
-                nd = d + c
-                if nd < dist_l[yy][xx]:
-                    dist_l[yy][xx] = nd
-                    prev[yy, xx] = y * nx + x
-                    heapq.heappush(heap, (nd, yy, xx))
-    if not math.isfinite(dist_l[gy][gx]):
+    cells = _dijkstra_cells(free, (sy, sx), (gy, gx))
+    if cells is None:
         return math.inf
-    cells = [(gy, gx)]
-    while cells[-1] != (sy, sx):
-        p = int(prev[cells[-1]])
-        cells.append((p // nx, p % nx))
-    cells.reverse()
     pts = [(float(start[0]), float(start[1]))]
     pts += [g.center_of(x, y) for y, x in cells[1:-1]]
     pts.append((float(goal[0]), float(goal[1])))

@@ -71,11 +71,20 @@ class ExactMotion:
         """Whether the straight SE(2) motion from ``a`` to ``b`` is free (both ends included)."""
         t0 = float(a[2])
         d = wrap(float(b[2]) - t0)
-        # Cheap rejection first: most motions a planner tries run into a wall somewhere.
-        n = max(2, math.ceil(max(abs(b[0] - a[0]), abs(b[1] - a[1])) * self.inv_res / 2))
+        # Cheap rejection first: most motions a planner tries run into a wall somewhere. (pose_free
+        # inlined: the same arithmetic, without a method call per sample.)
+        a0, a1 = a[0], a[1]
+        bx, by = b[0] - a0, b[1] - a1
+        inv_res, ox, oy, nx, ny = self.inv_res, self.ox, self.oy, self.nx, self.ny
+        w, n_bins, plane, free, floor = self.w, self.n_bins, self.plane, self.free, math.floor
+        n = max(2, math.ceil(max(abs(bx), abs(by)) * inv_res / 2))
         for i in (n // 2, n, *range(1, n)):
             u = i / n
-            if not self.pose_free(a[0] + u * (b[0] - a[0]), a[1] + u * (b[1] - a[1]), t0 + u * d):
+            ix = floor((a0 + u * bx - ox) * inv_res)
+            iy = floor((a1 + u * by - oy) * inv_res)
+            if not (0 <= ix < nx and 0 <= iy < ny):
+                return False
+            if free[(floor((t0 + u * d) / w + 0.5) % n_bins) * plane + iy * nx + ix] != 1:
                 return False
         cuts = [0.0]
         if d != 0.0:

@@ -64,8 +64,8 @@ def _connected(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D) -> bool:
     26-connectivity with the yaw axis closed into a ring over-connects, so "not connected" is
     certain: no continuous path exists in the (conservative) configuration space.
     """
-    labels = cs.components(diagonal=True)
-    return cs.component_of(labels, *start) == cs.component_of(labels, *goal)
+    a, b = cs.components_of([start, goal], diagonal=True)
+    return a == b
 
 
 def _validity_checker(cs: ConfigurationSpace) -> Callable[[ob.State], bool]:

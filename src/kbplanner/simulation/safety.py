@@ -29,6 +29,7 @@ from kbplanner.simulation.separation import (
     WORKER_RADIUS_M,
     SsmParameters,
     distance_at_poses,
+    reach_m,
     rects_distance,
     robot_speed,
     time_below_s,
@@ -65,7 +66,7 @@ class ContactMonitor:
         pose = self.env.base_pose()
         hz = self.env.control_hz
         obs = self.hazard()
-        reach = max(float(np.max(np.hypot(*r.corners().T))) for r in obs.rects)
+        reach = reach_m(obs.rects)
         dyaw = math.atan2(math.sin(pose[2] - self._prev_pose[2]), math.cos(pose[2] - self._prev_pose[2]))
         self._robot_speed = (
             math.hypot(pose[0] - self._prev_pose[0], pose[1] - self._prev_pose[1]) + abs(dyaw) * reach

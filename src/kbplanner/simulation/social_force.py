@@ -41,6 +41,7 @@ Evaluation of passing distance for social robots. IEEE RO-MAN.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -89,21 +90,39 @@ def _weight(vx: FloatArray, vy: FloatArray, nx: FloatArray, ny: FloatArray, lam:
     return np.asarray(lam + (1 - lam) * (1 + cos_phi) / 2, dtype=np.float64)
 
 
+@functools.lru_cache(maxsize=64)
+def _constants(params: tuple[SocialForceParams, ...]) -> dict[str, FloatArray]:
+    """The per-worker constants as arrays (the same arrays for the same workers; read only)."""
+    out = {
+        "tau": np.array([p.relaxation_time_s for p in params]),
+        "lam": np.array([p.anisotropy for p in params]),
+        "a_p": np.array([p.a_people for p in params])[:, None],
+        "b_p": np.array([p.b_people for p in params])[:, None],
+        "s_p": np.array([p.personal_distance_m for p in params])[:, None],
+        "a_r": np.array([p.a_robot for p in params]),
+        "b_r": np.array([p.b_robot for p in params]),
+        "s_c": np.array([p.comfort_distance_m for p in params]),
+        "vmax_factor": np.array([p.max_speed_factor for p in params]),
+    }
+    for a in out.values():
+        a.flags.writeable = False
+    return out
+
+
 def accelerations(pos: FloatArray, vel: FloatArray, desired: FloatArray, params: Sequence[SocialForceParams],
                   seen: Obstacle | None, active: BoolArray) -> FloatArray:
     """The social-force acceleration (n, 2) of every worker (inactive ones: none)."""
     n = len(pos)
-    tau = np.array([p.relaxation_time_s for p in params])
+    k = _constants(tuple(params))
+    tau = k["tau"]
     acc = (desired - vel) / tau[:, None]
-    lam = np.array([p.anisotropy for p in params])
+    lam = k["lam"]
     if n > 1:
         d = pos[:, None, :] - pos[None, :, :]
         dist = np.hypot(d[..., 0], d[..., 1])
         np.fill_diagonal(dist, np.inf)
         nx, ny = d[..., 0] / np.where(dist > 0, dist, 1), d[..., 1] / np.where(dist > 0, dist, 1)
-        a_p = np.array([p.a_people for p in params])[:, None]
-        b_p = np.array([p.b_people for p in params])[:, None]
-        s_p = np.array([p.personal_distance_m for p in params])[:, None]
+        a_p, b_p, s_p = k["a_p"], k["b_p"], k["s_p"]
         mag = a_p / b_p * np.exp(-np.maximum(dist - 2 * WORKER_RADIUS_M - s_p, -s_p) / b_p)
         mag = np.where(np.isfinite(dist) & active[None, :], mag, 0.0)
         w = _weight(vel[:, 0:1], vel[:, 1:2], nx, ny, lam[:, None])
@@ -117,9 +136,7 @@ def accelerations(pos: FloatArray, vel: FloatArray, desired: FloatArray, params:
         cx, cy = pos[:, 0] - seen.pose[0], pos[:, 1] - seen.pose[1]
         cn = np.maximum(np.hypot(cx, cy), 1e-9)
         ux, uy = np.where(inside, cx / cn, ux), np.where(inside, cy / cn, uy)
-        a_r = np.array([p.a_robot for p in params])
-        b_r = np.array([p.b_robot for p in params])
-        s_c = np.array([p.comfort_distance_m for p in params])
+        a_r, b_r, s_c = k["a_r"], k["b_r"], k["s_c"]
         mag = a_r / b_r * np.exp(-np.maximum(dr - WORKER_RADIUS_M - s_c, -s_c) / b_r)
         w_robot = 1.0  # a moving machine is heard all round: no anisotropy for the robot
         ahead = -(ux * vel[:, 0] + uy * vel[:, 1]) > 0
@@ -132,7 +149,7 @@ def accelerations(pos: FloatArray, vel: FloatArray, desired: FloatArray, params:
 
 def cap_speed(vel: FloatArray, v0: FloatArray, params: Sequence[SocialForceParams]) -> FloatArray:
     """Velocities limited to ``max_speed_factor`` times each worker's walking speed."""
-    vmax = v0 * np.array([p.max_speed_factor for p in params])
+    vmax = v0 * _constants(tuple(params))["vmax_factor"]
     sp = np.hypot(vel[:, 0], vel[:, 1])
     f = np.where(sp > vmax, vmax / np.maximum(sp, 1e-12), 1.0)
     return np.asarray(vel * f[:, None], dtype=np.float64)

@@ -233,28 +233,51 @@ class ConfigurationSpace:
         (across the wrap too), which over-connects, so different components are certainly apart.
         0 is blocked; labels are joined across the wrap (bin n-1 next to bin 0).
         """
+        labels, roots = self._labels_and_roots(diagonal)
+        return np.asarray(roots[labels], dtype=np.int64)
+
+    def components_of(
+        self, poses: Sequence[tuple[float, float, float]], *, diagonal: bool = False
+    ) -> list[int]:
+        """:meth:`component_of` of each pose under :meth:`components`, without mapping every cell."""
+        labels, roots = self._labels_and_roots(diagonal)
+        ny, nx = self.grid.shape
+        out = []
+        for x, y, yaw in poses:
+            ix, iy = self.grid.cell_of(x, y)
+            inside = 0 <= ix < nx and 0 <= iy < ny
+            out.append(int(roots[labels[self.yaw_bin(yaw), iy, ix]]) if inside else 0)
+        return out
+
+    def _labels_and_roots(
+        self, diagonal: bool
+    ) -> tuple[npt.NDArray[np.int32], npt.NDArray[np.int64]]:
+        """``ndimage.label`` of the free cells and, per label, the smallest label it is joined to."""
         from scipy import ndimage
 
         structure = np.ones((3, 3, 3), dtype=bool) if diagonal else ndimage.generate_binary_structure(3, 1)
         labels, n = ndimage.label(self.free, structure=structure)
-        parent = np.arange(n + 1)
-
-        def find(a: int) -> int:
-            while parent[a] != a:
-                a = int(parent[a])
-            return a
-
+        # Join labels across the wrap; each label maps to the smallest label of its class (what a
+        # union-find that keeps the smaller root gives), found with sparse connected components.
         first, last = labels[0], labels[-1]
         shifts = [(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1)] if diagonal else [(0, 0)]
+        pairs = []
         for dy, dx in shifts:
             b = np.roll(np.roll(last, dy, axis=0), dx, axis=1)
             both = (first > 0) & (b > 0)
-            for a_lab, b_lab in sorted(set(zip(first[both].tolist(), b[both].tolist(), strict=True))):
-                ra, rb = find(a_lab), find(b_lab)
-                if ra != rb:
-                    parent[max(ra, rb)] = min(ra, rb)
-        roots = np.array([find(i) for i in range(n + 1)], dtype=np.int64)
-        return np.asarray(roots[labels], dtype=np.int64)
+            pairs.append(np.stack([first[both], b[both]], axis=1))
+        edges = np.concatenate(pairs).astype(np.int64) if pairs else np.zeros((0, 2), dtype=np.int64)
+        if not len(edges):
+            return labels, np.arange(n + 1, dtype=np.int64)
+        from scipy.sparse import coo_matrix
+        from scipy.sparse.csgraph import connected_components
+
+        graph = coo_matrix((np.ones(len(edges), dtype=np.int8), (edges[:, 0], edges[:, 1])),
+                           shape=(n + 1, n + 1))
+        n_cls, cls = connected_components(graph, directed=False)
+        smallest = np.full(n_cls, n + 1, dtype=np.int64)
+        np.minimum.at(smallest, cls, np.arange(n + 1, dtype=np.int64))
+        return labels, np.asarray(smallest[cls], dtype=np.int64)
 
     def component_of(self, labels: npt.NDArray[np.int64], x: float, y: float, yaw: float) -> int:
         """The component (of :meth:`components`) of a pose; 0 when blocked or off the grid."""

@@ -45,12 +45,14 @@ from kbplanner.planning.pose_frames import as_pose6_list
 from kbplanner.robot.lidar import LidarSpec, lidar_spec
 from kbplanner.simulation.base_trajectory import time_parameterize
 from kbplanner.simulation.carry_paths import CarryPlan, plan_with_carry_modes
+from kbplanner.simulation.grid_yardstick import grid_shortest_path_length
 from kbplanner.simulation.nav_path import NavSettings
 from kbplanner.simulation.navigation import plan_path
+from kbplanner.simulation.path_quality import YARDSTICK_MARGIN_M, shortest_path_m
 from kbplanner.simulation.separation_monitor import SeparationMonitor
 from kbplanner.simulation.skills.base import JointPath, Skill, Status
 from kbplanner.simulation.workers import WORKER_RADIUS_M
-from kbplanner.world.footprint import Footprint, Rect
+from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect
 from kbplanner.world.occupancy import OccupancyGrid
 
 log = logging.getLogger(__name__)
@@ -181,11 +183,27 @@ class NavigationSkill(Skill):
             if max(abs(a - b) for a, b in zip(env.robot.arm_positions(), q, strict=True)) > 1e-6:
                 self.queue.append(_Turn(self._joint_path([("navigation pose", q)]), None, ""))
         start = env.base_pose()
+        self.spaces: list[ConfigurationSpace] | None = []  # of the first plan's legs, for the yardstick
         result = self._plan(start, None)
+        spaces, self.spaces = self.spaces or [], None
         if isinstance(result, str):
             self.fail(result)
             return
+        self._yardstick(start, spaces)
         self._enqueue(result, first=True)
+
+    def _yardstick(self, start: Pose2D, spaces: list[ConfigurationSpace]) -> None:
+        """The shortest collision-free path and the top speed (:mod:`kbplanner.simulation.path_quality`):
+        on the configuration space the step planned its one leg in (the footprint it planned with,
+        the planner's window), else for the step's most permissive footprint around start and goal."""
+        length = grid_shortest_path_length(spaces[0], start, self.goal) if len(spaces) == 1 else math.inf
+        if not math.isfinite(length):
+            normal, narrow = self._footprints()
+            grid = self.c.env.grid
+            near = window(grid, [(start[0], start[1]), (self.goal[0], self.goal[1])], YARDSTICK_MARGIN_M)
+            length = shortest_path_m(near, grid, start, self.goal, narrow or normal)
+        self.details.update(shortest_m=round(length, 4) if math.isfinite(length) else None,
+                            max_speed_mps=self.max_speed)
 
     # ---- planning ----------------------------------------------------------------------------------
     def _joint_path(self, waypoints: list[tuple[str, list[float] | tuple[float, ...]]]) -> JointPath:
@@ -230,9 +248,11 @@ class NavigationSkill(Skill):
         for margin in s.window_margins_m:
             sub = window(grid, [(start[0], start[1]), (goal[0], goal[1])], margin)
             if narrow is None:
-                path = plan_path(sub, start, goal, fp, settings)
+                cs = ConfigurationSpace.build(sub, fp, settings.n_yaw_bins, settings.margin_m)
+                path = plan_path(cs, start, goal, settings=settings)  # as plan_path(sub, ..., fp) builds it
                 self.details["planning_time_s"] += path.planning_time_s
-                if path.ok:
+                if path.ok and self.spaces is not None:
+                    self.spaces.append(cs)
                     self.details["planner"] = path.planner
                     mode = ""
                     if self.geo is not None:
@@ -245,6 +265,8 @@ class NavigationSkill(Skill):
                 self.details["planning_time_s"] += cp.path.planning_time_s
                 if cp.ok:
                     self.details["planner"] = cp.path.planner
+                    if cp.space is not None and self.spaces is not None:
+                        self.spaces.append(cp.space)
                     return _route_of(cp)
                 why = cp.path.reason
             reasons.append(f"{'whole map' if margin is None else f'{margin:g} m window'}: {why}")

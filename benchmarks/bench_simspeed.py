@@ -1,0 +1,141 @@
+"""Simulation speed before/after (issue 14, items 2-3): the case study's ``kbplanner simulate``, run
+by a baseline's sources and by this tree's, alternately, in one run of this script.
+
+The baseline is a git ref (default ``main``) whose tree is exported (``git archive``) into a
+temporary folder; both run the same command with the same shared virtualenv, one after the other per
+round (baseline first, then this tree; rounds alternate the machine's load between them), with
+``PYTHONPATH`` pointing at their sources::
+
+    kbplanner simulate data/case_study --scenario S --seed N --out DIR
+
+Per scenario it records each command's wall time (``os.wait4``, with CPU seconds and peak memory),
+the simulation step's wall time and real-time factor from the run's ``timing.json``, the simulated
+time, whether ``trajectories.csv`` and ``events.jsonl`` of both are byte-identical, and this tree's
+path-quality figures (``metrics.json`` ``path_quality``, when present). Ratios are baseline /
+this tree (> 1: faster now), from the median over rounds. The load average is recorded before and
+after: on a shared machine absolute seconds vary, the ratios of one run much less.
+
+Usage: .venv/bin/python benchmarks/bench_simspeed.py [--before REF] [--scenario S ...] [--rounds N]
+Prints a table and writes benchmarks/results/simspeed.json (or --out).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from _common import REPO, RESULTS_DIR, machine_info, run_measured, write_json
+
+DETERMINISTIC = ("trajectories.csv", "events.jsonl")
+
+
+def _export(ref: str, into: Path) -> Path:
+    """The tree of git ``ref`` under ``into`` (sources, ontology, shapes, robots); returns its ``src``."""
+    archive = subprocess.run(["git", "-C", str(REPO), "archive", ref], check=True, capture_output=True).stdout
+    subprocess.run(["tar", "-x", "-C", str(into)], input=archive, check=True)
+    return into / "src"
+
+
+def _run(src: Path, scenario: str, seed: int, out: Path, log: Path) -> dict[str, Any]:
+    env = dict(os.environ, PYTHONPATH=str(src))
+    cmd = [sys.executable, "-m", "kbplanner", "simulate", str(src.parent / "data" / "case_study"),
+           "--scenario", scenario, "--seed", str(seed), "--out", str(out)]
+    measured = run_measured(cmd, log=log, timeout_s=1800.0, env=env)
+    if not (out / "timing.json").is_file():
+        tail = log.read_text()[-2000:]
+        raise SystemExit(f"{' '.join(cmd)} wrote no run (exit {measured['exit']}):\n{tail}")
+    timing = json.loads((out / "timing.json").read_text()) if (out / "timing.json").is_file() else {}
+    metrics = json.loads((out / "metrics.json").read_text()) if (out / "metrics.json").is_file() else {}
+    quality = metrics.get("path_quality")
+    return {"command_s": measured["seconds"], "exit": measured["exit"], "cpu_s": measured["cpu_s"],
+            "peak_rss_mb": measured["peak_rss_mb"], "simulation_s": timing.get("wall_time_s"),
+            "sim_time_s": timing.get("sim_time_s"), "planning_total_s": timing.get("planning_total_s"),
+            "path_quality": {k: v for k, v in quality.items() if k != "per_element"} if quality else None}
+
+
+def _median(rows: list[dict[str, Any]], key: str) -> float | None:
+    values = [r[key] for r in rows if isinstance(r.get(key), (int, float))]
+    return round(statistics.median(values), 3) if values else None
+
+
+def bench(before_src: Path, after_src: Path, scenario: str, seed: int, rounds: int, tmp: Path
+          ) -> dict[str, Any]:
+    runs: dict[str, list[dict[str, Any]]] = {"before": [], "after": []}
+    identical = True
+    for k in range(rounds):
+        outs = {}
+        for label, src in (("before", before_src), ("after", after_src)):
+            out = tmp / f"{scenario}-{label}-{k}"
+            runs[label].append(_run(src, scenario, seed, out, tmp / f"{scenario}-{label}-{k}.log"))
+            outs[label] = out
+        identical = identical and all(
+            (outs["before"] / f).read_bytes() == (outs["after"] / f).read_bytes() for f in DETERMINISTIC)
+    row: dict[str, Any] = {"scenario": scenario, "seed": seed, "rounds": rounds,
+                           "trajectories_and_events_identical": identical}
+    for label in ("before", "after"):
+        rs = runs[label]
+        sim = _median(rs, "sim_time_s")
+        cmd, step = _median(rs, "command_s"), _median(rs, "simulation_s")
+        row[label] = {"command_s": cmd, "simulation_s": step, "sim_time_s": sim,
+                      "command_cpu_s": _median(rs, "cpu_s"),
+                      "x_real_time_command": round(sim / cmd, 1) if sim and cmd else None,
+                      "x_real_time_simulation": round(sim / step, 1) if sim and step else None,
+                      "planning_total_s": _median(rs, "planning_total_s"),
+                      "exit": [r["exit"] for r in rs], "runs": rs}
+    b, a = row["before"], row["after"]
+    row["speedup_command"] = round(b["command_s"] / a["command_s"], 2) if a["command_s"] else None
+    row["speedup_simulation"] = round(b["simulation_s"] / a["simulation_s"], 2) if a["simulation_s"] else None
+    cpu_b, cpu_a = b["command_cpu_s"], a["command_cpu_s"]
+    row["speedup_command_cpu"] = round(cpu_b / cpu_a, 2) if cpu_a else None
+    row["path_quality_after"] = runs["after"][-1]["path_quality"]
+    return row
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--before", default="main", help="git ref of the baseline (default main)")
+    ap.add_argument("--scenario", action="append", help="scenario(s) (default: both storage scenarios)")
+    ap.add_argument("--seed", type=int, default=7)
+    ap.add_argument("--rounds", type=int, default=1, help="before/after pairs per scenario (median)")
+    ap.add_argument("--out", type=Path, default=RESULTS_DIR / "simspeed.json")
+    args = ap.parse_args(argv)
+    scenarios = args.scenario or ["storage-outside", "storage-inside"]
+    load_before = list(os.getloadavg())
+    with tempfile.TemporaryDirectory() as tmp_name:
+        tmp = Path(tmp_name)
+        before_src = _export(args.before, tmp)
+        rows = [bench(before_src, REPO / "src", s, args.seed, args.rounds, tmp) for s in scenarios]
+    out = {"machine": machine_info(("python", "cpus", "platform")), "before": args.before,
+           "load_average_start": load_before, "load_average_end": list(os.getloadavg()), "scenarios": rows}
+    write_json(args.out, out)
+    w = sys.stdout.write
+    w(f"{'scenario':16} {'sim s':>7} {'command s':>17} {'x real':>13} {'sim step s':>15} {'x real':>13} "
+      f"{'same':>5}\n{'':16} {'':>7} {'before / after':>17} {'before/after':>13} {'before / after':>15} "
+      f"{'before/after':>13}\n")
+    for r in rows:
+        b, a = r["before"], r["after"]
+        w(f"{r['scenario']:16} {a['sim_time_s'] or 0:7.1f} {b['command_s']:8.1f} / {a['command_s']:6.1f} "
+          f"{b['x_real_time_command'] or 0:6.1f}/{a['x_real_time_command'] or 0:6.1f} "
+          f"{b['simulation_s'] or 0:7.1f} / {a['simulation_s'] or 0:5.1f} "
+          f"{b['x_real_time_simulation'] or 0:6.1f}/{a['x_real_time_simulation'] or 0:6.1f} "
+          f"{'yes' if r['trajectories_and_events_identical'] else 'no':>5}\n")
+        w(f"{'':16} command CPU s {b['command_cpu_s']} / {a['command_cpu_s']} (x{r['speedup_command_cpu']}); "
+          f"speed-up wall: command x{r['speedup_command']}, simulation x{r['speedup_simulation']}\n")
+        if r["path_quality_after"]:
+            q = r["path_quality_after"]
+            w(f"{'':16} path quality: time / lower bound median {q['time_over_lower_bound']['median']} max "
+              f"{q['time_over_lower_bound']['max']}; driven / shortest median "
+              f"{q['driven_over_shortest']['median']} max {q['driven_over_shortest']['max']}\n")
+    w(f"load average {load_before[0]:.2f} -> {out['load_average_end'][0]:.2f}; wrote {args.out}\n")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,127 @@
+"""B5 speed-ups that claim identical results: the plain-float paths against the numpy ones."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from kbplanner.simulation import separation
+from kbplanner.simulation.separation import rects_distance
+from kbplanner.world.footprint import Rect
+
+
+def _vectorised(px: np.ndarray, py: np.ndarray, pose: tuple[float, float, float], rects: list[Rect]):
+    old = separation.SCALAR_POINTS
+    separation.SCALAR_POINTS = -1
+    try:
+        return rects_distance(px, py, pose, rects)
+    finally:
+        separation.SCALAR_POINTS = old
+
+
+def test_point_distance_is_bit_identical_to_the_numpy_path() -> None:
+    rng = np.random.default_rng(3)
+    rects = [Rect(0.0, 0.0, 0.99, 0.67), Rect(0.4, 0.1, 1.2, 0.3, 0.3), Rect(-0.2, 0.0, 0.5, 2.0, 1.2)]
+    for trial in range(300):
+        pose = (float(rng.uniform(-3, 3)), float(rng.uniform(-3, 3)), float(rng.uniform(-4, 4)))
+        n = int(rng.integers(1, separation.SCALAR_POINTS + 1))
+        px, py = rng.uniform(-5, 5, n), rng.uniform(-5, 5, n)
+        if trial % 10 == 0:  # points inside and on the axes of a rectangle
+            px[0], py[0] = pose[0], pose[1]
+        got = rects_distance(px, py, pose, rects[: 1 + trial % 3])
+        want = _vectorised(px, py, pose, rects[: 1 + trial % 3])
+        for g, w in zip(got, want, strict=True):
+            assert g.shape == w.shape
+            assert g.tobytes() == w.tobytes()
+    d, ux, uy = rects_distance(np.array([2.0]), np.array([0.0]), (0.0, 0.0, 0.0), [Rect(0.0, 0.0, 1.0, 0.6)])
+    assert (float(d[0]), float(ux[0]), float(uy[0])) == (1.5, 1.0, 0.0)
+
+
+def _components_union_find(free: np.ndarray, diagonal: bool) -> np.ndarray:
+    """The former implementation of ConfigurationSpace.components (union-find in Python)."""
+    from scipy import ndimage
+
+    structure = np.ones((3, 3, 3), dtype=bool) if diagonal else ndimage.generate_binary_structure(3, 1)
+    labels, n = ndimage.label(free, structure=structure)
+    parent = np.arange(n + 1)
+
+    def find(a: int) -> int:
+        while parent[a] != a:
+            a = int(parent[a])
+        return a
+
+    first, last = labels[0], labels[-1]
+    shifts = [(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1)] if diagonal else [(0, 0)]
+    for dy, dx in shifts:
+        b = np.roll(np.roll(last, dy, axis=0), dx, axis=1)
+        both = (first > 0) & (b > 0)
+        for a_lab, b_lab in sorted(set(zip(first[both].tolist(), b[both].tolist(), strict=True))):
+            ra, rb = find(a_lab), find(b_lab)
+            if ra != rb:
+                parent[max(ra, rb)] = min(ra, rb)
+    roots = np.array([find(i) for i in range(n + 1)], dtype=np.int64)
+    return np.asarray(roots[labels], dtype=np.int64)
+
+
+def test_components_equal_the_union_find_labels() -> None:
+    from kbplanner.world.footprint import ConfigurationSpace, Footprint
+    from kbplanner.world.occupancy import OccupancyGrid
+
+    rng = np.random.default_rng(5)
+    for density in (0.3, 0.5, 0.7, 1.0):
+        free = rng.random((8, 30, 40)) < density
+        grid = OccupancyGrid(np.zeros((30, 40), dtype=bool), origin=(0.0, 0.0), resolution=0.05)
+        cs = ConfigurationSpace(grid=grid, footprint=Footprint((Rect(0, 0, 0.1, 0.1),)), free=free)
+        for diagonal in (False, True):
+            want = _components_union_find(free, diagonal)
+            assert np.array_equal(cs.components(diagonal=diagonal), want)
+            poses = [(float(x), float(y), float(t)) for x, y, t in
+                     zip(rng.uniform(-0.2, 2.2, 50), rng.uniform(-0.2, 1.7, 50), rng.uniform(-4, 4, 50),
+                         strict=True)]
+            assert cs.components_of(poses, diagonal=diagonal) == [cs.component_of(want, *p) for p in poses]
+
+
+def test_inlined_motion_check_equals_the_pose_by_pose_check() -> None:
+    import itertools
+    import math
+
+    from kbplanner.simulation.motion_check import ExactMotion
+    from kbplanner.simulation.nav_path import wrap
+    from kbplanner.world.footprint import ConfigurationSpace, Footprint
+    from kbplanner.world.occupancy import OccupancyGrid
+
+    rng = np.random.default_rng(11)
+    occ = rng.random((60, 80)) < 0.02
+    grid = OccupancyGrid(occ, origin=(-1.0, -0.5), resolution=0.05)
+    cs = ConfigurationSpace.build(grid, Footprint((Rect(0, 0, 0.5, 0.3),)), 36)
+    m = ExactMotion(cs)
+
+    def reference(a: tuple[float, float, float], b: tuple[float, float, float]) -> bool:
+        t0 = float(a[2])
+        d = wrap(float(b[2]) - t0)
+        n = max(2, math.ceil(max(abs(b[0] - a[0]), abs(b[1] - a[1])) * m.inv_res / 2))
+        for i in (n // 2, n, *range(1, n)):
+            u = i / n
+            if not m.pose_free(a[0] + u * (b[0] - a[0]), a[1] + u * (b[1] - a[1]), t0 + u * d):
+                return False
+        cuts = [0.0]
+        if d != 0.0:
+            k0, k1 = math.floor(t0 / m.w + 0.5), math.floor((t0 + d) / m.w + 0.5)
+            borders = range(k0, k1) if d > 0 else range(k0 - 1, k1 - 1, -1)
+            cuts += [((k + 0.5) * m.w - t0) / d for k in borders]
+        cuts.append(1.0)
+        ax, ay = (a[0] - m.ox) * m.inv_res, (a[1] - m.oy) * m.inv_res
+        dx, dy = (b[0] - m.ox) * m.inv_res - ax, (b[1] - m.oy) * m.inv_res - ay
+        for ua, ub in itertools.pairwise(cuts):
+            k = math.floor((t0 + 0.5 * (ua + ub) * d) / m.w + 0.5) % m.n_bins
+            if not m._segment_free(k, ax + ua * dx, ay + ua * dy, ax + ub * dx, ay + ub * dy):
+                return False
+        return True
+
+    answers = set()
+    for _ in range(3000):
+        a = (float(rng.uniform(-1.2, 3.2)), float(rng.uniform(-0.7, 2.7)), float(rng.uniform(-4, 4)))
+        b = (a[0] + float(rng.normal(0, 0.6)), a[1] + float(rng.normal(0, 0.6)), float(rng.uniform(-4, 4)))
+        want = reference(a, b)
+        assert m.motion_free(a, b) == want
+        answers.add(want)
+    assert answers == {True, False}
