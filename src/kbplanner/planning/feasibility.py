@@ -42,6 +42,10 @@ FIXES: tuple[tuple[str, str], ...] = (
     (r"out of reach from any base pose",
      "bring the element within the arm's height range: a lower storage or stack (kbp:sizeZ, fewer "
      "elements per stack), or a robot with a longer arm"),
+    (r"walled off: no way for the robot",
+     "install this element before the elements that close its way (a lower kbp:workSequence than "
+     "theirs; without kbp:workSequence B4 tries that order itself), or move the storage so that the "
+     "way from the pickup location stays open"),
     (r"shut in by the installed element",
      "install this element earlier (a lower kbp:workSequence than the elements around it), so the "
      "robot does not close itself in"),

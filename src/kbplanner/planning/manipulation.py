@@ -73,7 +73,7 @@ import logging
 from collections.abc import Callable
 
 from kbplanner.core.vocab import KBP
-from kbplanner.planning.base_poses import PoseChecker, element_polygon, mark_polygon
+from kbplanner.planning.base_poses import PoseChecker, element_polygon, mark_polygon, way_between
 from kbplanner.planning.grasp_poses import Pick, PickSearch
 from kbplanner.planning.install_order import blocked_move, installable, move_before, stack_above
 from kbplanner.planning.install_poses import InstallSearch
@@ -268,6 +268,12 @@ class _Refiner(PickSearch, InstallSearch):
                 res_i = self.install(s, we, pick, nav_q, target)
                 if isinstance(res_i, str):
                     _fail(steps, i, res_i)
+                    return
+                if not way_between(self.checker.grid, self.base_fp, pick.base, res_i.base):
+                    _fail(steps, i, "walled off: no way for the robot from the pick base pose "
+                                    f"({pick.base.x:.2f}, {pick.base.y:.2f}) to the install base pose "
+                                    f"({res_i.base.x:.2f}, "
+                                    f"{res_i.base.y:.2f}) once the elements installed before it stand")
                     return
                 s.base_pose = res_i.base
                 s.arm_poses = res_i.poses
