@@ -139,3 +139,39 @@ def test_without_monitoring_driving_into_a_worker_is_a_collision_event_and_count
     assert on.metrics["safety"]["stops"] + on.metrics["safety"]["slowdowns"] > 0
     metrics = json.loads((tmp_path / "off" / "metrics.json").read_text())
     assert metrics["safety"]["collision_events"][0]["worker"] == "stander"
+
+
+def test_a_worker_waiting_in_the_robot_s_way_makes_way_when_asked_and_goes_back_later() -> None:
+    from kbplanner.simulation.crowd import MAKE_WAY_HOLD_S
+    from kbplanner.world.occupancy import OccupancyGrid
+
+    res, x0, y0 = 0.05, -7.0, -2.0
+    ys, xs = np.mgrid[0:140, 0:280]
+    cx, cy = x0 + (xs + 0.5) * res, y0 + (ys + 0.5) * res
+    free = (np.abs(cy) < 1.2) | ((cx > 2.0) & (cx < 4.0) & (cy < 4.5))  # a corridor and an alcove off it
+    grid = OccupancyGrid(occupied=~free, origin=(x0, y0), resolution=res)
+    spec = WorkerSpec("urn:test:waiter", "Waiter", "carpenter", 1.2, (RouteStop("s", "S", 3.0, 0.0, 1e6),))
+    crowd = Crowd([spec], grid, seed=3)
+    robot = Obstacle((-2.0, 0.0, 0.0), ROBOT[:1])
+    path = np.array([(x, 0.0) for x in np.arange(-2.0, 6.01, 0.25)])
+    spot = crowd.make_way(0, path, 2.0)
+    assert spot is not None and 2.0 < spot[0] < 4.0 and spot[1] >= 2.0  # into the alcove, off the path
+    for _ in range(int(30 / crowd.dt)):
+        crowd.step(robot)
+    assert math.hypot(crowd.pos[0, 0] - spot[0], crowd.pos[0, 1] - spot[1]) < 0.3
+    assert float(np.min(np.hypot(path[:, 0] - crowd.pos[0, 0], path[:, 1] - crowd.pos[0, 1]))) > 1.7
+    for _ in range(int((MAKE_WAY_HOLD_S + 10) / crowd.dt)):
+        crowd.step(None)
+    assert math.hypot(crowd.pos[0, 0] - 3.0, crowd.pos[0, 1]) < 0.3  # back at their stop
+
+
+def test_nowhere_better_to_stand_is_no_move() -> None:
+    spec = WorkerSpec("urn:test:waiter", "Waiter", "carpenter", 1.2, (RouteStop("s", "S", 0.0, 0.0, 1e6),))
+    from kbplanner.world.occupancy import OccupancyGrid
+
+    occ = np.ones((40, 40), dtype=bool)
+    occ[18:22, :] = False  # a 0.2 m wide slot along x: every spot stays on the path
+    crowd = Crowd([spec], OccupancyGrid(occupied=occ, origin=(-1.0, -1.0), resolution=0.05), seed=1)
+    path = np.array([(x, 0.0) for x in np.arange(-1.0, 1.01, 0.1)])
+    assert crowd.make_way(0, path, 1.0) is None
+    assert crowd.agents[0].anchor == (0.0, 0.0)

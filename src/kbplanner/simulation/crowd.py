@@ -10,7 +10,10 @@ draws the same things (speed x0.9-1.1, dwell x0.8-1.2, where on the route a work
 the scripted model, the motion is not precomputed: the walking direction is the route's next
 waypoint and the velocity follows the social-force model (:mod:`kbplanner.simulation.social_force`),
 so workers slow down, step aside and wait for the robot and each other. A waiting worker stands at
-their stop and also steps aside when the robot comes close, then returns.
+their stop and also steps aside when the robot comes close, then returns. A waiting worker for whom the
+stopped robot has waited (the navigation asks, :meth:`Crowd.make_way`) walks to the nearest walkable
+spot clear of the robot's remaining path, as people on a site let a machine pass, and goes back to
+their stop after ``MAKE_WAY_HOLD_S`` (a walking worker waits there as long, then walks on).
 
 Deterministic: per-worker random generators seeded by the run seed and the worker's IRI, numpy in
 a fixed order; the same inputs and seed give the same motion.
@@ -38,6 +41,8 @@ STUCK_S = 2.0
 WAYPOINT_REACHED_M = 0.35
 ARRIVED_M = 0.2
 CONTACT_MARGIN_M = 0.01  # a worker's own step keeps at least this much clear of the robot
+MAKE_WAY_HOLD_S = 60.0  # a worker who made way for the robot goes back to their stop after this
+MAKE_WAY_RINGS_M = tuple(0.5 * k for k in range(1, 13))  # where a worker looks for a spot to make way
 
 
 @dataclass
@@ -53,6 +58,8 @@ class _Agent:
     wp: int = 0
     anchor: tuple[float, float] = (0.0, 0.0)
     slow_s: float = 0.0  # how long the worker has made little headway on their walk
+    aside_until: float | None = None  # made way for the robot: back to the stop at this time
+    making_way: bool = False  # on the way to (or at) a spot where the worker lets the robot pass
 
 
 class Crowd:
@@ -103,6 +110,7 @@ class Crowd:
         for i, a in enumerate(self.agents):
             p = self.pos[i]
             if not a.walking and self.t >= a.until:
+                a.making_way = False
                 here, there = a.spec.stops[a.k], a.spec.stops[(a.k + 1) % len(a.spec.stops)]
                 a.path = self.router.path((float(p[0]), float(p[1])), (there.x, there.y))
                 a.wp, a.walking = 1, True
@@ -113,7 +121,7 @@ class Crowd:
                 goal = a.path[a.wp]
                 d = math.hypot(*(goal - p))
                 if a.wp == len(a.path) - 1 and d < ARRIVED_M:
-                    a.walking = False
+                    a.walking, a.aside_until = False, None
                     a.k = (a.k + 1) % len(a.spec.stops)
                     stop = a.spec.stops[a.k]
                     a.anchor = (stop.x, stop.y)
@@ -121,7 +129,10 @@ class Crowd:
                 else:
                     out[i] = (goal - p) / max(d, 1e-9) * a.v0
                     continue
-            # waiting: back to the stop, at walking pace at most
+            if a.aside_until is not None and self.t >= a.aside_until:
+                stop = a.spec.stops[a.k]
+                a.anchor, a.aside_until, a.making_way = (stop.x, stop.y), None, False
+            # waiting: back to the stop (or the spot where they make way), at walking pace at most
             d_vec = np.array(a.anchor) - p
             d = float(np.hypot(*d_vec))
             if d > 0.05:
@@ -147,8 +158,12 @@ class Crowd:
                 acc[mask] = a_all[mask]
         vel = cap_speed(self.vel + acc * self.dt, v0, params)
         new = self.pos + vel * self.dt
-        for i in range(len(self.agents)):
+        for i, a in enumerate(self.agents):
             new[i], vel[i] = self._constrain(self.pos[i], new[i], vel[i], robot)
+            if a.making_way and not vel[i].any() and desired[i].any():
+                # pinned (the robot's push against a wall): making way, the worker walks the way they want
+                new[i], vel[i] = self._constrain(self.pos[i], self.pos[i] + desired[i] * self.dt, desired[i],
+                                                 robot)
         moving = np.hypot(vel[:, 0], vel[:, 1]) > 0.05
         self.heading = np.where(moving, np.arctan2(vel[:, 1], vel[:, 0]), self.heading)
         self.pos, self.vel = new, vel
@@ -189,6 +204,48 @@ class Crowd:
             if best is not None:
                 a.path = np.vstack([a.path[: a.wp], best[1][None, :], a.path[a.wp :]])
 
+    def make_way(self, i: int, path: FloatArray, clear_m: float) -> tuple[float, float] | None:
+        """Worker ``i`` makes way for the robot: the nearest spot (rings of 0.5 m,
+        16 bearings, in that order) that is walkable in a straight line from where the worker stands
+        and at least ``clear_m`` from every point of the robot's remaining ``path`` (n, 2); else the
+        walkable spot farthest from the path if it gains 0.5 m. A waiting worker stands there until
+        ``MAKE_WAY_HOLD_S`` has passed, then goes back to their stop; a walking worker waits there as
+        long, then walks on to their next stop. Returns the spot, or None (nowhere better to stand)."""
+        a = self.agents[i]
+        if len(path) == 0:
+            return None
+        p = self.pos[i]
+
+        def clearance(q: FloatArray) -> float:
+            return float(np.min(np.hypot(path[:, 0] - q[0], path[:, 1] - q[1])))
+
+        best: tuple[float, FloatArray] | None = None
+        step = self.router.grid.resolution / 2 if self.router.grid is not None else 0.05
+        for r in MAKE_WAY_RINGS_M:
+            for j in range(16):
+                q = p + r * np.array([math.cos(j * math.pi / 8), math.sin(j * math.pi / 8)])
+                f = np.linspace(0.0, 1.0, max(2, int(r / step) + 1))[:, None]  # no wall skipped
+                if not self._free_at(q) or not self._walkable_along(p[None, :] + f * (q - p)[None, :]):
+                    continue
+                c = clearance(q)
+                if c >= clear_m:
+                    best = (math.inf, q)
+                    break
+                if best is None or c > best[0]:
+                    best = (c, q)
+            if best is not None and best[0] == math.inf:
+                break
+        if best is None or (best[0] != math.inf and best[0] < clearance(p) + 0.5):
+            return None
+        spot = (float(best[1][0]), float(best[1][1]))
+        a.making_way = True
+        if a.walking:  # wait there, then walk on to the next stop
+            a.walking, a.slow_s = False, 0.0
+            a.anchor, a.until, a.aside_until = spot, self.t + MAKE_WAY_HOLD_S, None
+        else:
+            a.anchor, a.aside_until = spot, self.t + MAKE_WAY_HOLD_S
+        return spot
+
     def _clear_many(self, legs: Sequence[tuple[FloatArray, FloatArray]], robot: Obstacle) -> list[bool]:
         """Per leg (p, q): sampled every 0.1 m, clear of the footprint and walkable. One distance query
         for all legs' samples (element-wise the same numbers as one query per leg)."""
@@ -208,6 +265,15 @@ class Crowd:
             start += len(leg)
             out.append(float(d.min()) >= WORKER_RADIUS_M + 0.3 and self._walkable_along(leg))
         return out
+
+    def _free_at(self, q: FloatArray) -> bool:
+        """Whether a worker may stand at ``q`` (a free cell of the walking map; no map: anywhere)."""
+        free, g = self.router.free, self.router.grid
+        if free is None or g is None:
+            return True
+        ix = math.floor((q[0] - g.origin[0]) / g.resolution)
+        iy = math.floor((q[1] - g.origin[1]) / g.resolution)
+        return 0 <= iy < free.shape[0] and 0 <= ix < free.shape[1] and bool(free[iy, ix])
 
     def _walkable_along(self, pts: FloatArray) -> bool:
         """:meth:`_walkable` for every step between consecutive points, vectorised."""

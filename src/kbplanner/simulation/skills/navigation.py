@@ -2,8 +2,7 @@
 
 Takes the step's base pose (B4) or its destination input, the environment's navigation grid (the
 storey's occupancy grid with the elements installed so far) and the step's effective parameters
-(``maxSpeed``, ``safetyStopDistance``); drives the robot base kinematically, one control period per
-update:
+(``maxSpeed``, ``safetyStopDistance``); drives the robot base kinematically, one control period per update:
 
 - **Plan.** NV-1: :func:`kbplanner.simulation.navigation.plan_path` with the robot's footprint. NV-2:
   :func:`kbplanner.simulation.navigation.plan_with_carry_modes` with the footprints of the robot and the held
@@ -13,18 +12,16 @@ update:
   seeded from the run seed and the step number.
 - **Time.** :func:`kbplanner.simulation.navigation.time_parameterize` at the control rate with the step's
   ``maxSpeed`` (capped at the base's top speed), the base's yaw rate and accelerations.
-- **Carry modes.** NV-2 starts by turning the element from the lift pose into the carry pose of
-  the first stretch ("carry_pose" event); before each narrow stretch the arm turns it on its side
-  ("rotate_to_narrow", the base standing still) and after it back ("rotate_back"), at the arm's joint
-  speed.
-- **Speed and separation monitoring** (ISO/TS 15066,
-  :mod:`kbplanner.simulation.separation_monitor`): every control period the lidar's view of people
-  sets how much of the timed trajectory the robot drives: full speed, slower ("slow" ... "slow_end",
-  with the time lost), or a protective stop ("stop" ... "resume"). Monitoring drives forwards only
-  (no reversing into the scanner's blind sector behind the robot). Stopped for ``replan_after_s``, it
-  plans again around the person (a disc of their radius plus ``safetyStopDistance`` marked occupied;
-  "replan"); stopped for ``give_up_after_s`` the step fails. ``ExecSettings.monitoring = "off"``
-  drives the trajectory regardless (to show what monitoring prevents).
+- **Carry modes.** NV-2 first turns the element from the lift pose into the carry pose of the first
+  stretch ("carry_pose"); before each narrow stretch the arm turns it on its side ("rotate_to_narrow",
+  the base standing still) and after it back ("rotate_back"), at the arm's joint speed.
+- **Speed and separation monitoring** (ISO/TS 15066, :mod:`kbplanner.simulation.separation_monitor`):
+  every period the lidar's view of people sets how much of the timed trajectory the robot drives: full
+  speed, slower ("slow" ... "slow_end", with the time lost), or a protective stop ("stop" ... "resume");
+  forwards only (no reversing into the scanner's blind sector). Stopped for ``replan_after_s``, it plans
+  again around the person ("replan") and asks a waiting worker to make way ("make_way",
+  :mod:`~kbplanner.simulation.skills.make_way`); stopped for ``give_up_after_s`` the step fails.
+  ``ExecSettings.monitoring = "off"`` drives the trajectory regardless (what monitoring prevents).
 """
 
 from __future__ import annotations
@@ -49,8 +46,10 @@ from kbplanner.simulation.grid_yardstick import grid_shortest_path_length
 from kbplanner.simulation.nav_path import NavSettings
 from kbplanner.simulation.navigation import plan_path
 from kbplanner.simulation.path_quality import YARDSTICK_MARGIN_M, shortest_path_m
+from kbplanner.simulation.separation import reach_m
 from kbplanner.simulation.separation_monitor import SeparationMonitor
 from kbplanner.simulation.skills.base import JointPath, Skill, Status
+from kbplanner.simulation.skills.make_way import ask_way
 from kbplanner.simulation.workers import WORKER_RADIUS_M
 from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect
 from kbplanner.world.occupancy import OccupancyGrid
@@ -205,14 +204,12 @@ class NavigationSkill(Skill):
         self.details.update(shortest_m=round(length, 4) if math.isfinite(length) else None,
                             max_speed_mps=self.max_speed)
 
-    # ---- planning ----------------------------------------------------------------------------------
     def _joint_path(self, waypoints: list[tuple[str, list[float] | tuple[float, ...]]]) -> JointPath:
         env = self.c.env
         arm = env.robot.spec.arm
         limits = arm.velocity_rps if arm is not None else None
-        speed = self.c.settings.joint_speed_rps
-        return JointPath(env.robot.arm_positions(), waypoints, speed, env.control_hz,
-                         limits)
+        hz, speed = env.control_hz, self.c.settings.joint_speed_rps
+        return JointPath(env.robot.arm_positions(), waypoints, speed, hz, limits)
 
     def _carry_geometry(self) -> str | None:
         env = self.c.env
@@ -465,6 +462,8 @@ class NavigationSkill(Skill):
             if self.blocked_s >= s.replan_after_s and self.replanned_at is None and d.sensed is not None:
                 self.replanned_at = env.t
                 self._replan(d.sensed.worker, d.sensed.separation_m)
+                pts = [(p[0], p[1]) for q in self.queue if isinstance(q, _Drive) for p in q.t[int(q.s)::5]]
+                ask_way(env, d.sensed.worker, pts, reach_m(self._rects()) + d.protective_m, self.c.emit)
             return 0.0
         if self.stopped_since is not None:
             self.c.emit("resume", waited_s=round(env.t - self.stopped_since, 3),
