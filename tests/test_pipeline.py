@@ -56,9 +56,10 @@ def test_the_run_directory_holds_requirements_validation_and_worlds(run_dir: Run
 
 
 def test_the_comparison_reproduces_the_papers_findings(run_dir: Run) -> None:
-    """Inside is faster and keeps workers farther; with reactive workers and speed and separation
-    monitoring (docs/safety.md) neither scenario comes into contact, and outside no longer comes
-    under 1 m on seed 7 (the paper's robot had neither)."""
+    """Inside is faster (the paper's finding); with reactive workers and speed and separation
+    monitoring (docs/safety.md) neither scenario comes into contact or under 1 m on seed 7 (the
+    paper's robot had neither). Which scenario keeps people farther is not a seed-7 constant any more
+    (README; the distribution over seeds is `compare --seeds`, docs/safety.md)."""
     import csv
 
     out, _ = run_dir
@@ -66,10 +67,10 @@ def test_the_comparison_reproduces_the_papers_findings(run_dir: Run) -> None:
     outside, inside = rows["storage-outside"], rows["storage-inside"]
     assert outside["installed"] == inside["installed"] == "11/11"
     assert outside["collisions"] == inside["collisions"] == "0"
-    assert float(inside["time < 1 m (s)"]) == 0.0
-    assert float(inside["time < ISO/TS 15066 S_p (s)"]) < float(outside["time < ISO/TS 15066 S_p (s)"])
-    assert float(inside["min separation (m)"]) > float(outside["min separation (m)"])
+    assert float(inside["time < 1 m (s)"]) == float(outside["time < 1 m (s)"]) == 0.0
+    assert min(float(inside["min separation (m)"]), float(outside["min separation (m)"])) > 1.0
     assert float(inside["per frame (min)"]) < float(outside["per frame (min)"])
+    assert float(inside["total (min)"]) < float(outside["total (min)"])
     page = (out / "report.html").read_text()
     assert "<h2>Scenario storage-outside</h2>" in page
     assert "frame 1 (min), paper" in page  # the [reference] figures of project.toml, beside ours
