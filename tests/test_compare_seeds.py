@@ -50,7 +50,7 @@ def test_bad_seed_lists_exit_2_before_any_work(project: Path, tmp_path: Path) ->
     both = kbplanner("compare", str(project), "--scenarios", "stored", "--seed", "1", "--seeds", "1-2",
                      "--out", str(tmp_path / "x"))
     assert both.returncode == 2 and "not allowed with" in both.stderr
-    for extra in (["--seeds", "1", "--threshold", "2"], ["--monitoring", "off"]):
+    for extra in (["--seeds", "1", "--threshold", "2"], ["--monitoring", "off"], ["--jobs", "2"]):
         p = kbplanner("compare", str(project), "--scenarios", "stored", *extra, "--out", str(tmp_path / "x"))
         assert p.returncode == 2 and "kbplanner compare:" in p.stderr, p.stderr
     assert not (tmp_path / "x").exists()
@@ -116,7 +116,9 @@ def test_over_seeds_is_deterministic_and_reports_the_cost_of_monitoring(
     texts = []
     for k in range(2):
         out = tmp_path / f"run{k}"
-        study, data = compare_seeds(project, ["stored"], [2], out_dir=out, cost_seeds=[2], max_elements=1)
+        # serial, then two runs at a time in their own processes: the same outputs
+        study, data = compare_seeds(project, ["stored"], [2], out_dir=out, cost_seeds=[2], max_elements=1,
+                                    jobs_n=1 + k)
         texts.append([(out / n).read_text() for n in ("seeds.csv", "seed_summary.json", "summary.md")])
         assert texts[-1][0] and (out / "stored" / "seed-2-monitoring-off" / "metrics.json").is_file()
     assert texts[0] == texts[1]

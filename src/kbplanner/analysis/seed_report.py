@@ -219,10 +219,12 @@ def compare_seeds(
     progress: Say | None = None,
     line: Say | None = None,
     max_elements: int | None = None,
+    jobs_n: int = 1,
 ) -> tuple[SeedStudy, dict[str, Any]]:
     """Simulate each scenario for each seed and write the outputs into ``out_dir`` (atomically).
 
-    ``cost_seeds``: seeds to run again with monitoring off (the time cost of monitoring).
+    ``cost_seeds``: seeds to run again with monitoring off (the time cost of monitoring). ``jobs_n``:
+    simulations at a time, one process each (the outputs do not depend on it).
 
     Example:
         >>> study, summary = compare_seeds("data/case_study", ["storage-outside", "storage-inside"],
@@ -245,6 +247,6 @@ def compare_seeds(
     with run_directory(out_dir) as stage:
         study = run_seeds(project_dir, scenarios, seeds, stage, monitoring=monitoring,
                           reactive_workers=reactive_workers, cost_seeds=cost_seeds or [], progress=progress,
-                          line=line, max_elements=max_elements)
+                          line=line, max_elements=max_elements, jobs_n=jobs_n)
         data = write_seed_outputs(study, stage, title=f"kbplanner: {manifest.name}, {len(seeds)} seeds")
     return study, data

@@ -178,10 +178,14 @@ def run_seeds(
     progress: Say | None = None,
     line: Say | None = None,
     max_elements: int | None = None,
+    jobs_n: int = 1,
 ) -> SeedStudy:
-    """Simulate every scenario for every seed into ``stage`` (see module docstring)."""
-    from kbplanner.simulation.skills import ExecSettings
+    """Simulate every scenario for every seed into ``stage`` (see module docstring).
 
+    ``jobs_n`` > 1 runs that many simulations at a time, each in its own process (spawned, so that each
+    has its own PyBullet and store); every run is seeded on its own, so its outputs are the same as in
+    a serial study, and the study is assembled in job order.
+    """
     say = progress or (lambda _m: None)
     tell = line or (lambda _m: None)
     # seed by seed, each scenario, then its monitoring-off runs: a study stopped early (its runs are in
@@ -192,23 +196,71 @@ def run_seeds(
         jobs += [(n, s, monitoring) for n in scenarios] if s in seeds else []
         jobs += [(n, s, "off") for n in scenarios] if s in cost else []
     study = SeedStudy(list(scenarios), list(seeds), monitoring, [])
-    loaded: dict[str, ProjectData] = {}
-    for i, (name, seed, mon) in enumerate(jobs, start=1):
-        is_cost = mon != monitoring
-        rel = f"{name}/seed-{seed}" + ("-monitoring-off" if is_cost else "")
-        if name not in loaded:
-            loaded[name] = ProjectData.load(project_dir, scenario=name)
-        tell(f"[{i}/{len(jobs)}] {name}, seed {seed}, monitoring {mon}: simulating")
-        settings = ExecSettings(keyframes=False, monitoring=mon, reactive_workers=reactive_workers)
-        simulate_scenario(project_dir, name, seed=seed, out_dir=stage / rel, progress=say,
-                          project=loaded[name], settings=settings, max_elements=max_elements)
+    rels = [f"{n}/seed-{s}" + ("-monitoring-off" if m != monitoring else "") for n, s, m in jobs]
+    if jobs_n > 1 and len(jobs) > 1:
+        _run_parallel(project_dir, jobs, rels, stage, jobs_n, reactive_workers, max_elements, tell)
+    else:
+        loaded: dict[str, ProjectData] = {}
+        for i, ((name, seed, mon), rel) in enumerate(zip(jobs, rels, strict=True), start=1):
+            if name not in loaded:
+                loaded[name] = ProjectData.load(project_dir, scenario=name)
+            tell(f"[{i}/{len(jobs)}] {name}, seed {seed}, monitoring {mon}: simulating")
+            _simulate_one(project_dir, name, seed, mon, stage / rel, reactive_workers, max_elements,
+                          project=loaded[name], progress=say)
+            tell(f"[{i}/{len(jobs)}] " + _run_line(name, seed, mon, stage / rel))
+    # in job order whatever order the runs finished in: the outputs do not depend on --jobs
+    for (name, seed, mon), rel in zip(jobs, rels, strict=True):
         run = SeedRun.of(name, seed, mon, RunRecord.load(stage / rel), rel)
-        (study.cost_runs if is_cost else study.runs).append(run)
-        sep = run.figures.get("min_separation_m")
-        tell(f"[{i}/{len(jobs)}] {name}, seed {seed}, monitoring {mon}: installed {run.installed}/"
-             f"{run.elements}, {run.figures['duration_min']:.2f} min, min separation "
-             f"{'-' if sep is None else f'{sep:.2f} m'}, {len(run.collisions)} collision(s)")
+        (study.cost_runs if mon != monitoring else study.runs).append(run)
     return study
+
+
+def _simulate_one(project_dir: Path, name: str, seed: int, mon: str, out: Path, reactive_workers: bool,
+                  max_elements: int | None, *, project: ProjectData | None = None,
+                  progress: Say | None = None) -> None:
+    """One run of the study: the pipeline's simulate step with the study's settings."""
+    from kbplanner.simulation.skills import ExecSettings
+
+    settings = ExecSettings(keyframes=False, monitoring=mon, reactive_workers=reactive_workers)
+    simulate_scenario(project_dir, name, seed=seed, out_dir=out, progress=progress or (lambda _m: None),
+                      project=project, settings=settings, max_elements=max_elements)
+
+
+def _run_line(name: str, seed: int, mon: str, out: Path) -> str:
+    """The progress line of a finished run: installed, duration, separation, collisions."""
+    run = SeedRun.of(name, seed, mon, RunRecord.load(out), out.name)
+    sep = run.figures.get("min_separation_m")
+    return (f"{name}, seed {seed}, monitoring {mon}: installed {run.installed}/{run.elements}, "
+            f"{run.figures['duration_min']:.2f} min, min separation "
+            f"{'-' if sep is None else f'{sep:.2f} m'}, {len(run.collisions)} collision(s)")
+
+
+_WORKER_PROJECTS: dict[str, ProjectData] = {}
+
+
+def _worker_run(project_dir: Path, name: str, seed: int, mon: str, out: Path, reactive_workers: bool,
+                max_elements: int | None) -> str:
+    """A run in a worker process: the scenario's project is loaded once per process."""
+    if name not in _WORKER_PROJECTS:
+        _WORKER_PROJECTS[name] = ProjectData.load(project_dir, scenario=name)
+    _simulate_one(project_dir, name, seed, mon, out, reactive_workers, max_elements,
+                  project=_WORKER_PROJECTS[name])
+    return _run_line(name, seed, mon, out)
+
+
+def _run_parallel(project_dir: Path, jobs: list[tuple[str, int, str]], rels: list[str], stage: Path,
+                  jobs_n: int, reactive_workers: bool, max_elements: int | None, tell: Say) -> None:
+    """The study's runs in ``jobs_n`` spawned processes; a line per run as each finishes."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    ctx = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(max_workers=jobs_n, mp_context=ctx) as pool:
+        futures = {pool.submit(_worker_run, project_dir, n, s, m, stage / rel, reactive_workers,
+                               max_elements): rel for (n, s, m), rel in zip(jobs, rels, strict=True)}
+        tell(f"{len(jobs)} runs, {jobs_n} at a time")
+        for done, fut in enumerate(as_completed(futures), start=1):
+            tell(f"[{done}/{len(jobs)}] " + fut.result())
 
 
 def study_of_runs(run_dirs: Sequence[Path], root: Path) -> SeedStudy:
