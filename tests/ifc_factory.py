@@ -107,6 +107,7 @@ class _Writer:
         self.f = ifcopenshell.api.project.create_file(version=schema)
         self.schema = schema
         self.scale = 0.001 if unit_mm else 1.0
+        self.frame = np.eye(4)  # building frame -> IFC world frame (metres)
         if schema == "IFC2X3":  # IFC2X3 requires an owner history on every rooted entity
             person = ifcopenshell.api.owner.add_person(self.f, identification="kbp", family_name="Test",
                                                        given_name="Factory")
@@ -138,8 +139,10 @@ class _Writer:
         entity.GlobalId = _gid(key)
         return entity
 
-    def place(self, product: Any, matrix: np.ndarray) -> None:
-        ifcopenshell.api.geometry.edit_object_placement(self.f, product=product, matrix=matrix)
+    def place(self, product: Any, matrix: np.ndarray, *, absolute: bool = False) -> None:
+        """Place ``product`` at ``matrix`` (metres) in the building frame, or in the IFC world frame."""
+        world = matrix if absolute else self.frame @ matrix
+        ifcopenshell.api.geometry.edit_object_placement(self.f, product=product, matrix=world)
 
     def units(self, metres: float) -> float:
         return metres / self.scale
@@ -164,6 +167,7 @@ def write_test_building(
     slab_net_weight_kg: float | None = None,
     broken_element: bool = False,
     site_origin: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    building_placement: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0),
 ) -> TestBuilding:
     """Write a small building as an IFC file and return what it holds (see module docstring).
 
@@ -171,13 +175,17 @@ def write_test_building(
     names walls "Exterior wall ..." / "Interior partition ...", "plain" names them "Wall n";
     ``space_boundaries`` adds an IfcRelSpaceBoundary (INTERNAL/EXTERNAL) for every wall-space pair;
     ``door_size_attributes`` False leaves the doors' OverallWidth/OverallHeight unset;
-    ``broken_element`` adds an IfcBuildingElementProxy whose body is an extrusion of depth zero.
+    ``broken_element`` adds an IfcBuildingElementProxy whose body is an extrusion of depth zero;
+    ``building_placement`` (x, y, z in metres, yaw in radians) places the building, and everything in
+    it, at that pose relative to the site (georeferenced or rotated buildings); the layout above is
+    then in the building's frame.
     """
     w = _Writer(schema, unit_mm)
     f = w.f
     ox, oy, oz = site_origin
     site = w.create("IfcSite", "Test site", "site")
     w.place(site, _matrix(ox, oy, oz))
+    w.frame = _matrix(*building_placement)
     building = w.create("IfcBuilding", "Test building", "building")
     ifcopenshell.api.aggregate.assign_object(f, products=[site], relating_object=w.project)
     ifcopenshell.api.aggregate.assign_object(f, products=[building], relating_object=site)
@@ -383,7 +391,7 @@ def _door(
     local = _matrix(along, centre_offset - 0.05, 0.0)
     world = host_matrix @ local
     opening = w.create("IfcOpeningElement", f"Opening {key} L{k + 1}", f"opening-{k}-{key}", "OPENING")
-    w.place(opening, world)
+    w.place(opening, world, absolute=True)
     rep = ifcopenshell.api.geometry.add_wall_representation(
         f, context=w.body, length=width, height=height, thickness=wall_thickness + 0.1,
     )
@@ -392,7 +400,7 @@ def _door(
 
     door = w.create("IfcDoor", f"Door {key} L{k + 1}", f"door-{k}-{key}")
     ifcopenshell.api.spatial.assign_container(f, products=[door], relating_structure=storey)
-    w.place(door, host_matrix @ _matrix(along, centre_offset, 0.0))
+    w.place(door, host_matrix @ _matrix(along, centre_offset, 0.0), absolute=True)
     # A plain 50 mm leaf box, so that its geometry width equals the door width exactly.
     rep = ifcopenshell.api.geometry.add_wall_representation(
         f, context=w.body, length=width, height=height, thickness=0.05, offset=wall_thickness / 2 - 0.025,

@@ -1,8 +1,8 @@
-"""IFC import, geometry: meshes and poses of IFC products in the site frame (helper of ``ifc_import``).
+"""IFC import, geometry: meshes and poses of IFC products in the model frame (helper of ``ifc_import``).
 
 Takes an open IFC file and the products that should get a mesh; returns one ``trimesh.Trimesh`` per
-product (metres, in the site frame: the placement frame of the IfcSite, or the IFC world frame when
-there is no site) and, for each product whose geometry cannot be built, the reason. Also converts IFC
+product (metres, in the model frame of :func:`model_frame`: the IfcBuilding's placement, levelled)
+and, for each product whose geometry cannot be built, the reason. Also converts IFC
 placements to x, y, z, roll, pitch, yaw and writes meshes as byte-stable GLB.
 
 The GLB files hold site-frame coordinates as they are (z up), not glTF's y-up convention.
@@ -92,14 +92,52 @@ def placement_matrix(product: Any, length_scale: float) -> np.ndarray | None:
     return m
 
 
+def _first_placement(ifc_file: ifcopenshell.file, ifc_class: str, length_scale: float) -> np.ndarray | None:
+    """The placement (metres) of the first ``ifc_class`` by GlobalId that has a readable one."""
+    for product in sorted(ifc_file.by_type(ifc_class), key=lambda s: str(s.GlobalId or "")):
+        try:
+            m = placement_matrix(product, length_scale)
+        except Exception:  # a broken placement chain: try the next one
+            continue
+        if m is not None and np.all(np.isfinite(m)):
+            return m
+    return None
+
+
 def site_matrix(ifc_file: ifcopenshell.file, length_scale: float) -> np.ndarray:
     """The placement of the (first, by GlobalId) IfcSite in metres; identity when there is none."""
-    sites = sorted(ifc_file.by_type("IfcSite"), key=lambda s: str(s.GlobalId))
-    for site in sites:
-        m = placement_matrix(site, length_scale)
-        if m is not None:
-            return m
-    return np.eye(4)
+    m = _first_placement(ifc_file, "IfcSite", length_scale)
+    return np.eye(4) if m is None else m
+
+
+def model_frame(ifc_file: ifcopenshell.file, length_scale: float) -> np.ndarray:
+    """The frame every pose, bound and mesh of the import is in (4x4, metres, frame -> IFC world).
+
+    It is the placement of the (first, by GlobalId) IfcBuilding: its origin (the building's 0.00
+    level, where storey elevations start) and its horizontal axes, with z kept vertical. So a
+    georeferenced model (a site or building placed at easting 500 000 m, northing 5 400 000 m) comes
+    out in local metres near the origin, without the float loss of large coordinates, and a building
+    rotated against the site (or against true north) has its walls along the map axes. Without a
+    building it is the IfcSite's placement, else the IFC world frame. IfcMapConversion and TrueNorth
+    only relate the file's frame to a map or to north, so they do not move it.
+
+    Example:
+        >>> f = ifcopenshell.file(schema="IFC4")
+        >>> model_frame(f, 1.0).tolist() == np.eye(4).tolist()
+        True
+    """
+    site = site_matrix(ifc_file, length_scale)
+    building = _first_placement(ifc_file, "IfcBuilding", length_scale)
+    if building is None:
+        return site
+    relative = np.linalg.inv(site) @ building
+    yaw = math.atan2(relative[1, 0], relative[0, 0])  # the building's x axis in the site's plan
+    c, s = math.cos(yaw), math.sin(yaw)
+    level = np.eye(4)
+    level[:3, :3] = [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
+    level[:3, 3] = relative[:3, 3]
+    frame: np.ndarray = site @ level
+    return frame
 
 
 @dataclass(frozen=True)

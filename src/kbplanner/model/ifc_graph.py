@@ -84,7 +84,7 @@ class GraphBuilder:
         self.source = source
         self.g = new_graph("memory")
         self.units = unit_scales(ifc_file, source)
-        self.site_m = geo.site_matrix(ifc_file, self.units.length_m)
+        self.site_m = geo.model_frame(ifc_file, self.units.length_m)
         self.site_inv = np.linalg.inv(self.site_m)
         self.skipped: list[SkippedElement] = []
         self.notes: list[ImportNote] = []

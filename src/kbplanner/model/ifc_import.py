@@ -5,9 +5,11 @@ spatial tree + kbplanner element classes, poses, bounds, sizes, materials, masse
 GlobalId) and one triangle mesh per element with geometry. :func:`import_ifc` also writes them into a
 directory as ``model.ttl`` and ``meshes/<GlobalId>.glb``, atomically.
 
-Everything comes out in metres, radians, kilograms and cubic metres, in the site frame (the
-placement frame of the IfcSite; the IFC world frame when there is none), whatever units the file
-uses. Geometry that cannot be built is reported in ``ImportResult.skipped``, never fatal; a file
+Everything comes out in metres, radians, kilograms and cubic metres, in the site frame of the
+project, which is the model frame of :func:`kbplanner.model.ifc_geometry.model_frame` (the
+IfcBuilding's placement with z vertical: local metres even for a georeferenced model; the IfcSite's
+placement, or the IFC world frame, when there is no building), whatever units the file uses.
+Geometry that cannot be built is reported in ``ImportResult.skipped``, never fatal; a file
 that cannot be read raises :class:`kbplanner.core.errors.IfcError`.
 """
 

@@ -2,4 +2,4 @@
 its import cache without loading ifcopenshell (:mod:`kbplanner.model.ifc_import` re-exports it)."""
 
 # Bump when the graph or meshes written for the same IFC change (the project loader caches imports).
-IMPORTER_VERSION = "2"
+IMPORTER_VERSION = "3"

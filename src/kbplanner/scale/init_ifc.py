@@ -107,8 +107,8 @@ def write_frames(
 ) -> list[FrameRecord]:
     """Write one ``IfcMember`` per (spot, storey entity), in the given (install) order.
 
-    ``site``: the IfcSite placement in metres (site frame -> IFC world); ``length_m`` and ``mass_kg``:
-    metres per file length unit and kilograms per file mass unit.
+    ``site``: the import's model frame in metres (site frame -> IFC world; ``model_frame``);
+    ``length_m`` and ``mass_kg``: metres per file length unit and kilograms per file mass unit.
     """
     first_new = max((e.id() for e in f), default=0) + 1
     histories = sorted(f.by_type("IfcOwnerHistory"), key=lambda e: e.id())

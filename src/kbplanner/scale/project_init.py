@@ -38,7 +38,7 @@ from kbplanner.core.output_dirs import check_output_dir, output_options, run_dir
 from kbplanner.core.vocab import KBP
 from kbplanner.knowledge.knowledge_base import load_kb
 from kbplanner.knowledge.robot_selection import SPACE_MARGIN_M, WALL_TOLERANCE_M
-from kbplanner.model.ifc_geometry import build_meshes, site_matrix
+from kbplanner.model.ifc_geometry import build_meshes, model_frame
 from kbplanner.model.ifc_open import open_ifc, unit_scales
 from kbplanner.model.project_data import ProjectData
 from kbplanner.scale import init_layout as L
@@ -182,7 +182,7 @@ def init_project(
     path = Path(ifc_path)
     f = open_ifc(path)
     units = unit_scales(f, path)
-    site_m = site_matrix(f, units.length_m)
+    site_m = model_frame(f, units.length_m)
     to_site = np.linalg.inv(site_m)
     refs = {s.global_id: s for s in storeys(f, site_m, units.length_m)}
     if not refs:
