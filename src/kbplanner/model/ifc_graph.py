@@ -75,6 +75,16 @@ def _container(product: Any) -> Any | None:
     return None
 
 
+def implicit_storey_label(building: Any) -> str:
+    """The label of the storey a building without IfcBuildingStorey gets: "<its name> (no storey)"."""
+    return f"{building.Name or building.LongName or building.GlobalId} (no storey)"
+
+
+def has_storeys(building: Any) -> bool:
+    """Whether an IfcBuilding aggregates (directly or further down) an IfcBuildingStorey."""
+    return any(_nearest(st, "IfcBuilding") == building for st in building.file.by_type("IfcBuildingStorey"))
+
+
 class GraphBuilder:
     """Holds the state of one import while its triples are added."""
 
@@ -91,6 +101,7 @@ class GraphBuilder:
         self.dropped: list[Any] = []
         self.seen_ids: set[str] = set()
         self.boundaries = sem.space_boundary_index(ifc_file)
+        self.implicit_storeys: dict[int, URIRef] = {}  # building entity id -> its implicit storey
 
     # --- helpers -----------------------------------------------------------------------------
 
@@ -219,7 +230,32 @@ class GraphBuilder:
             if building is not None:
                 self.g.add((self.iri(building), BOT.hasStorey, node))
             storeys.append(StoreyInfo(str(storey.GlobalId), str(storey.Name or ""), elevation))
+        storeys += self.add_implicit_storeys()
         return sorted(storeys, key=lambda s: (s.elevation_m, s.name, s.global_id))
+
+    def add_implicit_storeys(self) -> list[StoreyInfo]:
+        """One storey per building that has no IfcBuildingStorey (elements contained in the building).
+
+        The storey is ``<building IRI>/storey``, labelled "<building name> (no storey)", at the
+        building's 0.00 level; it contains what the building contains. The building gets a note.
+        """
+        out = []
+        for building in sorted(self.f.by_type("IfcBuilding"), key=lambda b: str(b.GlobalId or "")):
+            if has_storeys(building) or str(building.GlobalId or "") not in self.seen_ids:
+                continue
+            node = URIRef(f"{self.iri(building)}/storey")
+            label = implicit_storey_label(building)
+            self.typed(node, BOT.Storey)
+            self.g.add((node, RDFS.label, Literal(label)))
+            self.g.add((node, KBP.elevation, _dbl(0.0)))
+            self.g.add((self.iri(building), BOT.hasStorey, node))
+            self.implicit_storeys[building.id()] = node
+            self.notes.append(note_of(building, "storey", (
+                f"the building has no IfcBuildingStorey: what it contains is one storey {label!r} at its "
+                "0.00 level (maps and tasks use it); export the model with its storeys (levels) to have "
+                "them")))
+            out.append(StoreyInfo(f"{building.GlobalId}/storey", label, 0.0))
+        return out
 
     def add_space(self, space: Any, mesh: trimesh.Trimesh | None) -> None:
         node = self.identity(space, space.LongName or space.Name)
@@ -227,7 +263,7 @@ class GraphBuilder:
         self.optional(space, "PredefinedType/ObjectType", lambda: self.add_type_attributes(node, space))
         parent = _nearest(space, "IfcBuildingStorey") or _nearest(space, "IfcBuilding")
         if parent is not None:
-            self.g.add((self.iri(parent), BOT.hasSpace, node))
+            self.g.add((self.implicit_storeys.get(parent.id(), self.iri(parent)), BOT.hasSpace, node))
         placement = self.site_frame(space)
         if placement is not None:
             self.add_pose(node, placement)
@@ -250,12 +286,21 @@ class GraphBuilder:
             return  # openings hang off their host (kbp:hasOpening), not off a storey
         container = _container(element)
         if container is None:
+            self.notes.append(note_of(element, "containment", (
+                "contained in no spatial structure (no IfcRelContainedInSpatialStructure, also not "
+                "through an aggregate): it is on no storey, so tasks and storey counts miss it; maps "
+                "still show it by its height")))
             return
         self.g.add((self.iri(container), BOT.containsElement, node))
+        if container.id() in self.implicit_storeys:
+            self.g.add((self.implicit_storeys[container.id()], BOT.containsElement, node))
         if container.is_a("IfcSpace"):
             storey = _nearest(container, "IfcBuildingStorey")
+            building = _nearest(container, "IfcBuilding")
             if storey is not None:
                 self.g.add((self.iri(storey), BOT.containsElement, node))
+            elif building is not None and building.id() in self.implicit_storeys:
+                self.g.add((self.implicit_storeys[building.id()], BOT.containsElement, node))
 
     def add_mesh_facts(
         self, node: URIRef, product: Any, mesh: trimesh.Trimesh, psets: dict[str, dict[str, Any]]

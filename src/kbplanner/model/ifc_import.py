@@ -157,7 +157,8 @@ def import_ifc_graph(
              len(b.skipped), seconds)
     if b.notes:
         log.warning("%s: %d element(s) imported with a note (unreadable optional data, implausible mass, "
-                    "no host); they are listed in %s", source.name, len(b.notes), SKIPPED_CSV)
+                    "no host, no storey or containment); they are listed in %s", source.name, len(b.notes),
+                    SKIPPED_CSV)
     return ImportResult(
         graph=b.g,
         counts=b.counts(),

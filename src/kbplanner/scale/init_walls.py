@@ -145,13 +145,17 @@ class WallChoice:
 
 
 def storey_of(product: Any) -> Any | None:
-    """The storey that contains ``product`` (through a space or an element it is part of)."""
+    """The storey that contains ``product`` (through a space or an element it is part of).
+
+    An element contained in the IfcBuilding itself gets the building: a building without storeys is
+    one storey for init, as for the import (:func:`kbplanner.model.ifc_graph.implicit_storey_label`).
+    """
     seen = 0
     node = ifcopenshell.util.element.get_container(product) or ifcopenshell.util.element.get_aggregate(
         product
     )
     while node is not None and seen < 10:
-        if node.is_a("IfcBuildingStorey"):
+        if node.is_a("IfcBuildingStorey") or node.is_a("IfcBuilding"):
             return node
         node = ifcopenshell.util.element.get_container(node) or ifcopenshell.util.element.get_aggregate(node)
         seen += 1
@@ -161,6 +165,7 @@ def storey_of(product: Any) -> Any | None:
 def storeys(f: ifcopenshell.file, site: np.ndarray, length_m: float) -> list[StoreyRef]:
     """The storeys by elevation (site frame): their placement's z, else their Elevation attribute."""
     from kbplanner.model.ifc_geometry import placement_matrix
+    from kbplanner.model.ifc_graph import has_storeys, implicit_storey_label
 
     inv = np.linalg.inv(site)
     out = []
@@ -168,6 +173,11 @@ def storeys(f: ifcopenshell.file, site: np.ndarray, length_m: float) -> list[Sto
         m = placement_matrix(st, length_m)
         z = float((inv @ m)[2, 3]) if m is not None else float(st.Elevation or 0.0) * length_m
         out.append(StoreyRef(str(st.GlobalId), str(st.Name or st.LongName or st.GlobalId), round(z, 4)))
+    for building in f.by_type("IfcBuilding"):  # a building without storeys is one, at its 0.00 level
+        if not has_storeys(building):
+            m = placement_matrix(building, length_m)
+            z = float((inv @ m)[2, 3]) if m is not None else 0.0
+            out.append(StoreyRef(str(building.GlobalId), implicit_storey_label(building), round(z, 4)))
     return sorted(out, key=lambda s: (s.elevation, s.name, s.global_id))
 
 

@@ -110,8 +110,12 @@ def storey_map(world: World, storey: str | None = None, settings: MapSettings | 
     started = time.perf_counter()
     settings = settings or MapSettings()
     chosen = world.storey(storey or world.task_storey)
+    if chosen is None and not world.storeys:
+        raise KbplannerError("the model has no storey to map (no IfcBuildingStorey and no IfcBuilding)",
+                             element="IfcBuildingStorey",
+                             fix="export the model with its building and storeys (levels)")
     if chosen is None:
-        known = ", ".join(s.label for s in world.storeys) or "none"
+        known = ", ".join(s.label for s in world.storeys)
         raise KbplannerError(f"unknown storey {storey!r}", element=str(storey), fix=f"choose one of: {known}")
     floor = chosen.elevation_m
     band = (floor + settings.floor_clearance_m, floor + settings.robot_height_m)

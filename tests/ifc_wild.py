@@ -1,0 +1,199 @@
+"""IFC fixtures with the geometry kinds, spatial trees and names of real exports (test helper of the import
+and world steps, next to :mod:`ifc_traits`).
+
+Each ``write_*`` function writes the test building of :mod:`ifc_factory` and then changes it with
+ifcopenshell the way real authoring tools' exports differ from it, and returns what the file holds.
+
+- :func:`write_geometry_kinds`: a faceted Brep column, furniture whose body is an IfcMappedItem of its
+  type's representation map, a wall clipped by a half space (IfcBooleanClippingResult), an
+  IfcElementAssembly of two plates, a wall made of two IfcBuildingElementPart (no body of its own), an
+  IfcWallStandardCase (IFC4), and names that are empty, missing, non-ASCII or full of quotes;
+- :func:`write_without_storeys`: no IfcBuildingStorey (every element contained directly in the
+  building) and one element contained nowhere.
+
+Example:
+    >>> from pathlib import Path
+    >>> import tempfile
+    >>> w = write_geometry_kinds(Path(tempfile.mkdtemp()) / "g.ifc")
+    >>> sorted(w.extra)[:3]
+    ['assembly', 'assembly_part_0', 'assembly_part_1']
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Literal
+
+import ifcopenshell
+import ifcopenshell.api.aggregate
+import ifcopenshell.api.geometry
+import ifcopenshell.api.type
+
+from ifc_factory import _gid, _matrix, write_test_building
+from ifc_traits import TraitBuilding, _body, _box, _contain, _rooted, _storey
+
+NON_ASCII_NAME = "Wand Küche Ø 10 – 東京 «A»"
+QUOTED_NAME = 'Wall "A";\n\t<tab> \\ end'
+CLIP_HEIGHT_M = 2.0
+
+
+def _point(f: ifcopenshell.file, *c: float) -> Any:
+    return f.create_entity("IfcCartesianPoint", Coordinates=tuple(float(v) for v in c))
+
+
+def _axis(f: ifcopenshell.file, x: float = 0.0, y: float = 0.0, z: float = 0.0) -> Any:
+    return f.create_entity("IfcAxis2Placement3D", Location=_point(f, x, y, z))
+
+
+def _faceted_box(f: ifcopenshell.file, dx: float, dy: float, dz: float) -> Any:
+    """An IfcFacetedBrep box of dx x dy x dz from the origin (six quad faces, outward loops)."""
+    corners = {(i, j, k): _point(f, i * dx, j * dy, k * dz) for i in (0, 1) for j in (0, 1) for k in (0, 1)}
+    quads = [
+        [(0, 0, 0), (0, 1, 0), (1, 1, 0), (1, 0, 0)], [(0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)],
+        [(0, 0, 0), (1, 0, 0), (1, 0, 1), (0, 0, 1)], [(0, 1, 0), (0, 1, 1), (1, 1, 1), (1, 1, 0)],
+        [(0, 0, 0), (0, 0, 1), (0, 1, 1), (0, 1, 0)], [(1, 0, 0), (1, 1, 0), (1, 1, 1), (1, 0, 1)],
+    ]
+    faces = [f.create_entity("IfcFace", Bounds=[f.create_entity(
+        "IfcFaceOuterBound", Bound=f.create_entity("IfcPolyLoop", Polygon=[corners[c] for c in q]),
+        Orientation=True)]) for q in quads]
+    return f.create_entity("IfcFacetedBrep", Outer=f.create_entity("IfcClosedShell", CfsFaces=faces))
+
+
+def _shape(f: ifcopenshell.file, items: list[Any], kind: str) -> Any:
+    return f.create_entity("IfcShapeRepresentation", ContextOfItems=_body(f), RepresentationIdentifier="Body",
+                           RepresentationType=kind, Items=items)
+
+
+def _extrusion(f: ifcopenshell.file, dx: float, dy: float, dz: float) -> Any:
+    centre = f.create_entity("IfcCartesianPoint", Coordinates=(dx / 2, dy / 2))
+    profile = f.create_entity("IfcRectangleProfileDef", ProfileType="AREA", XDim=dx, YDim=dy,
+                              Position=f.create_entity("IfcAxis2Placement2D", Location=centre))
+    return f.create_entity("IfcExtrudedAreaSolid", SweptArea=profile, Position=_axis(f),
+                           ExtrudedDirection=f.create_entity("IfcDirection", DirectionRatios=(0.0, 0.0, 1.0)),
+                           Depth=dz)
+
+
+def _product(f: ifcopenshell.file, ifc_class: str, name: str | None, key: str, storey: Any,
+             at: tuple[float, float, float], rep: Any | None) -> Any:
+    product = _rooted(f, ifc_class, name or "", key)
+    product.Name = name
+    if storey is not None:
+        _contain(f, product, storey, key)
+    ifcopenshell.api.geometry.edit_object_placement(f, product=product, matrix=_matrix(*at))
+    if rep is not None:
+        ifcopenshell.api.geometry.assign_representation(f, product=product, representation=rep)
+    return product
+
+
+def write_geometry_kinds(path: Path, schema: Literal["IFC2X3", "IFC4", "IFC4X3"] = "IFC4") -> TraitBuilding:
+    """The test building (metres) with one element of each geometry kind on Level 1 (keys of ``extra``).
+
+    - ``brep_column``: IfcColumn, faceted Brep 0.4 x 0.4 x 2.5 m at (2, 2);
+    - ``mapped_furniture`` (IfcFurniture; IfcFurnishingElement in IFC2X3): an IfcMappedItem of a 1.0 x
+      0.5 x 0.75 m box, at (3, 4) and yawed 90 degrees by its mapping target;
+    - ``clipped_wall``: 3 m high IfcWall along x from (6, 2), 2 m x 0.1 m, clipped at
+      ``CLIP_HEIGHT_M`` by a half space;
+    - ``assembly`` (IfcElementAssembly, no body) of two 1 x 0.1 x 1.5 m IfcPlate ``assembly_part_<n>``
+      at (6, 4) and (7, 4);
+    - ``wall_with_parts``: IfcWall without a body, aggregating two IfcBuildingElementPart
+      ``wall_part_<n>`` (0.05 m leaves of a 1.5 m wall along y at x = 8.5, from y = 1);
+    - ``standard_case``: an IfcWallStandardCase (IFC2X3/IFC4 only) along y at x = 1.0 from y = 4, 1.5 m;
+    - names: the brep column is named ``NON_ASCII_NAME``, the clipped wall ``QUOTED_NAME``, the
+      assembly has no Name ($) and the wall with parts an empty one; Level 2 is renamed "".
+    """
+    base = write_test_building(path, schema=schema)
+    f = ifcopenshell.open(str(path))
+    out = TraitBuilding(path, base)
+    level1 = _storey(f, 0)
+
+    column = _product(f, "IfcColumn", NON_ASCII_NAME, "brep-column", level1, (2.0, 2.0, 0.0),
+                      _shape(f, [_faceted_box(f, 0.4, 0.4, 2.5)], "Brep"))
+    out.extra["brep_column"] = column.GlobalId
+
+    furniture_class = "IfcFurnishingElement" if schema == "IFC2X3" else "IfcFurniture"
+    furniture_type = _rooted(f, "IfcFurnitureType", "Desk type", "desk-type")
+    if schema != "IFC2X3":
+        furniture_type.PredefinedType = "DESK"
+    else:
+        furniture_type.AssemblyPlace = "FACTORY"
+    source = _shape(f, [_extrusion(f, 1.0, 0.5, 0.75)], "SweptSolid")
+    rep_map = f.create_entity("IfcRepresentationMap", MappingOrigin=_axis(f), MappedRepresentation=source)
+    furniture_type.RepresentationMaps = [rep_map]
+    target = f.create_entity("IfcCartesianTransformationOperator3D", LocalOrigin=_point(f, 0.0, 0.0, 0.0),
+                             Axis1=f.create_entity("IfcDirection", DirectionRatios=(0.0, 1.0, 0.0)),
+                             Axis2=f.create_entity("IfcDirection", DirectionRatios=(-1.0, 0.0, 0.0)))
+    mapped = f.create_entity("IfcMappedItem", MappingSource=rep_map, MappingTarget=target)
+    furniture = _product(f, furniture_class, "Desk", "mapped-furniture", level1, (3.0, 4.0, 0.0),
+                         _shape(f, [mapped], "MappedRepresentation"))
+    _rooted(f, "IfcRelDefinesByType", "", "desk-type-rel", RelatedObjects=[furniture],
+            RelatingType=furniture_type).Name = None
+    out.extra["mapped_furniture"] = furniture.GlobalId
+
+    plane = f.create_entity("IfcPlane", Position=_axis(f, 0.0, 0.0, CLIP_HEIGHT_M))
+    half = f.create_entity("IfcHalfSpaceSolid", BaseSurface=plane, AgreementFlag=False)
+    clipped = f.create_entity("IfcBooleanClippingResult", Operator="DIFFERENCE",
+                              FirstOperand=_extrusion(f, 2.0, 0.1, 3.0), SecondOperand=half)
+    wall = _product(f, "IfcWall", QUOTED_NAME, "clipped-wall", level1, (6.0, 2.0, 0.0),
+                    _shape(f, [clipped], "Clipping"))
+    out.extra["clipped_wall"] = wall.GlobalId
+
+    assembly = _product(f, "IfcElementAssembly", None, "assembly", level1, (6.0, 4.0, 0.0), None)
+    plates = []
+    for n in range(2):
+        plate = _rooted(f, "IfcPlate", f"Assembly plate {n + 1}", f"assembly-part-{n}")
+        _box(f, plate, 6.0 + n, 4.0, 0.0, 1.0, 0.1, 1.5, 1.0)
+        plates.append(plate)
+        out.extra[f"assembly_part_{n}"] = plate.GlobalId
+    ifcopenshell.api.aggregate.assign_object(f, products=plates, relating_object=assembly)
+    out.extra["assembly"] = assembly.GlobalId
+
+    parted = _product(f, "IfcWall", "", "wall-with-parts", level1, (8.5, 1.0, 0.0), None)
+    parts = []
+    for n in range(2):
+        part = _rooted(f, "IfcBuildingElementPart", f"Leaf {n + 1}", f"wall-part-{n}")
+        _box(f, part, 8.45 + 0.05 * n, 1.0, 0.0, 0.05, 1.5, 2.5, 1.0)
+        parts.append(part)
+        out.extra[f"wall_part_{n}"] = part.GlobalId
+    ifcopenshell.api.aggregate.assign_object(f, products=parts, relating_object=parted)
+    out.extra["wall_with_parts"] = parted.GlobalId
+
+    if schema != "IFC4X3":
+        standard = _product(f, "IfcWallStandardCase", "Standard case wall", "standard-case", level1,
+                            (1.0, 4.0, 0.0), None)
+        _box(f, standard, 1.0, 4.0, 0.0, 0.1, 1.5, 3.0, 1.0)
+        out.extra["standard_case"] = standard.GlobalId
+
+    _storey(f, 1).Name = ""
+    f.write(str(path))
+    return out
+
+
+def write_without_storeys(path: Path, schema: Literal["IFC2X3", "IFC4"] = "IFC4") -> TraitBuilding:
+    """A one-storey test building whose storey is removed: walls, doors, the slab and the spaces hang
+    directly off the IfcBuilding; plus ``uncontained`` (an IfcColumn 0.3 x 0.3 x 2.5 m at (2, 2) in no
+    spatial structure at all)."""
+    base = write_test_building(path, schema=schema, storeys=1)
+    f = ifcopenshell.open(str(path))
+    out = TraitBuilding(path, base)
+    storey = _storey(f, 0)
+    building = f.by_guid(_gid("building"))
+    for rel in list(storey.ContainsElements or ()):
+        rel.RelatingStructure = building
+    for rel in list(storey.IsDecomposedBy or ()):
+        rel.RelatingObject = building
+    for rel in list(storey.Decomposes or ()):
+        others = [o for o in rel.RelatedObjects if o != storey]
+        if others:
+            rel.RelatedObjects = others
+        else:
+            f.remove(rel)
+    placement = storey.ObjectPlacement
+    storey.ObjectPlacement = None
+    f.remove(storey)
+    del placement  # still the placement the storey's elements are placed relative to
+    column = _rooted(f, "IfcColumn", "Uncontained column", "uncontained")
+    _box(f, column, 2.0, 2.0, 0.0, 0.3, 0.3, 2.5, 1.0)
+    out.extra["uncontained"] = column.GlobalId
+    f.write(str(path))
+    return out
+
