@@ -134,6 +134,7 @@ class WallChoice:
     axis: WallAxis | None = None
     panels: list[PanelSpot] = field(default_factory=list)
     lost_m: float = 0.0  # free axis length in pieces too short for a panel
+    parts: list[str] = field(default_factory=list)  # GlobalIds of the parts that are its body, if any
 
     @property
     def chosen(self) -> bool:
@@ -160,6 +161,19 @@ def storey_of(product: Any) -> Any | None:
         node = ifcopenshell.util.element.get_container(node) or ifcopenshell.util.element.get_aggregate(node)
         seen += 1
     return None
+
+
+def body_from_parts(wall: Any, meshes: dict[str, Any]) -> list[str]:
+    """A wall without a body of its own whose parts (IfcBuildingElementPart ...) have meshes: their
+    meshes are merged into the wall's (and leave ``meshes``); returns the parts' GlobalIds."""
+    gid = str(wall.GlobalId)
+    if gid in meshes:
+        return []
+    parts = sorted(str(p.GlobalId) for p in ifcopenshell.util.element.get_decomposition(wall)
+                   if str(p.GlobalId) in meshes)
+    if parts:
+        meshes[gid] = trimesh.util.concatenate([meshes.pop(p) for p in parts])
+    return parts
 
 
 def storeys(f: ifcopenshell.file, site: np.ndarray, length_m: float) -> list[StoreyRef]:

@@ -52,6 +52,7 @@ from kbplanner.scale.init_walls import (
     StoreyRef,
     WallChoice,
     axis_reason,
+    body_from_parts,
     door_reason,
     footprint,
     opening_products,
@@ -242,16 +243,16 @@ def init_project(
         f"({task_st.ref.elevation:.2f} m); triangulating its elements"
     )
     # ---- geometry of the task storey -------------------------------------------------------------
-    products = [
-        e
-        for e in f.by_type("IfcElement")
-        if not e.is_a("IfcFeatureElement") and _same(storey_of(e), task_st.entity)
-    ]
+    products = [e for e in f.by_type("IfcElement")
+                if not e.is_a("IfcFeatureElement") and _same(storey_of(e), task_st.entity)]
     openings: dict[str, list[Any]] = {str(w.GlobalId): opening_products(w) for w in task_st.walls}
     extra = [o for os_ in openings.values() for o in os_ if o.is_a("IfcOpeningElement")]
     spaces = [s for s in f.by_type("IfcSpace") if _same(storey_of(s), task_st.entity)]
-    meshes = build_meshes(f, products + extra + spaces, world_to_site=to_site).meshes
+    bodies = [p for p in (*products, *extra, *spaces) if p.Representation]  # parts give the others theirs
+    meshes = build_meshes(f, bodies, world_to_site=to_site).meshes
     space_meshes = [meshes.pop(str(s.GlobalId)) for s in spaces if str(s.GlobalId) in meshes]
+    for w in task_st.walls:  # a wall exported as parts (layers): the parts are its body
+        choices[str(w.GlobalId)].parts = body_from_parts(w, meshes)
     rooms = room_doors(
         space_meshes,
         [
@@ -375,6 +376,7 @@ def _write(
     ifc_rel = f"model/{stem}_frames.ifc"
     frames = result.frames
     walls = [w.global_id for w in result.chosen]
+    walls += [p for w in result.chosen for p in w.parts]  # built with their wall, after the frames
     doors = sorted(
         {
             str(o.GlobalId)
