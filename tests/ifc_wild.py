@@ -9,7 +9,10 @@ ifcopenshell the way real authoring tools' exports differ from it, and returns w
   IfcElementAssembly of two plates, a wall made of two IfcBuildingElementPart (no body of its own), an
   IfcWallStandardCase (IFC4), and names that are empty, missing, non-ASCII or full of quotes;
 - :func:`write_without_storeys`: no IfcBuildingStorey (every element contained directly in the
-  building) and one element contained nowhere.
+  building) and one element contained nowhere;
+- :func:`write_placed`: georeferenced (a site at easting 500 000 m in millimetres, IFC2X3; a building
+  placed at easting 512 345.6 m and turned 30 degrees, with an IfcMapConversion and TrueNorth, IFC4)
+  and rotated (30 degrees about the site origin) buildings.
 
 Example:
     >>> from pathlib import Path
@@ -21,6 +24,7 @@ Example:
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any, Literal
 
@@ -197,3 +201,40 @@ def write_without_storeys(path: Path, schema: Literal["IFC2X3", "IFC4"] = "IFC4"
     f.write(str(path))
     return out
 
+
+
+EASTING_M, NORTHING_M = 512_345.6, 5_403_210.9
+ROTATION_DEG = 30.0
+
+
+def write_placed(path: Path, kind: Literal["site-far", "georeferenced", "rotated"]) -> TraitBuilding:
+    """The test building, placed the way georeferenced or rotated exports place it.
+
+    - ``site-far``: IFC2X3 in millimetres whose IfcSite (and everything in it) is placed at easting
+      500 000 m, northing 5 400 000 m, 400 m up;
+    - ``georeferenced``: IFC4 whose IfcSite is at the origin and whose IfcBuilding is placed at
+      (``EASTING_M``, ``NORTHING_M``) and turned ``ROTATION_DEG`` about z, with an IfcMapConversion
+      (EPSG:25832, 500 000 / 5 400 000) and a TrueNorth of ``ROTATION_DEG``;
+    - ``rotated``: IFC4, the building turned ``ROTATION_DEG`` about the site's origin.
+
+    In the building's own frame each is the plain test building (``write_test_building``).
+    """
+    turn = math.radians(ROTATION_DEG)
+    if kind == "site-far":
+        base = write_test_building(path, schema="IFC2X3", unit_mm=True,
+                                   site_origin=(500_000.0, 5_400_000.0, 400.0))
+        return TraitBuilding(path, base)
+    if kind == "rotated":
+        return TraitBuilding(path, write_test_building(path, schema="IFC4",
+                                                       building_placement=(0.0, 0.0, 0.0, turn)))
+    base = write_test_building(path, schema="IFC4", building_placement=(EASTING_M, NORTHING_M, 0.0, turn))
+    f = ifcopenshell.open(str(path))
+    context = next(c for c in f.by_type("IfcGeometricRepresentationContext")
+                   if not c.is_a("IfcGeometricRepresentationSubContext"))
+    context.TrueNorth = f.create_entity("IfcDirection", DirectionRatios=(-math.sin(turn), math.cos(turn)))
+    crs = f.create_entity("IfcProjectedCRS", Name="EPSG:25832", Description="ETRS89 / UTM zone 32N")
+    f.create_entity("IfcMapConversion", SourceCRS=context, TargetCRS=crs, Eastings=500_000.0,
+                    Northings=5_400_000.0, OrthogonalHeight=0.0, XAxisAbscissa=1.0, XAxisOrdinate=0.0,
+                    Scale=1.0)
+    f.write(str(path))
+    return TraitBuilding(path, base)
