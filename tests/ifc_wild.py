@@ -49,9 +49,11 @@ def _axis(f: ifcopenshell.file, x: float = 0.0, y: float = 0.0, z: float = 0.0) 
     return f.create_entity("IfcAxis2Placement3D", Location=_point(f, x, y, z))
 
 
-def _faceted_box(f: ifcopenshell.file, dx: float, dy: float, dz: float) -> Any:
-    """An IfcFacetedBrep box of dx x dy x dz from the origin (six quad faces, outward loops)."""
-    corners = {(i, j, k): _point(f, i * dx, j * dy, k * dz) for i in (0, 1) for j in (0, 1) for k in (0, 1)}
+def _faceted_box(f: ifcopenshell.file, dx: float, dy: float, dz: float, x0: float = 0.0,
+                 y0: float = 0.0) -> Any:
+    """An IfcFacetedBrep box of dx x dy x dz from (x0, y0, 0) (six quad faces, outward loops)."""
+    corners = {(i, j, k): _point(f, x0 + i * dx, y0 + j * dy, k * dz)
+               for i in (0, 1) for j in (0, 1) for k in (0, 1)}
     quads = [
         [(0, 0, 0), (0, 1, 0), (1, 1, 0), (1, 0, 0)], [(0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)],
         [(0, 0, 0), (1, 0, 0), (1, 0, 1), (0, 0, 1)], [(0, 1, 0), (0, 1, 1), (1, 1, 1), (1, 1, 0)],
@@ -207,7 +209,10 @@ EASTING_M, NORTHING_M = 512_345.6, 5_403_210.9
 ROTATION_DEG = 30.0
 
 
-def write_placed(path: Path, kind: Literal["site-far", "georeferenced", "rotated"]) -> TraitBuilding:
+Placed = Literal["site-far", "georeferenced", "rotated", "storeys-far"]
+
+
+def write_placed(path: Path, kind: Placed) -> TraitBuilding:
     """The test building, placed the way georeferenced or rotated exports place it.
 
     - ``site-far``: IFC2X3 in millimetres whose IfcSite (and everything in it) is placed at easting
@@ -215,7 +220,9 @@ def write_placed(path: Path, kind: Literal["site-far", "georeferenced", "rotated
     - ``georeferenced``: IFC4 whose IfcSite is at the origin and whose IfcBuilding is placed at
       (``EASTING_M``, ``NORTHING_M``) and turned ``ROTATION_DEG`` about z, with an IfcMapConversion
       (EPSG:25832, 500 000 / 5 400 000) and a TrueNorth of ``ROTATION_DEG``;
-    - ``rotated``: IFC4, the building turned ``ROTATION_DEG`` about the site's origin.
+    - ``rotated``: IFC4, the building turned ``ROTATION_DEG`` about the site's origin;
+    - ``storeys-far``: IFC4, site and building at the origin, the storeys (and all in them) placed at
+      (``EASTING_M``, ``NORTHING_M``): the import's frame moves to the walls' median position.
 
     In the building's own frame each is the plain test building (``write_test_building``).
     """
@@ -227,6 +234,13 @@ def write_placed(path: Path, kind: Literal["site-far", "georeferenced", "rotated
     if kind == "rotated":
         return TraitBuilding(path, write_test_building(path, schema="IFC4",
                                                        building_placement=(0.0, 0.0, 0.0, turn)))
+    if kind == "storeys-far":
+        base = write_test_building(path, schema="IFC4", building_placement=(EASTING_M, NORTHING_M, 0.0, 0.0))
+        f = ifcopenshell.open(str(path))
+        building = f.by_type("IfcBuilding")[0]  # back to the origin; what it holds keeps its place
+        ifcopenshell.api.geometry.edit_object_placement(f, product=building, should_transform_children=False)
+        f.write(str(path))
+        return TraitBuilding(path, base)
     base = write_test_building(path, schema="IFC4", building_placement=(EASTING_M, NORTHING_M, 0.0, turn))
     f = ifcopenshell.open(str(path))
     context = next(c for c in f.by_type("IfcGeometricRepresentationContext")
@@ -238,3 +252,16 @@ def write_placed(path: Path, kind: Literal["site-far", "georeferenced", "rotated
                     Scale=1.0)
     f.write(str(path))
     return TraitBuilding(path, base)
+
+
+def write_far_geometry(path: Path) -> TraitBuilding:
+    """The test building (IFC4) plus ``far_column``: an IfcColumn placed at the origin whose faceted
+    Brep's own coordinates are at (``EASTING_M``, ``NORTHING_M``) (survey coordinates in the shape)."""
+    base = write_test_building(path, schema="IFC4")
+    f = ifcopenshell.open(str(path))
+    out = TraitBuilding(path, base)
+    column = _product(f, "IfcColumn", "Far column", "far-column", _storey(f, 0), (0.0, 0.0, 0.0),
+                      _shape(f, [_faceted_box(f, 0.4, 0.4, 2.5, EASTING_M, NORTHING_M)], "Brep"))
+    out.extra["far_column"] = column.GlobalId
+    f.write(str(path))
+    return out

@@ -26,9 +26,12 @@ from ifc_factory import write_test_building
 from ifc_traits import write_length_unit
 from ifc_wild import (
     CLIP_HEIGHT_M,
+    EASTING_M,
     NON_ASCII_NAME,
+    NORTHING_M,
     QUOTED_NAME,
     ROTATION_DEG,
+    write_far_geometry,
     write_geometry_kinds,
     write_placed,
     write_without_storeys,
@@ -37,7 +40,7 @@ from kbplanner.cli import main
 from kbplanner.core.iris import element_iri
 from kbplanner.core.vocab import BOT, KBP
 from kbplanner.model.dates import parse_date
-from kbplanner.model.ifc_geometry import model_frame
+from kbplanner.model.ifc_geometry import far_shift, model_frame
 from kbplanner.model.ifc_import import ImportResult, import_ifc, import_ifc_graph
 from kbplanner.project import Project
 from kbplanner.scale.project_init import init_project
@@ -104,6 +107,35 @@ def test_placed_buildings_come_out_in_the_buildings_local_frame(
     assert np.array_equal(m.grid.occupied, ref_map.grid.occupied)  # the map is the plan, cell for cell
 
 
+def test_storeys_at_survey_coordinates_under_a_building_at_the_origin_move_the_frame(
+    reference: tuple[Path, ImportResult], tmp_path: Path
+) -> None:
+    _, ref = reference
+    t = write_placed(tmp_path / "far.ifc", "storeys-far")
+    f = ifcopenshell.open(str(t.path))
+    shift = far_shift(f, np.eye(4), 1.0)  # the walls' median, whole metres
+    assert shift == (512_351.0, 5_403_211.0)
+    moved = (EASTING_M - shift[0], NORTHING_M - shift[1])  # where the building's origin ends up
+    r = import_ifc_graph(t.path, base=BASE)
+    assert r.skipped == () and r.notes == ()
+    for gid in (*t.base.walls, *t.base.slabs):
+        expected = np.array(_bounds(ref, gid)) + [moved[0], moved[1], 0.0] * 2
+        assert _bounds(r, gid) == pytest.approx(expected.tolist(), abs=1e-6)
+    m = _map(_project(tmp_path, t.path))
+    assert m.grid.is_occupied(5.0 + moved[0], 3.0 + moved[1])  # the partition
+    assert not m.grid.is_occupied(2.5 + moved[0], 3.0 + moved[1])  # a room
+    assert m.grid.occupied.size < 300 * 300
+
+
+def test_a_shape_whose_own_coordinates_are_far_is_imported_and_noted(tmp_path: Path) -> None:
+    t = write_far_geometry(tmp_path / "g.ifc")
+    r = import_ifc_graph(t.path, base=BASE)
+    far = t.extra["far_column"]
+    assert [(n.kind, n.global_id) for n in r.notes] == [("far", far)]
+    assert "5427.4 km from the model frame's origin" in r.notes[0].message
+    assert _bounds(r, far)[0] == pytest.approx(EASTING_M)
+
+
 def test_the_model_frame_is_the_buildings_levelled_placement(tmp_path: Path) -> None:
     t = write_placed(tmp_path / "g.ifc", "georeferenced")
     frame = model_frame(ifcopenshell.open(str(t.path)), 1.0)
@@ -140,21 +172,32 @@ def _init_equals_reference(ifc: Path, stem: str, reference_init: Path, tmp_path:
     return out
 
 
-def test_init_on_a_georeferenced_rotated_building_proposes_the_plain_buildings_project(
-    reference_init: Path, tmp_path: Path
+@pytest.mark.parametrize("kind", ["georeferenced", "storeys-far"])
+def test_init_on_georeferenced_buildings_places_the_panels_at_survey_coordinates(
+    kind: str, reference_init: Path, tmp_path: Path
 ) -> None:
-    t = write_placed(tmp_path / "geo.ifc", "georeferenced")
-    out = _init_equals_reference(t.path, "geo", reference_init, tmp_path)
-    # the panels are written at georeferenced coordinates in the copy: building placement x local pose
+    t = write_placed(tmp_path / "geo.ifc", kind)  # type: ignore[arg-type]
+    out = tmp_path / "proj"
+    assert main(["init", str(t.path), "--out", str(out)]) == 0
+    if kind == "georeferenced":  # in the building's frame: the same proposals as the plain building
+        assert _proposals(out, "geo") == _proposals(reference_init, "plain")
+    assert main(["validate", str(out), "--scenario", "storage-inside"]) == 0
+    assert main(["world", str(out), "--scenario", "storage-inside", "--out", str(tmp_path / "w")]) == 0
+    # each panel is where the plain building's panel is, moved as the building was
     copy = ifcopenshell.open(str(out / "model" / "geo_frames.ifc"))
     plain = ifcopenshell.open(str(reference_init / "model" / "plain_frames.ifc"))
-    frame = model_frame(copy, 1.0)
-    for panel in copy.by_type("IfcMember"):
-        local = plain.by_guid(panel.GlobalId)
+    turn = math.radians(ROTATION_DEG) if kind == "georeferenced" else 0.0
+    building = np.eye(4)
+    building[:3, :3] = [[math.cos(turn), -math.sin(turn), 0.0], [math.sin(turn), math.cos(turn), 0.0],
+                        [0.0, 0.0, 1.0]]
+    building[:2, 3] = (EASTING_M, NORTHING_M)
+    panels = copy.by_type("IfcMember")
+    assert len(panels) == 7
+    for panel in panels:
         placed = np.array(ifcopenshell.util.placement.get_local_placement(panel.ObjectPlacement))
-        expected = frame @ np.array(ifcopenshell.util.placement.get_local_placement(local.ObjectPlacement))
-        assert np.allclose(placed, expected, atol=1e-6)
-        assert placed[0, 3] > 500_000.0
+        twin = plain.by_guid(panel.GlobalId)
+        local = np.array(ifcopenshell.util.placement.get_local_placement(twin.ObjectPlacement))
+        assert np.allclose(placed, building @ local, atol=1e-6)
 
 
 @pytest.mark.slow

@@ -92,6 +92,10 @@ def placement_matrix(product: Any, length_scale: float) -> np.ndarray | None:
     return m
 
 
+# Walls farther than this from the building's origin move the model frame (see ``model_frame``).
+FAR_M = 1000.0
+
+
 def _first_placement(ifc_file: ifcopenshell.file, ifc_class: str, length_scale: float) -> np.ndarray | None:
     """The placement (metres) of the first ``ifc_class`` by GlobalId that has a readable one."""
     for product in sorted(ifc_file.by_type(ifc_class), key=lambda s: str(s.GlobalId or "")):
@@ -118,8 +122,10 @@ def model_frame(ifc_file: ifcopenshell.file, length_scale: float) -> np.ndarray:
     georeferenced model (a site or building placed at easting 500 000 m, northing 5 400 000 m) comes
     out in local metres near the origin, without the float loss of large coordinates, and a building
     rotated against the site (or against true north) has its walls along the map axes. Without a
-    building it is the IfcSite's placement, else the IFC world frame. IfcMapConversion and TrueNorth
-    only relate the file's frame to a map or to north, so they do not move it.
+    building it is the IfcSite's placement, else the IFC world frame. When the walls stand more than
+    ``FAR_M`` from that origin (storeys or elements placed at survey coordinates under a building at
+    the origin), the origin moves to their median position (:func:`far_shift`). IfcMapConversion and
+    TrueNorth only relate the file's frame to a map or to north, so they do not move it.
 
     Example:
         >>> f = ifcopenshell.file(schema="IFC4")
@@ -128,16 +134,48 @@ def model_frame(ifc_file: ifcopenshell.file, length_scale: float) -> np.ndarray:
     """
     site = site_matrix(ifc_file, length_scale)
     building = _first_placement(ifc_file, "IfcBuilding", length_scale)
-    if building is None:
-        return site
-    relative = np.linalg.inv(site) @ building
-    yaw = math.atan2(relative[1, 0], relative[0, 0])  # the building's x axis in the site's plan
-    c, s = math.cos(yaw), math.sin(yaw)
-    level = np.eye(4)
-    level[:3, :3] = [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
-    level[:3, 3] = relative[:3, 3]
-    frame: np.ndarray = site @ level
+    frame: np.ndarray = site
+    if building is not None:
+        relative = np.linalg.inv(site) @ building
+        yaw = math.atan2(relative[1, 0], relative[0, 0])  # the building's x axis in the site's plan
+        c, s = math.cos(yaw), math.sin(yaw)
+        level = np.eye(4)
+        level[:3, :3] = [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
+        level[:3, 3] = relative[:3, 3]
+        frame = site @ level
+    shift = far_shift(ifc_file, frame, length_scale)
+    if shift is not None:
+        moved = np.eye(4)
+        moved[:2, 3] = shift
+        frame = frame @ moved
     return frame
+
+
+def far_shift(
+    ifc_file: ifcopenshell.file, frame: np.ndarray, length_scale: float
+) -> tuple[float, float] | None:
+    """Where the walls stand when they stand more than ``FAR_M`` from ``frame``'s origin, else None.
+
+    The median x, y (whole metres) of the walls' placements in ``frame`` (of every element's when
+    there is no wall): a model whose building sits at the origin while its storeys or elements carry
+    the survey coordinates. Walls only, so that elements init adds to a copy do not move the frame.
+    """
+    inverse = np.linalg.inv(frame)
+    for ifc_class in ("IfcWall", "IfcElement"):
+        points = []
+        for product in ifc_file.by_type(ifc_class):
+            try:
+                m = placement_matrix(product, length_scale)
+            except Exception:  # a broken placement chain: the import notes it
+                continue
+            if m is not None and np.all(np.isfinite(m)):
+                points.append((inverse @ m)[:2, 3])
+        if points:
+            x, y = np.median(np.array(points), axis=0)
+            if math.hypot(x, y) <= FAR_M:
+                return None
+            return float(round(x)), float(round(y))
+    return None
 
 
 @dataclass(frozen=True)

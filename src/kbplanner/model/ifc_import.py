@@ -41,6 +41,7 @@ from kbplanner.model.ifc_report import (
     ImportNote,
     SkippedElement,
     blocking,
+    note_of,
     skipped_csv,
     skipped_json,
     skipped_of,
@@ -131,6 +132,14 @@ def import_ifc_graph(
     for guid in sorted(result.failures):
         product = by_guid[guid]
         b.skipped.append(skipped_of(product, result.failures[guid], in_graph=True))
+    for guid in sorted(meshes):  # placements near the origin, coordinates far away: noted, not moved
+        distance = float(np.hypot(*meshes[guid].bounds.mean(axis=0)[:2]))
+        if distance > geo.FAR_M:
+            b.notes.append(note_of(by_guid[guid], "far", (
+                f"its geometry lies {distance / 1000:.1f} km from the model frame's origin (the building's "
+                "0.00 point): its shape's own coordinates carry survey coordinates, so maps that include "
+                "it are large and its mesh loses precision; export with coordinates relative to the "
+                "element's placement, or place the building there")))
 
     for space in spaces:
         if str(space.GlobalId) not in meshes and str(space.GlobalId) not in result.failures:
