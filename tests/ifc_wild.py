@@ -265,3 +265,28 @@ def write_far_geometry(path: Path) -> TraitBuilding:
     out.extra["far_column"] = column.GlobalId
     f.write(str(path))
     return out
+
+
+def write_storey_heights(path: Path, kind: Literal["absolute-elevation", "storeys-at-zero"]
+                         ) -> TraitBuilding:
+    """The test building whose storeys' Elevation attribute and placement disagree.
+
+    - ``absolute-elevation``: the ``site-far`` building (IFC2X3, millimetres, site 400 m up) whose
+      storeys' Elevation is written above sea level (400 m, 403 m) while their placements are
+      relative (0 m, 3 m above the building);
+    - ``storeys-at-zero``: IFC4, every storey placed at height 0 (what it holds keeps its place),
+      the Elevation attribute right (0 m, 3 m).
+    """
+    if kind == "absolute-elevation":
+        out = write_placed(path, "site-far")
+        f = ifcopenshell.open(str(path))
+        for storey in f.by_type("IfcBuildingStorey"):
+            storey.Elevation = storey.Elevation + 400_000.0
+    else:
+        out = TraitBuilding(path, write_test_building(path, schema="IFC4"))
+        f = ifcopenshell.open(str(path))
+        for storey in f.by_type("IfcBuildingStorey"):
+            ifcopenshell.api.geometry.edit_object_placement(f, product=storey,
+                                                            should_transform_children=False)
+    f.write(str(path))
+    return out

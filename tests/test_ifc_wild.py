@@ -34,6 +34,7 @@ from ifc_wild import (
     write_far_geometry,
     write_geometry_kinds,
     write_placed,
+    write_storey_heights,
     write_without_storeys,
 )
 from kbplanner.cli import main
@@ -329,3 +330,21 @@ def test_a_model_without_any_storey_or_building_is_a_clear_error(tmp_path: Path,
     err = capsys.readouterr().err
     assert "no storey to map" in err and "fix: export the model with its building and storeys" in err
     assert "Traceback" not in err
+
+
+@pytest.mark.parametrize(("kind", "noted"), [("absolute-elevation", ["Level 1", "Level 2"]),
+                                            ("storeys-at-zero", ["Level 2"])])
+def test_a_storey_elevation_that_disagrees_with_its_placement_follows_its_elements(
+    kind: str, noted: list[str], reference: tuple[Path, ImportResult], tmp_path: Path
+) -> None:
+    _, ref = reference
+    t = write_storey_heights(tmp_path / "s.ifc", kind)  # type: ignore[arg-type]
+    r = import_ifc_graph(t.path, base=BASE)
+    assert [(s.name, s.elevation_m) for s in r.storeys] == [("Level 1", 0.0), ("Level 2", 3.0)]
+    notes = [n for n in r.notes if n.kind == "storey"]
+    assert sorted(n.name for n in notes) == noted
+    assert all("differ" in n.message and "correct the storey's Elevation" in n.message for n in notes)
+    for gid in t.base.walls:
+        assert _bounds(r, gid) == pytest.approx(_bounds(ref, gid), abs=1e-6)
+    m = _map(_project(tmp_path, t.path))
+    assert m.storey.elevation_m == 0.0 and 0.03 < 1.0 - m.grid.free_fraction < 0.2  # walls, not everything

@@ -178,6 +178,52 @@ def far_shift(
     return None
 
 
+# A storey's Elevation attribute and its placement's height may differ by this much without a note.
+ELEVATION_TOLERANCE_M = 0.01
+
+
+@dataclass(frozen=True)
+class StoreyElevation:
+    """A storey's floor height in the model frame (m), and why, when its two sources disagreed."""
+
+    elevation_m: float
+    note: str = ""
+
+
+def _frame_z(product: Any, inverse_frame: np.ndarray, length_scale: float) -> float | None:
+    try:
+        m = placement_matrix(product, length_scale)
+    except Exception:  # a broken placement chain: no height from it
+        return None
+    return None if m is None or not np.all(np.isfinite(m)) else float((inverse_frame @ m)[2, 3])
+
+
+def storey_elevation(storey: Any, inverse_frame: np.ndarray, length_scale: float) -> StoreyElevation:
+    """The height of a storey's floor in the model frame (``inverse_frame``: IFC world -> model frame).
+
+    Its Elevation attribute (relative to the building's 0.00 level, by the standard), else its
+    placement's height. When both are there and differ by more than ``ELEVATION_TOLERANCE_M`` (an
+    Elevation written above sea level while the placements are relative, or storeys all placed at 0
+    while the Elevation is right), the one nearer the median height of the placements of the elements
+    it contains wins (the storey's placement when it contains none), with a note saying so.
+    """
+    attribute = float(storey.Elevation) * length_scale if storey.Elevation is not None else None
+    placed = _frame_z(storey, inverse_frame, length_scale)
+    if attribute is None or placed is None or abs(attribute - placed) <= ELEVATION_TOLERANCE_M:
+        return StoreyElevation(attribute if attribute is not None else placed if placed is not None else 0.0)
+    heights = [z for rel in getattr(storey, "ContainsElements", None) or () for e in rel.RelatedElements
+               if (z := _frame_z(e, inverse_frame, length_scale)) is not None]
+    reference = float(np.median(heights)) if heights else placed
+    use_attribute = abs(attribute - reference) < abs(placed - reference)
+    chosen = attribute if use_attribute else placed
+    what = "its Elevation attribute" if use_attribute else "its placement's height"
+    return StoreyElevation(chosen, (
+        f"its Elevation attribute ({attribute:.3f} m) and its placement's height above the building's 0.00 "
+        f"level ({placed:.3f} m) differ: {what} ({chosen:.3f} m) is used, nearer where its "
+        f"{len(heights)} element(s) are placed (median {reference:.3f} m); correct the storey's Elevation "
+        "or placement in the authoring tool"))
+
+
 @dataclass(frozen=True)
 class MeshResult:
     """Meshes by GlobalId, and the reasons for the products whose geometry failed."""

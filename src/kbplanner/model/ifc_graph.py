@@ -220,11 +220,10 @@ class GraphBuilder:
         for storey in self.unique(self.f.by_type("IfcBuildingStorey")):
             node = self.identity(storey)
             self.typed(node, BOT.Storey)
-            if storey.Elevation is not None:
-                elevation = geo.round_length(float(storey.Elevation) * self.units.length_m)
-            else:  # no Elevation attribute: the height of the storey's placement
-                m = self.site_frame(storey)
-                elevation = geo.round_length(m[2, 3]) if m is not None else 0.0
+            found = geo.storey_elevation(storey, self.site_inv, self.units.length_m)
+            elevation = geo.round_length(found.elevation_m)
+            if found.note:
+                self.notes.append(note_of(storey, "storey", found.note))
             self.g.add((node, KBP.elevation, _dbl(elevation)))
             building = _nearest(storey, "IfcBuilding")
             if building is not None:

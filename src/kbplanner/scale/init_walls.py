@@ -177,15 +177,14 @@ def body_from_parts(wall: Any, meshes: dict[str, Any]) -> list[str]:
 
 
 def storeys(f: ifcopenshell.file, site: np.ndarray, length_m: float) -> list[StoreyRef]:
-    """The storeys by elevation (site frame): their placement's z, else their Elevation attribute."""
-    from kbplanner.model.ifc_geometry import placement_matrix
+    """The storeys by elevation (site frame), as the import has them (``storey_elevation``)."""
+    from kbplanner.model.ifc_geometry import placement_matrix, storey_elevation
     from kbplanner.model.ifc_graph import has_storeys, implicit_storey_label
 
     inv = np.linalg.inv(site)
     out = []
     for st in f.by_type("IfcBuildingStorey"):
-        m = placement_matrix(st, length_m)
-        z = float((inv @ m)[2, 3]) if m is not None else float(st.Elevation or 0.0) * length_m
+        z = storey_elevation(st, inv, length_m).elevation_m
         out.append(StoreyRef(str(st.GlobalId), str(st.Name or st.LongName or st.GlobalId), round(z, 4)))
     for building in f.by_type("IfcBuilding"):  # a building without storeys is one, at its 0.00 level
         if not has_storeys(building):
