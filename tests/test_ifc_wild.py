@@ -38,6 +38,7 @@ from ifc_wild import (
     write_without_storeys,
 )
 from kbplanner.cli import main
+from kbplanner.core.errors import KbplannerError
 from kbplanner.core.iris import element_iri
 from kbplanner.core.vocab import BOT, KBP
 from kbplanner.model.dates import parse_date
@@ -45,8 +46,10 @@ from kbplanner.model.ifc_geometry import far_shift, model_frame
 from kbplanner.model.ifc_import import ImportResult, import_ifc, import_ifc_graph
 from kbplanner.project import Project
 from kbplanner.scale.project_init import init_project
+from kbplanner.world import maps
 from kbplanner.world.build import build_world
 from kbplanner.world.maps import StoreyMap, storey_map
+from kbplanner.world.occupancy import Box
 
 BASE = "https://w3id.org/kbplanner/data/wild/"
 BOUNDS = (KBP.minX, KBP.minY, KBP.minZ, KBP.maxX, KBP.maxY, KBP.maxZ)
@@ -135,6 +138,24 @@ def test_a_shape_whose_own_coordinates_are_far_is_imported_and_noted(tmp_path: P
     assert [(n.kind, n.global_id) for n in r.notes] == [("far", far)]
     assert "5427.4 km from the model frame's origin" in r.notes[0].message
     assert _bounds(r, far)[0] == pytest.approx(EASTING_M)
+    # its map is the building's: the far column is left off it, with a note, not 5 000 km wide
+    project = _project(tmp_path, t.path)
+    m = _map(project)
+    assert m.grid.occupied.shape == (200, 280)
+    assert len(m.notes) == 1 and m.notes[0].startswith("Far column (IfcColumn ")
+    assert "5427.4 km from the rest of the storey's obstacles: left off the map" in m.notes[0]
+    assert main(["world", str(project), "--date", "2030-01-01", "--out", str(tmp_path / "w")]) == 0
+
+
+def test_a_map_too_large_to_hold_is_bad_input_naming_the_storey_and_the_fix(tmp_path: Path) -> None:
+    world = build_world(Project.load(_project(tmp_path, write_test_building(tmp_path / "b.ifc").path)),
+                        parse_date("2030-01-01"), None)
+    level = world.storey("Level 1")
+    assert level is not None
+    with pytest.raises(KbplannerError) as error:
+        maps._check_size(Box(0.0, 0.0, 20_000.0, 1_000.0), 0.05, level)
+    assert "the map of Level 1 would be 20,000 x 1,000 m" in str(error.value)
+    assert error.value.fix is not None and "kbp:siteExtent" in error.value.fix
 
 
 def test_the_model_frame_is_the_buildings_levelled_placement(tmp_path: Path) -> None:

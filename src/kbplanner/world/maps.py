@@ -15,10 +15,11 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import trimesh
 
 from kbplanner.core.errors import KbplannerError
@@ -32,6 +33,8 @@ from kbplanner.world.world_types import StoreyInfo, World
 log = logging.getLogger(__name__)
 
 EXTENT_MARGIN_M = 2.0  # grid margin around the obstacles when the site layout has no extent
+STRAY_M = 1000.0  # without a site extent, obstacles this far from the others' median are left off the map
+MAX_CELLS = 400_000_000  # a bigger grid (400 MB) is refused as bad input
 
 
 # --------------------------------------------------------------------------------------------
@@ -134,8 +137,14 @@ def storey_map(world: World, storey: str | None = None, settings: MapSettings | 
         if _within(obj.pose.z, obj.top_z, band):
             meshes.append(site_object_mesh(obj))
             names.append(f"{obj.label} ({obj.kind})")
+    strays: tuple[str, ...] = ()
+    if world.site_extent is None:  # the obstacles make the extent: one far away must not stretch it
+        meshes, names, strays = _without_strays(meshes, names)
     extent = map_extent(world, meshes)
+    _check_size(extent, settings.resolution_m, chosen)
     grid = occupancy_from_meshes(meshes, band, extent, settings.resolution_m, names=names)
+    if strays:
+        grid = replace(grid, notes=strays + grid.notes)
     levels = tuple(level_regions(world.static, chosen.iri, floor, band))
     ground = ground_level_storey(world, chosen)
     if not ground:
@@ -157,6 +166,39 @@ def storey_map(world: World, storey: str | None = None, settings: MapSettings | 
     for region in levels:  # stairs are expected obstacles; other floor heights deserve a look
         (log.info if region.role == STAIR else log.warning)("map of %s: %s", chosen.label, region.text())
     return StoreyMap(chosen, grid, band, ground, len(meshes), seconds, levels)
+
+
+def _without_strays(
+    meshes: list[trimesh.Trimesh], names: list[str]
+) -> tuple[list[trimesh.Trimesh], list[str], tuple[str, ...]]:
+    """The meshes within ``STRAY_M`` of the median of their centres, and a note for each other one."""
+    if len(meshes) < 2:
+        return meshes, names, ()
+    centres = np.array([m.bounds.mean(axis=0)[:2] for m in meshes])
+    middle = np.median(centres, axis=0)
+    distance = np.hypot(*(centres - middle).T)
+    keep = distance <= STRAY_M
+    if keep.all():
+        return meshes, names, ()
+    notes = tuple(f"{name}: lies {d / 1000:.1f} km from the rest of the storey's obstacles: left off the map "
+                  "(check its placement or coordinates in the IFC, or give the site layout a kbp:siteExtent)"
+                  for name, d, k in zip(names, distance, keep, strict=True) if not k)
+    for note in notes:
+        log.warning("map: %s", note)
+    kept = [i for i, k in enumerate(keep) if k]
+    return [meshes[i] for i in kept], [names[i] for i in kept], notes
+
+
+def _check_size(extent: Box, resolution_m: float, storey: StoreyInfo) -> None:
+    """Refuse a grid too large to hold (bad input: an extent kilometres wide at centimetre cells)."""
+    width, depth = extent.xmax - extent.xmin, extent.ymax - extent.ymin
+    cells = (width / resolution_m) * (depth / resolution_m)
+    if cells > MAX_CELLS:
+        raise KbplannerError(
+            f"the map of {storey.label} would be {width:,.0f} x {depth:,.0f} m, {cells:,.0f} cells of "
+            f"{resolution_m:g} m (at most {MAX_CELLS:,.0f})", element=storey.label,
+            fix="give the site layout a smaller kbp:siteExtent around the building, or check the IFC's "
+                "coordinates (elements far from the building)")
 
 
 def write_map(storey_map_: StoreyMap, directory: Path, name: str = "map") -> tuple[Path, Path]:
