@@ -104,6 +104,10 @@ def write_geometry_kinds(path: Path, schema: Literal["IFC2X3", "IFC4", "IFC4X3"]
     - ``wall_with_parts``: IfcWall without a body, aggregating two IfcBuildingElementPart
       ``wall_part_<n>`` (0.05 m leaves of a 1.5 m wall along y at x = 8.5, from y = 1);
     - ``standard_case``: an IfcWallStandardCase (IFC2X3/IFC4 only) along y at x = 1.0 from y = 4, 1.5 m;
+    - ``round_column``: IfcColumn, a circle profile (r 0.2 m) extruded 2.5 m at (3.5, 1);
+    - ``railing``: IfcRailing, an IfcSweptDiskSolid tube (r 0.03 m) from (6.5, 5, 1) to (8.5, 5, 1);
+    - ``tessellated`` (IFC4 and later): a proxy whose body is an IfcTriangulatedFaceSet, a 0.5 x 0.5 x
+      1 m box at (1.5, 1);
     - names: the brep column is named ``NON_ASCII_NAME``, the clipped wall ``QUOTED_NAME``, the
       assembly has no Name ($) and the wall with parts an empty one; Level 2 is renamed "".
     """
@@ -168,6 +172,30 @@ def write_geometry_kinds(path: Path, schema: Literal["IFC2X3", "IFC4", "IFC4X3"]
                             (1.0, 4.0, 0.0), None)
         _box(f, standard, 1.0, 4.0, 0.0, 0.1, 1.5, 3.0, 1.0)
         out.extra["standard_case"] = standard.GlobalId
+
+    circle = f.create_entity("IfcCircleProfileDef", ProfileType="AREA", Radius=0.2, Position=f.create_entity(
+        "IfcAxis2Placement2D", Location=f.create_entity("IfcCartesianPoint", Coordinates=(0.0, 0.0))))
+    rod = f.create_entity("IfcExtrudedAreaSolid", SweptArea=circle, Position=_axis(f), Depth=2.5,
+                          ExtrudedDirection=f.create_entity("IfcDirection", DirectionRatios=(0.0, 0.0, 1.0)))
+    round_column = _product(f, "IfcColumn", "Round column", "round-column", level1, (3.5, 1.0, 0.0),
+                            _shape(f, [rod], "SweptSolid"))
+    out.extra["round_column"] = round_column.GlobalId
+
+    path_curve = f.create_entity("IfcPolyline", Points=[_point(f, 0.0, 0.0, 0.0), _point(f, 2.0, 0.0, 0.0)])
+    tube = f.create_entity("IfcSweptDiskSolid", Directrix=path_curve, Radius=0.03)
+    railing = _product(f, "IfcRailing", "Handrail", "railing", level1, (6.5, 5.0, 1.0),
+                       _shape(f, [tube], "AdvancedSweptSolid"))
+    out.extra["railing"] = railing.GlobalId
+
+    if schema != "IFC2X3":  # tessellation is IFC4 and later
+        corners = [(x, y, z) for z in (0.0, 1.0) for y in (0.0, 0.5) for x in (0.0, 0.5)]
+        triangles = [(1, 3, 2), (2, 3, 4), (5, 6, 8), (5, 8, 7), (1, 2, 6), (1, 6, 5), (3, 7, 8), (3, 8, 4),
+                     (1, 5, 7), (1, 7, 3), (2, 4, 8), (2, 8, 6)]
+        faces = f.create_entity("IfcTriangulatedFaceSet", Closed=True, CoordIndex=triangles,
+                                Coordinates=f.create_entity("IfcCartesianPointList3D", CoordList=corners))
+        tessellated = _product(f, "IfcBuildingElementProxy", "Tessellated box", "tessellated", level1,
+                               (1.5, 1.0, 0.0), _shape(f, [faces], "Tessellation"))
+        out.extra["tessellated"] = tessellated.GlobalId
 
     _storey(f, 1).Name = ""
     f.write(str(path))

@@ -258,8 +258,13 @@ def test_every_geometry_kind_is_imported_with_its_bounds(schema: str, tmp_path: 
     }
     if schema != "IFC4X3":
         expected["standard_case"] = [1.0, 4.0, 0.0, 1.1, 5.5, 3.0]
+    if schema != "IFC2X3":
+        expected["tessellated"] = [1.5, 1.0, 0.0, 2.0, 1.5, 1.0]
     for key, box in expected.items():
         assert _bounds(r, x[key]) == pytest.approx(box, abs=1e-6), key
+    # curved bodies, triangulated: within 1 mm of the true shape
+    assert _bounds(r, x["round_column"]) == pytest.approx([3.3, 0.8, 0.0, 3.7, 1.2, 2.5], abs=1e-3)
+    assert _bounds(r, x["railing"]) == pytest.approx([6.5, 4.97, 0.97, 8.5, 5.03, 1.03], abs=1e-3)
     g = r.graph
     assert str(g.value(element_iri(BASE, x["brep_column"]), KBP.ifcClass)) == "IfcColumn"
     assert g.value(element_iri(BASE, x["brep_column"]), KBP.volume).toPython() == pytest.approx(0.4)
@@ -282,8 +287,10 @@ def test_geometry_kinds_and_odd_names_through_import_ifc_world_and_init(
     assert {str(o) for o in graph.objects(None, RDFS.label)} >= {NON_ASCII_NAME, QUOTED_NAME}
     project = _project(tmp_path, t.path)
     m = _map(project)
-    for x, y in ((2.2, 2.2), (2.75, 4.5), (7.0, 2.05), (6.5, 4.05), (8.5, 1.5)):
-        assert m.grid.is_occupied(x, y), (x, y)  # column, desk, clipped wall, assembly, wall of parts
+    for x, y in ((2.2, 2.2), (2.75, 4.5), (7.0, 2.05), (6.5, 4.05), (8.5, 1.5), (3.5, 1.0), (7.5, 5.0),
+                 (1.75, 1.25)):
+        assert m.grid.is_occupied(x, y), (x, y)  # column, desk, clipped wall, assembly, wall of parts,
+        # round column, railing, tessellated box
     assert not m.grid.is_occupied(3.5, 2.2)
     # the storey without a name is mapped by its GlobalId
     unnamed = next(gid for gid, (name, _z) in t.base.storeys.items() if name == "Level 2")
