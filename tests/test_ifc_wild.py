@@ -376,3 +376,21 @@ def test_a_storey_elevation_that_disagrees_with_its_placement_follows_its_elemen
         assert _bounds(r, gid) == pytest.approx(_bounds(ref, gid), abs=1e-6)
     m = _map(_project(tmp_path, t.path))
     assert m.storey.elevation_m == 0.0 and 0.03 < 1.0 - m.grid.free_fraction < 0.2  # walls, not everything
+
+
+def test_storeys_with_the_same_name_are_noted_and_chosen_by_globalid(tmp_path: Path) -> None:
+    b = write_test_building(tmp_path / "same.ifc", schema="IFC4")
+    f = ifcopenshell.open(str(b.path))
+    for storey in f.by_type("IfcBuildingStorey"):
+        storey.Name = "Level"
+    f.write(str(b.path))
+    r = import_ifc_graph(b.path, base=BASE)
+    notes = [n for n in r.notes if n.kind == "storey"]
+    assert sorted(n.global_id for n in notes) == sorted(b.storeys)
+    upper = next(gid for gid, (_name, z) in b.storeys.items() if z == 3.0)
+    assert all("2 storeys are named 'Level'" in n.message for n in notes)
+    assert any(f"--storey {upper}" in n.message for n in notes)
+    world = build_world(Project.load(_project(tmp_path, b.path)), parse_date("2030-01-01"), None)
+    assert storey_map(world, "Level").storey.elevation_m == 0.0  # the lowest of the name
+    assert storey_map(world, str(element_iri(BASE, upper))).storey.elevation_m == 3.0
+    assert storey_map(world, upper).storey.elevation_m == 3.0  # the GlobalId the note names

@@ -217,7 +217,8 @@ class GraphBuilder:
             if site is not None:
                 self.g.add((self.iri(site), BOT.hasBuilding, node))
         storeys: list[StoreyInfo] = []
-        for storey in self.unique(self.f.by_type("IfcBuildingStorey")):
+        entities = self.unique(self.f.by_type("IfcBuildingStorey"))
+        for storey in entities:
             node = self.identity(storey)
             self.typed(node, BOT.Storey)
             found = geo.storey_elevation(storey, self.site_inv, self.units.length_m)
@@ -229,6 +230,13 @@ class GraphBuilder:
             if building is not None:
                 self.g.add((self.iri(building), BOT.hasStorey, node))
             storeys.append(StoreyInfo(str(storey.GlobalId), str(storey.Name or ""), elevation))
+        named = Counter(s.name for s in storeys if s.name)
+        for storey in entities:
+            if named[str(storey.Name or "")] > 1:
+                self.notes.append(note_of(storey, "storey", (
+                    f"{named[str(storey.Name)]} storeys are named {storey.Name!r}: a storey name chooses the "
+                    f"lowest of them; choose this one by its GlobalId (--storey {storey.GlobalId}) or rename "
+                    "the storeys in the authoring tool")))
         storeys += self.add_implicit_storeys()
         return sorted(storeys, key=lambda s: (s.elevation_m, s.name, s.global_id))
 

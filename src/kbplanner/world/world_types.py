@@ -298,8 +298,11 @@ class World:
     import_dir: Path = field(compare=False)
 
     def storey(self, iri: str | None) -> StoreyInfo | None:
-        """The storey with this IRI (or label)."""
-        return next((s for s in self.storeys if iri in (s.iri, s.label)), None)
+        """The storey with this IRI (or label; or GlobalId, the IRI's last segment, when no label has it)."""
+        found = next((s for s in self.storeys if iri in (s.iri, s.label)), None)
+        if found is None and iri:
+            found = next((s for s in self.storeys if s.iri.rsplit("/", 1)[-1] == iri), None)
+        return found
 
     def element(self, iri: str) -> WorldElement | None:
         """A present element (static or task) by IRI."""
