@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 import subprocess
 import sys
-import time
 from collections import Counter
 from pathlib import Path
 
@@ -174,7 +173,6 @@ def test_generate_building_cli_rejects_bad_sizes_and_foreign_directories(
 
 @pytest.mark.slow
 def test_ten_storeys_of_ten_units_hold_more_than_a_thousand_frames(tmp_path: Path) -> None:
-    t0 = time.perf_counter()
+    # Its time is measured in benchmarks/ (bench_sweep.py, docs/scale.md), never asserted here.
     b = generate_building(tmp_path / "b10x10", storeys=10, units_per_storey=10)
     assert b.frames >= 1000 and b.elements > 2000
-    assert time.perf_counter() - t0 < 60

@@ -202,10 +202,10 @@ def test_store_specs_parse_and_bad_ones_say_how_to_write_them() -> None:
 
 def test_an_endpoint_that_is_down_is_an_error_with_a_fix_not_a_hang(building: Path) -> None:
     port = _free_port()
-    t0 = time.monotonic()
+    # No port listens: the connection is refused at once (a hang would stall this test, not pass it).
     with pytest.raises(StoreError, match="cannot reach the SPARQL endpoint") as err:
         Project.load(building, store=f"sparql+http://127.0.0.1:{port}/query")
-    assert "oxigraph serve" in str(err.value) and time.monotonic() - t0 < 10
+    assert "oxigraph serve" in str(err.value)
     with pytest.raises(StoreError):
         EndpointStore(f"http://127.0.0.1:{port}/query", f"http://127.0.0.1:{port}/update").has_graph("urn:x")
 
