@@ -72,7 +72,7 @@ class Held:
 
     def __post_init__(self) -> None:
         if self.element_in_tool is None:
-            self.element_in_tool = np.linalg.inv(self.tool_in_element)
+            self.element_in_tool = np.asarray(np.linalg.inv(self.tool_in_element), dtype=np.float64)
 
 
 @dataclass(frozen=True)
