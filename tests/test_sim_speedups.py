@@ -186,7 +186,8 @@ def test_the_early_cells_question_gives_the_former_single_search_where_the_searc
     """navigation._solve asks whether free cells certainly join start and goal after QUICK_CHECKS
     motion checks instead of CERTAIN_PASSAGE_CHECKS: a query solved within QUICK_CHECKS gets the
     same path, a query whose cells do not certainly join the same answer (searched again from the
-    start), a query through certain cells that the search does not solve the cell path as before."""
+    start). (A query through certain cells that RRTConnect solves only between the two counts gets
+    the cell path instead: the behaviour change, see docs/scale.md.)"""
     import time
 
     from kbplanner.simulation import navigation
@@ -212,4 +213,4 @@ def test_the_early_cells_question_gives_the_former_single_search_where_the_searc
             old, _ = navigation._solve_once(cs, start, goal, settings, time.perf_counter(), certain)
             assert (new.ok, new.poses, new.reason) == (old.ok, old.poses, old.reason), (fp.name, asked)
             answers.update(asked)
-    assert answers == {True, False}  # both kinds of unsolved query were met
+    assert False in answers  # a query unsolved early whose cells do not certainly join was met
