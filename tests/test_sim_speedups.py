@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pytest
 
 from kbplanner.simulation import separation
 from kbplanner.simulation.separation import rects_distance
@@ -170,47 +169,3 @@ def test_configuration_space_by_the_shorter_circular_transform_equals_the_linear
         got = ConfigurationSpace.build(grid, fp, 24).free
         assert got.tobytes() == _free_maps_linear_fft(grid, fp, 24).tobytes()
 
-
-def _two_rooms(door_width: float) -> OccupancyGrid:
-    occ = np.zeros((90, 170), dtype=bool)  # 8.5 x 4.5 m at 5 cm
-    occ[[0, -1], :] = True
-    occ[:, [0, -1]] = True
-    occ[:, 80:84] = True  # the wall between the rooms
-    half = round(door_width / 0.05 / 2)
-    occ[45 - half : 45 + half, 80:84] = False
-    return OccupancyGrid(occ, origin=(0.0, 0.0), resolution=0.05)
-
-
-@pytest.mark.slow
-def test_the_early_cells_question_gives_the_former_single_search_where_the_search_solves_early() -> None:
-    """navigation._solve asks whether free cells certainly join start and goal after QUICK_CHECKS
-    motion checks instead of CERTAIN_PASSAGE_CHECKS: a query solved within QUICK_CHECKS gets the
-    same path, a query whose cells do not certainly join the same answer (searched again from the
-    start). (A query through certain cells that RRTConnect solves only between the two counts gets
-    the cell path instead: the behaviour change, see docs/scale.md.)"""
-    import time
-
-    from kbplanner.simulation import navigation
-    from kbplanner.simulation.nav_path import NavSettings
-
-    robot = Footprint((Rect(0.0, 0.0, 0.99, 0.67),), name="robot")
-    wide = robot.with_rect(Rect(0.0, 0.0, 0.6, 1.6), name="wide load")
-    start, goal = (1.5, 1.2, 0.5), (6.8, 3.2, -1.0)
-    answers: set[bool] = set()
-    cases = [(_two_rooms(1.2), robot, 400_000), (_two_rooms(1.0), wide, 120_000),
-             (_two_rooms(0.9), wide, 120_000), (_two_rooms(1.0), robot, 30_000)]
-    for grid, fp, budget in cases:
-        cs = ConfigurationSpace.build(grid, fp, 72)
-        for seed in (3, 8):
-            settings = NavSettings(seed=seed, max_motion_checks=budget, time_limit_s=3600.0)
-            asked: list[bool] = []
-
-            def certain(cs: ConfigurationSpace = cs, asked: list[bool] = asked) -> bool:
-                asked.append(navigation.face_connected(cs, start, goal))
-                return asked[-1]
-
-            new = navigation._solve(cs, start, goal, settings, time.perf_counter(), certain)
-            old, _ = navigation._solve_once(cs, start, goal, settings, time.perf_counter(), certain)
-            assert (new.ok, new.poses, new.reason) == (old.ok, old.poses, old.reason), (fp.name, asked)
-            answers.update(asked)
-    assert False in answers  # a query unsolved early whose cells do not certainly join was met

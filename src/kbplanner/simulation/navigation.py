@@ -56,7 +56,6 @@ from kbplanner.world.occupancy import OccupancyGrid
 log = logging.getLogger(__name__)
 
 CERTAIN_PASSAGE_CHECKS = 100_000  # OMPL's budget where free cells certainly join start and goal
-QUICK_CHECKS = 20_000  # the first try, after which it is asked whether they do (see _solve)
 
 
 def _connected(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D) -> bool:
@@ -178,33 +177,7 @@ def _solve(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSet
            cells_certain: Callable[[], bool] | None = None) -> NavPath:
     """RRTConnect within the work budget. With ``cells_certain``: after CERTAIN_PASSAGE_CHECKS motion
     checks without a path it is asked whether free cells certainly join start and goal; if so, planning
-    stops there (the caller takes the cell path), else the same tree grows on to the full budget.
-
-    The question is asked early: RRTConnect first runs QUICK_CHECKS motion checks (most queries are
-    solved well within them: the same path as in a longer run, which would have stopped there too).
-    Without a path, where free cells certainly join start and goal the caller takes the cell path at
-    once; elsewhere the search is run again from the start, seeded alike, exactly as described above
-    (so only a query that RRTConnect would have solved between QUICK_CHECKS and
-    CERTAIN_PASSAGE_CHECKS motion checks, through cells that certainly join, gets the cell path instead).
-    """
-    budget = settings.max_motion_checks
-    if cells_certain is None or budget <= QUICK_CHECKS:
-        return _solve_once(cs, start, goal, settings, t0, cells_certain)[0]
-    quick, status = _solve_once(cs, start, goal, settings, t0, None, limit=QUICK_CHECKS)
-    if quick.ok:
-        return quick
-    if cells_certain():
-        first = min(budget, CERTAIN_PASSAGE_CHECKS)
-        reason = f"no path within {first} motion checks or {settings.time_limit_s:g} s ({status})"
-        return failed_path(reason, settings.planner, cs.footprint.name, time.perf_counter() - t0)
-    return _solve_once(cs, start, goal, settings, t0, lambda: False)[0]
-
-
-def _solve_once(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSettings, t0: float,
-                cells_certain: Callable[[], bool] | None = None, limit: int | None = None
-                ) -> tuple[NavPath, str]:
-    """One RRTConnect search (see :func:`_solve`); ``limit``: stop after that many motion checks.
-    Returns the path and OMPL's status text."""
+    stops there (the caller takes the cell path), else the same tree grows on to the full budget."""
     name = settings.planner
     fp = cs.footprint.name
     grid = cs.grid
@@ -234,7 +207,7 @@ def _solve_once(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: N
     g.setYaw(wrap(goal[2]))
     ss.setStartAndGoalStates(s, g)
     deadline = time.perf_counter() + settings.time_limit_s
-    budget = settings.max_motion_checks if limit is None else min(limit, settings.max_motion_checks)
+    budget = settings.max_motion_checks
     first = min(budget, CERTAIN_PASSAGE_CHECKS) if cells_certain is not None else budget
     ptc = ob.PlannerTerminationCondition(
         lambda: validator.calls >= first or time.perf_counter() > deadline)
@@ -256,9 +229,8 @@ def _solve_once(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: N
         elapsed = time.perf_counter() - t0
         reason = (f"no path within {budget} motion checks or {settings.time_limit_s:g} s "
                   f"({status.asString()})")
-        text = status.asString()
         del ss, planner
-        return failed_path(reason, name, fp, elapsed), text
+        return failed_path(reason, name, fp, elapsed)
     raw = _states(ss.getSolutionPath())
     poses = raw
     how = "found"
@@ -273,7 +245,7 @@ def _solve_once(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: N
     del ss, planner
     if not motion.path_free(poses):
         elapsed = time.perf_counter() - t0
-        return failed_path("no path: the planner's path failed the dense re-check", name, fp, elapsed), ""
+        return failed_path("no path: the planner's path failed the dense re-check", name, fp, elapsed)
     poses[0] = (start[0], start[1], wrap(start[2]))
     if settings.simplify:
         poses = shortcut(motion, poses, grid.resolution * 5)
@@ -283,7 +255,7 @@ def _solve_once(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: N
         how += "; turn-drive-turn" + (f" ({kept} segment(s) partly turning while driving)" if kept else "")
         elapsed = time.perf_counter() - t0
     return NavPath(poses=tuple(poses), length_m=path_length(poses), planning_time_s=elapsed,
-                   planner=name, status=OK, reason=how, footprint=fp), ""
+                   planner=name, status=OK, reason=how, footprint=fp)
 
 
 def _states(path: og.PathGeometric) -> list[Pose2D]:
