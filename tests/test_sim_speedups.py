@@ -169,3 +169,47 @@ def test_configuration_space_by_the_shorter_circular_transform_equals_the_linear
         got = ConfigurationSpace.build(grid, fp, 24).free
         assert got.tobytes() == _free_maps_linear_fft(grid, fp, 24).tobytes()
 
+
+
+def _bfs_scipy(free: np.ndarray, src: tuple[int, int, int], dst: tuple[int, int, int]) -> list[int] | None:
+    """The former face_path search: scipy's breadth_first_order on the graph of face-adjacent free cells."""
+    from scipy import sparse
+    from scipy.sparse import csgraph
+
+    index = np.full(free.shape, -1, dtype=np.int64)
+    flat = np.flatnonzero(free)
+    index.ravel()[flat] = np.arange(len(flat))
+    rows, cols = [], []
+    for a, b in ((index[:, :, :-1], index[:, :, 1:]), (index[:, :-1, :], index[:, 1:, :]),
+                 (index[:-1], index[1:]), (index[-1:], index[:1])):
+        both = (a >= 0) & (b >= 0)
+        rows.append(a[both])
+        cols.append(b[both])
+    r, c = np.concatenate(rows), np.concatenate(cols)
+    graph = sparse.csr_matrix((np.ones(len(r), dtype=np.int8), (r, c)), shape=(len(flat), len(flat)))
+    s, d = int(index[src]), int(index[dst])
+    _order, pred = csgraph.breadth_first_order(graph, s, directed=False, return_predecessors=True)
+    if s != d and pred[d] < 0:
+        return None
+    nodes = [d]
+    while nodes[-1] != s:
+        nodes.append(int(pred[nodes[-1]]))
+    return [int(v) for v in flat[nodes[::-1]]]
+
+
+def test_the_cell_search_gives_the_path_of_scipys_breadth_first_search() -> None:
+    from kbplanner.simulation.cell_path import bfs_cells
+
+    rng = np.random.default_rng(5)
+    met = {True: 0, False: 0}
+    for trial in range(300):
+        shape = (int(rng.integers(1, 12)), int(rng.integers(1, 20)), int(rng.integers(1, 20)))
+        free = rng.random(shape) < rng.uniform(0.45, 0.9)
+        cells = np.argwhere(free)
+        if len(cells) < 1:
+            continue
+        a, b = (tuple(int(v) for v in cells[rng.integers(len(cells))]) for _ in range(2))
+        want = _bfs_scipy(free, a, b)
+        assert bfs_cells(free, a, b) == want, (trial, shape, a, b)  # type: ignore[arg-type]
+        met[want is not None] += 1
+    assert met[True] > 50 and met[False] > 10
