@@ -186,7 +186,12 @@ class ConfigurationSpace:
         shape = tuple(sp_fft.next_fast_len(n, real=True) for n in padded.shape)
         grid_f = sp_fft.rfft2(padded, shape)
         ny, nx = grid.shape
+        seen: dict[tuple[tuple[int, ...], bytes], int] = {}  # a kernel met before: the same free map
         for k, kern in enumerate(kernels):
+            j = seen.setdefault((kern.shape, kern.tobytes()), k)
+            if j != k:  # e.g. a centrally symmetric footprint half a turn later
+                free[k] = free[j]
+                continue
             hk = kern.shape[0] // 2
             full = np.zeros((size, size), dtype=np.float32)
             full[h - hk : h + hk + 1, h - hk : h + hk + 1] = kern
