@@ -9,9 +9,11 @@ round (baseline first, then this tree; rounds alternate the machine's load betwe
     kbplanner simulate data/case_study --scenario S --seed N --out DIR
 
 Per scenario it records each command's wall time (``os.wait4``, with CPU seconds and peak memory),
-the simulation step's wall time and real-time factor from the run's ``timing.json``, the simulated
-time, whether ``trajectories.csv`` and ``events.jsonl`` of both are byte-identical, and this tree's
-path-quality figures (``metrics.json`` ``path_quality``, when present). Ratios are baseline /
+the simulation step's wall time and real-time factor from the run's ``timing.json`` and its CPU
+time (``executor.simulate`` timed by a wrapper around the command, the same for both trees), the
+simulated time, whether ``trajectories.csv``, ``events.jsonl`` and ``metrics.json`` of both are
+byte-identical (``outputs_identical``), and this tree's path-quality figures (``metrics.json``
+``path_quality``, when present). Ratios are baseline /
 this tree (> 1: faster now), from the median over rounds. The load average is recorded before and
 after: on a shared machine absolute seconds vary, the ratios of one run much less.
 
@@ -33,7 +35,7 @@ from typing import Any
 
 from _common import REPO, RESULTS_DIR, machine_info, run_measured, write_json
 
-DETERMINISTIC = ("trajectories.csv", "events.jsonl")
+DETERMINISTIC = ("trajectories.csv", "events.jsonl", "metrics.json")
 
 
 def _export(ref: str, into: Path) -> Path:
@@ -43,11 +45,32 @@ def _export(ref: str, into: Path) -> Path:
     return into / "src"
 
 
+# ``python -m kbplanner ARGS`` with the simulation step (executor.simulate) timed in CPU and wall seconds
+# into the file named by the first argument: the same measurement for a baseline whose timing.json has
+# no CPU time.
+_TIMED = '''import json, sys, time
+import kbplanner.simulation.executor as ex
+from kbplanner.cli import main
+inner = ex.simulate
+def timed(*args, **kwargs):
+    c0, w0 = time.process_time(), time.perf_counter()
+    try:
+        return inner(*args, **kwargs)
+    finally:
+        with open(sys.argv[1], "w") as f:
+            json.dump({"cpu_s": time.process_time() - c0, "wall_s": time.perf_counter() - w0}, f)
+ex.simulate = timed
+raise SystemExit(main(sys.argv[2:]))
+'''
+
+
 def _run(src: Path, scenario: str, seed: int, out: Path, log: Path) -> dict[str, Any]:
     env = dict(os.environ, PYTHONPATH=str(src))
-    cmd = [sys.executable, "-m", "kbplanner", "simulate", str(src.parent / "data" / "case_study"),
+    step_file = log.with_suffix(".step.json")
+    cmd = [sys.executable, "-c", _TIMED, str(step_file), "simulate", str(src.parent / "data" / "case_study"),
            "--scenario", scenario, "--seed", str(seed), "--out", str(out)]
     measured = run_measured(cmd, log=log, timeout_s=1800.0, env=env)
+    step = json.loads(step_file.read_text()) if step_file.is_file() else {}
     if not (out / "timing.json").is_file():
         tail = log.read_text()[-2000:]
         raise SystemExit(f"{' '.join(cmd)} wrote no run (exit {measured['exit']}):\n{tail}")
@@ -56,6 +79,7 @@ def _run(src: Path, scenario: str, seed: int, out: Path, log: Path) -> dict[str,
     quality = metrics.get("path_quality")
     return {"command_s": measured["seconds"], "exit": measured["exit"], "cpu_s": measured["cpu_s"],
             "peak_rss_mb": measured["peak_rss_mb"], "simulation_s": timing.get("wall_time_s"),
+            "simulation_cpu_s": round(step["cpu_s"], 3) if "cpu_s" in step else None,
             "sim_time_s": timing.get("sim_time_s"), "planning_total_s": timing.get("planning_total_s"),
             "path_quality": {k: v for k, v in quality.items() if k != "per_element"} if quality else None}
 
@@ -78,13 +102,16 @@ def bench(before_src: Path, after_src: Path, scenario: str, seed: int, rounds: i
         identical = identical and all(
             (outs["before"] / f).read_bytes() == (outs["after"] / f).read_bytes() for f in DETERMINISTIC)
     row: dict[str, Any] = {"scenario": scenario, "seed": seed, "rounds": rounds,
-                           "trajectories_and_events_identical": identical}
+                           "outputs_identical": identical}
     for label in ("before", "after"):
         rs = runs[label]
         sim = _median(rs, "sim_time_s")
         cmd, step = _median(rs, "command_s"), _median(rs, "simulation_s")
+        cmd_cpu, step_cpu = _median(rs, "cpu_s"), _median(rs, "simulation_cpu_s")
         row[label] = {"command_s": cmd, "simulation_s": step, "sim_time_s": sim,
-                      "command_cpu_s": _median(rs, "cpu_s"),
+                      "command_cpu_s": cmd_cpu, "simulation_cpu_s": step_cpu,
+                      "x_real_time_command_cpu": round(sim / cmd_cpu, 1) if sim and cmd_cpu else None,
+                      "x_real_time_simulation_cpu": round(sim / step_cpu, 1) if sim and step_cpu else None,
                       "x_real_time_command": round(sim / cmd, 1) if sim and cmd else None,
                       "x_real_time_simulation": round(sim / step, 1) if sim and step else None,
                       "planning_total_s": _median(rs, "planning_total_s"),
@@ -94,6 +121,8 @@ def bench(before_src: Path, after_src: Path, scenario: str, seed: int, rounds: i
     row["speedup_simulation"] = round(b["simulation_s"] / a["simulation_s"], 2) if a["simulation_s"] else None
     cpu_b, cpu_a = b["command_cpu_s"], a["command_cpu_s"]
     row["speedup_command_cpu"] = round(cpu_b / cpu_a, 2) if cpu_a else None
+    sb, sa = b["simulation_cpu_s"], a["simulation_cpu_s"]
+    row["speedup_simulation_cpu"] = round(sb / sa, 2) if sb and sa else None
     row["path_quality_after"] = runs["after"][-1]["path_quality"]
     return row
 
@@ -125,9 +154,13 @@ def main(argv: list[str] | None = None) -> int:
           f"{b['x_real_time_command'] or 0:6.1f}/{a['x_real_time_command'] or 0:6.1f} "
           f"{b['simulation_s'] or 0:7.1f} / {a['simulation_s'] or 0:5.1f} "
           f"{b['x_real_time_simulation'] or 0:6.1f}/{a['x_real_time_simulation'] or 0:6.1f} "
-          f"{'yes' if r['trajectories_and_events_identical'] else 'no':>5}\n")
+          f"{'yes' if r['outputs_identical'] else 'no':>5}\n")
         w(f"{'':16} command CPU s {b['command_cpu_s']} / {a['command_cpu_s']} (x{r['speedup_command_cpu']}); "
           f"speed-up wall: command x{r['speedup_command']}, simulation x{r['speedup_simulation']}\n")
+        w(f"{'':16} CPU: command {b['x_real_time_command_cpu']}x -> {a['x_real_time_command_cpu']}x "
+          f"real time; simulation step {b['simulation_cpu_s']} / {a['simulation_cpu_s']} s "
+          f"({b['x_real_time_simulation_cpu']}x -> {a['x_real_time_simulation_cpu']}x, "
+          f"x{r['speedup_simulation_cpu']})\n")
         if r["path_quality_after"]:
             q = r["path_quality_after"]
             w(f"{'':16} path quality: time / lower bound median {q['time_over_lower_bound']['median']} max "

@@ -73,6 +73,40 @@ def test_hits_on_ignored_bodies_such_as_the_held_element_count_as_no_hit(robot: 
         p.removeBody(body, physicsClientId=robot.client)
 
 
+def test_a_scan_of_the_rays_near_people_reports_their_hits_as_a_whole_scan_does(robot: RobotModel) -> None:
+    """The separation monitor casts only the rays that pass near a worker: every ray it casts reports
+    the same hit (body, range and point, bit for bit) as in a whole scan, people hidden behind others
+    or behind a wall included, and the workers' hits are all there."""
+    import numpy as np
+
+    people = [(2.0, 0.3), (3.5, 0.5), (0.9, -1.1), (-0.2, 2.4), (6.0, -4.0), (-3.0, 0.1)]
+    bodies = [_capsule(robot, x, y) for x, y in people]
+    box = p.createCollisionShape(p.GEOM_BOX, halfExtents=[0.05, 1.0, 1.0], physicsClientId=robot.client)
+    wall = int(p.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=box, basePosition=[5.0, -3.2, 1.0],
+                                 physicsClientId=robot.client))
+    spec = lidar_spec(robot)
+    xy = np.array(people, dtype=np.float64)
+    try:
+        for pose in [(0.0, 0.0, 0.0), (0.4, -0.3, 0.7), (1.0, 1.0, -2.5), (-1.0, 0.5, 3.0)]:
+            robot.set_base_pose(*pose)
+            whole = scan(robot, spec)
+            part = scan(robot, spec, near=xy, near_radius_m=WORKER_RADIUS_M + 0.25)
+            cast = np.isfinite(part.ranges)
+            assert cast.sum() < len(part.ranges) / 2  # most rays are not cast at all
+            for b in bodies:
+                mask = whole.bodies == b
+                assert (part.bodies == b).tolist() == mask.tolist()
+                assert part.points[mask].tobytes() == whole.points[mask].tobytes()
+                assert part.ranges[mask].tobytes() == whole.ranges[mask].tobytes()
+            assert part.bodies[cast].tolist() == whole.bodies[cast].tolist()
+            assert part.ranges[cast].tobytes() == whole.ranges[cast].tobytes()
+            assert any((whole.bodies == b).any() for b in bodies)
+    finally:
+        robot.set_base_pose(0.0, 0.0, 0.0)
+        for b in [*bodies, wall]:
+            p.removeBody(b, physicsClientId=robot.client)
+
+
 def test_the_stow_pose_keeps_lidar_and_camera_clear_and_an_arm_in_front_does_not(robot: RobotModel) -> None:
     robot.set_named_pose("stow")
     assert sensor_view_hits(robot) == {"lidar": 0, "camera": 0}

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from kbplanner.simulation import separation
 from kbplanner.simulation.separation import rects_distance
-from kbplanner.world.footprint import Rect
+from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect
+from kbplanner.world.occupancy import OccupancyGrid
 
 
 def _vectorised(px: np.ndarray, py: np.ndarray, pose: tuple[float, float, float], rects: list[Rect]):
@@ -125,3 +128,88 @@ def test_inlined_motion_check_equals_the_pose_by_pose_check() -> None:
         assert m.motion_free(a, b) == want
         answers.add(want)
     assert answers == {True, False}
+
+
+def _free_maps_linear_fft(grid: OccupancyGrid, footprint: Footprint, n_bins: int) -> np.ndarray:
+    """The former ConfigurationSpace.build: a transform long enough for the whole linear correlation."""
+    from scipy import fft as sp_fft
+
+    res, width = grid.resolution, 2 * math.pi / n_bins
+    kernels = [footprint.kernel(res, k * width - width / 2, k * width + width / 2, 0.0)
+               for k in range(n_bins)]
+    h = max(k.shape[0] for k in kernels) // 2
+    padded = np.pad(grid.occupied, h, constant_values=True).astype(np.float32)
+    size = 2 * h + 1
+    shape = tuple(sp_fft.next_fast_len(n + size - 1, real=True) for n in padded.shape)
+    grid_f = sp_fft.rfft2(padded, shape)
+    ny, nx = grid.shape
+    free = np.empty((n_bins, ny, nx), dtype=bool)
+    for k, kern in enumerate(kernels):
+        hk = kern.shape[0] // 2
+        full = np.zeros((size, size), dtype=np.float32)
+        full[h - hk : h + hk + 1, h - hk : h + hk + 1] = kern
+        conv = sp_fft.irfft2(grid_f * sp_fft.rfft2(full[::-1, ::-1], shape), shape)
+        free[k] = conv[size - 1 : size - 1 + ny, size - 1 : size - 1 + nx] < 0.5
+    return free
+
+
+def test_configuration_space_by_the_shorter_circular_transform_equals_the_linear_one() -> None:
+    rng = np.random.default_rng(11)
+    robot = Footprint((Rect(0.0, 0.0, 0.99, 0.67),), name="robot")
+    carry = Footprint((Rect(0.0, 0.0, 0.99, 0.67), Rect(0.3, 0.5, 2.4, 0.15, 0.2)), name="carry")
+    for trial in range(12):
+        ny, nx = int(rng.integers(20, 160)), int(rng.integers(20, 160))
+        occ = rng.random((ny, nx)) < (0.02 + 0.02 * (trial % 4))
+        occ[rng.integers(0, ny), :] = True  # a wall with a door
+        occ[:, rng.integers(0, nx)] = True
+        occ[rng.integers(0, ny), rng.integers(0, nx)] = False
+        origin = (float(rng.uniform(-5, 5)), float(rng.uniform(-5, 5)))
+        grid = OccupancyGrid(occ, origin=origin, resolution=0.05)
+        fp = robot if trial % 2 else carry
+        got = ConfigurationSpace.build(grid, fp, 24).free
+        assert got.tobytes() == _free_maps_linear_fft(grid, fp, 24).tobytes()
+
+
+
+def _bfs_scipy(free: np.ndarray, src: tuple[int, int, int], dst: tuple[int, int, int]) -> list[int] | None:
+    """The former face_path search: scipy's breadth_first_order on the graph of face-adjacent free cells."""
+    from scipy import sparse
+    from scipy.sparse import csgraph
+
+    index = np.full(free.shape, -1, dtype=np.int64)
+    flat = np.flatnonzero(free)
+    index.ravel()[flat] = np.arange(len(flat))
+    rows, cols = [], []
+    for a, b in ((index[:, :, :-1], index[:, :, 1:]), (index[:, :-1, :], index[:, 1:, :]),
+                 (index[:-1], index[1:]), (index[-1:], index[:1])):
+        both = (a >= 0) & (b >= 0)
+        rows.append(a[both])
+        cols.append(b[both])
+    r, c = np.concatenate(rows), np.concatenate(cols)
+    graph = sparse.csr_matrix((np.ones(len(r), dtype=np.int8), (r, c)), shape=(len(flat), len(flat)))
+    s, d = int(index[src]), int(index[dst])
+    _order, pred = csgraph.breadth_first_order(graph, s, directed=False, return_predecessors=True)
+    if s != d and pred[d] < 0:
+        return None
+    nodes = [d]
+    while nodes[-1] != s:
+        nodes.append(int(pred[nodes[-1]]))
+    return [int(v) for v in flat[nodes[::-1]]]
+
+
+def test_the_cell_search_gives_the_path_of_scipys_breadth_first_search() -> None:
+    from kbplanner.simulation.cell_path import bfs_cells
+
+    rng = np.random.default_rng(5)
+    met = {True: 0, False: 0}
+    for trial in range(300):
+        shape = (int(rng.integers(1, 12)), int(rng.integers(1, 20)), int(rng.integers(1, 20)))
+        free = rng.random(shape) < rng.uniform(0.45, 0.9)
+        cells = np.argwhere(free)
+        if len(cells) < 1:
+            continue
+        a, b = (tuple(int(v) for v in cells[rng.integers(len(cells))]) for _ in range(2))
+        want = _bfs_scipy(free, a, b)
+        assert bfs_cells(free, a, b) == want, (trial, shape, a, b)  # type: ignore[arg-type]
+        met[want is not None] += 1
+    assert met[True] > 50 and met[False] > 10

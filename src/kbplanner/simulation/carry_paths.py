@@ -10,7 +10,7 @@ marks the stretches of the path where the wide load does not fit, with "rotate t
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import numpy.typing as npt
@@ -141,7 +141,9 @@ def plan_with_carry_modes(
 ) -> CarryPlan:
     """Plan with the normal carry footprint; where it cannot pass, carry the load narrow.
 
-    If the normal footprint finds a path, that is the plan (mode ``"normal"``). Otherwise the path is
+    If the normal footprint finds a path (within ``settings.normal_carry_checks`` motion checks, or by
+    the cell path where free cells certainly join start and goal), that is the plan (mode
+    ``"normal"``). Otherwise the path is
     planned with the narrow footprint, and each stretch where the normal footprint is blocked,
     grown by ``margin_m`` on both sides, becomes a :class:`CarrySegment` with a
     ``rotate_to_narrow`` event at its start and a ``rotate_back`` event at its end (new waypoints
@@ -149,7 +151,8 @@ def plan_with_carry_modes(
     """
     settings = settings or NavSettings()
     cs_normal = ConfigurationSpace.build(grid, normal, settings.n_yaw_bins, settings.margin_m)
-    first = plan_path(cs_normal, start, goal, settings=settings)
+    checks = min(settings.max_motion_checks, settings.normal_carry_checks)
+    first = plan_path(cs_normal, start, goal, settings=replace(settings, max_motion_checks=checks))
     if first.ok:
         return CarryPlan(path=first, mode="normal", normal_attempt=first, space=cs_normal)
     cs_narrow = ConfigurationSpace.build(grid, narrow, settings.n_yaw_bins, settings.margin_m)

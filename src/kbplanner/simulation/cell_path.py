@@ -4,8 +4,8 @@ certainly join start and goal, a path through face-adjacent free configuration c
 Takes a :class:`~kbplanner.world.footprint.ConfigurationSpace` and start and goal poses;
 :func:`face_connected` says whether face-adjacent free (x, y, yaw bin) cells join them (asked by the
 OMPL query of :mod:`kbplanner.simulation.navigation` once RRTConnect has used its first budget),
-:func:`face_path` finds such cells by breadth-first search, and :func:`cell_route` shortens them with
-exact motion checks into a :class:`~kbplanner.simulation.nav_path.NavPath`.
+:func:`face_path` finds such cells by breadth-first search (:func:`bfs_cells`), and :func:`cell_route`
+shortens them with exact motion checks into a :class:`~kbplanner.simulation.nav_path.NavPath`.
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ from __future__ import annotations
 import time
 
 import numpy as np
+import numpy.typing as npt
 
 from kbplanner.simulation.motion_check import ExactMotion, shortcut, turn_drive_turn
 from kbplanner.simulation.nav_path import OK, NavPath, NavSettings, Pose2D, failed_path, path_length, wrap
@@ -30,12 +31,9 @@ def face_path(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D) -> list[Pose2
 
     Every pose in a free cell is free (the configuration space is conservative), so moving between
     face-adjacent free cells is a collision-free motion: when this finds a path, a path certainly
-    exists. Breadth-first search (scipy) over the free cells of the start's component; the yaw axis
-    wraps. Returns the cell centres (yaw at the bin centre).
+    exists. Breadth-first search from the start's cell (:func:`bfs_cells`); the yaw axis wraps.
+    Returns the cell centres (yaw at the bin centre).
     """
-    from scipy import sparse
-    from scipy.sparse import csgraph
-
     g = cs.grid
     ends = []
     for p in (start, goal):
@@ -45,28 +43,67 @@ def face_path(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D) -> list[Pose2
         ends.append((cs.yaw_bin(p[2]), iy, ix))
     if not (cs.free[ends[0]] and cs.free[ends[1]]):
         return None
-    index = np.full(cs.free.shape, -1, dtype=np.int64)
-    flat = np.flatnonzero(cs.free)
-    index.ravel()[flat] = np.arange(len(flat))
-    rows, cols = [], []
-    for a, b in ((index[:, :, :-1], index[:, :, 1:]), (index[:, :-1, :], index[:, 1:, :]),
-                 (index[:-1], index[1:]), (index[-1:], index[:1])):
-        both = (a >= 0) & (b >= 0)
-        rows.append(a[both])
-        cols.append(b[both])
-    r, c = np.concatenate(rows), np.concatenate(cols)
-    graph = sparse.csr_matrix((np.ones(len(r), dtype=np.int8), (r, c)), shape=(len(flat), len(flat)))
-    src, dst = int(index[ends[0]]), int(index[ends[1]])
-    _order, pred = csgraph.breadth_first_order(graph, src, directed=False, return_predecessors=True)
-    if src != dst and pred[dst] < 0:
+    nodes = bfs_cells(cs.free, ends[0], ends[1])
+    if nodes is None:
         return None
-    nodes = [dst]
-    while nodes[-1] != src:
-        nodes.append(int(pred[nodes[-1]]))
-    cell = np.asarray(np.unravel_index(flat[nodes[::-1]], cs.free.shape), dtype=np.int64).T
+    cell = np.asarray(np.unravel_index(np.asarray(nodes, dtype=np.int64), cs.free.shape), dtype=np.int64).T
     res, (ox, oy), w = g.resolution, g.origin, cs.bin_width
     return [(ox + (float(x) + 0.5) * res, oy + (float(y) + 0.5) * res, wrap(float(b) * w))
             for b, y, x in cell.tolist()]
+
+
+def bfs_cells(free: npt.NDArray[np.bool_], src: tuple[int, int, int], dst: tuple[int, int, int]
+              ) -> list[int] | None:
+    """Breadth-first search over face-adjacent free cells of ``free[bin, y, x]`` (the bin axis wraps):
+    the flat indices of the cells from ``src`` to ``dst``, or None when they are not joined.
+
+    Layer by layer, vectorised, stopping when ``dst`` is reached. Each cell is reached from the first
+    cell of the previous layer (in the order cells were reached) that has it as a neighbour, the
+    neighbours taken in the order +x, +y, +bin, -bin, -y, -x (with the wrap from the last bin to the
+    first one before them, and from the first bin to the last one after them): the order in which
+    scipy's ``breadth_first_order`` on the undirected graph of these cells, indexed in array order,
+    visits them, so the path is the one that search gives.
+    """
+    nb, ny, nx = free.shape
+    plane = ny * nx
+    flat = free.ravel()
+    s = (src[0] * ny + src[1]) * nx + src[2]
+    d = (dst[0] * ny + dst[1]) * nx + dst[2]
+    if s == d:
+        return [s]
+    parent = np.full(flat.size, -1, dtype=np.int64)
+    seen = np.zeros(flat.size, dtype=bool)
+    seen[s] = True
+    frontier = np.array([s], dtype=np.int64)
+    wrap_span = (nb - 1) * plane
+    while frontier.size and not seen[d]:
+        b = frontier // plane
+        rem = frontier - b * plane
+        y = rem // nx
+        x = rem - y * nx
+        cand = np.full((8, frontier.size), -1, dtype=np.int64)
+        for row, (mask, step) in enumerate(((b == nb - 1, -wrap_span), (x < nx - 1, 1), (y < ny - 1, nx),
+                                            (b < nb - 1, plane), (b > 0, -plane), (y > 0, -nx),
+                                            (x > 0, -1), (b == 0, wrap_span))):
+            cand[row, mask] = frontier[mask] + step
+        order = cand.T.ravel()  # cell by cell in queue order, each cell's neighbours in order
+        par = np.repeat(frontier, 8)
+        ok = order >= 0
+        order, par = order[ok], par[ok]
+        ok = flat[order] & ~seen[order]
+        order, par = order[ok], par[ok]
+        _, first = np.unique(order, return_index=True)
+        first.sort()
+        new = order[first]
+        parent[new] = par[first]
+        seen[new] = True
+        frontier = new
+    if not seen[d]:
+        return None
+    nodes = [d]
+    while nodes[-1] != s:
+        nodes.append(int(parent[nodes[-1]]))
+    return nodes[::-1]
 
 
 def cell_route(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, cells: list[Pose2D],

@@ -48,6 +48,10 @@ class NavSettings:
     # speed, so the same seed gives the same answer on a busy or a fast machine. ``time_limit_s`` stays
     # as a safety cap only (a run that hits it says so in its reason).
     max_motion_checks: int = 400_000
+    # NV-2 plans with the load carried normal first: that try stops after this many motion checks
+    # (where free cells do not certainly join start and goal) and the narrow carry is planned, instead
+    # of spending the whole budget on a passage the wide load rarely gets through.
+    normal_carry_checks: int = 100_000
     n_yaw_bins: int = 72
     seed: int = 1
     simplify: bool = True

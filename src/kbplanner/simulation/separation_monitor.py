@@ -40,7 +40,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from kbplanner.robot.lidar import LidarSpec, scan
-from kbplanner.simulation.separation import SsmParameters, reach_m, rects_distance
+from kbplanner.simulation.separation import WORKER_RADIUS_M, SsmParameters, reach_m, rects_distance
 from kbplanner.simulation.sim_env import SimEnv
 from kbplanner.world.footprint import Rect
 
@@ -112,7 +112,8 @@ class SeparationMonitor:
             self._tracks.clear()
             return []  # nobody could be seen within the horizon: the scan would change nothing
         ignore = [env.held.body] if env.held is not None else []
-        s = scan(env.robot, self.lidar, ignore=ignore)
+        # only the rays that can reach a person (their hits are those of a whole scan)
+        s = scan(env.robot, self.lidar, ignore=ignore, near=xy, near_radius_m=WORKER_RADIUS_M + 0.25)
         assert s.points is not None
         out: list[Sensed] = []
         tracks: dict[str, tuple[float, np.ndarray]] = {}

@@ -68,6 +68,11 @@ class Held:
     body: int
     constraint: int
     tool_in_element: Matrix
+    element_in_tool: Matrix | None = None  # inv(tool_in_element), computed once
+
+    def __post_init__(self) -> None:
+        if self.element_in_tool is None:
+            self.element_in_tool = np.asarray(np.linalg.inv(self.tool_in_element), dtype=np.float64)
 
 
 @dataclass(frozen=True)
@@ -114,6 +119,7 @@ class SimEnv:
         self.sim: SimWorld | None = None
         self._robot: RobotModel | None = None
         self.workers: tuple[WorkerBody, ...] = ()
+        self._worker_placed: list[tuple[float, float, float] | None] = []  # where each body was put last
         self.tick = 0
         self.held: Held | None = None
         self.installed: list[str] = []
@@ -144,6 +150,7 @@ class SimEnv:
         self.crowd = Crowd(self.reactive, self.base_grid, seed=self.seed, control_hz=self.control_hz) \
             if self.reactive else None
         self.workers = self._make_workers()
+        self._worker_placed = [None] * len(self.workers)
         self.tick = 0
         self.held = None
         self.installed = []
@@ -286,7 +293,8 @@ class SimEnv:
     def follow(self) -> None:
         """Put the held element where the grasp holds it (after a kinematic robot motion)."""
         if self.held is not None:
-            frame = self.tool_frame() @ np.linalg.inv(self.held.tool_in_element)
+            assert self.held.element_in_tool is not None
+            frame = self.tool_frame() @ self.held.element_in_tool
             self.set_element_frame(self.held.element.iri, frame)
 
     def detach(self) -> WorldElement:
@@ -372,10 +380,15 @@ class SimEnv:
         import pybullet as p
 
         z = self.world.ground_z + WORKER_HEIGHT_M / 2
-        for w, (x, y, heading) in zip(self.workers, self.worker_poses(), strict=True):
+        placed = self._worker_placed
+        for k, (w, pose) in enumerate(zip(self.workers, self.worker_poses(), strict=True)):
+            if placed[k] == pose:  # standing where the body already is (kinematic, mass 0)
+                continue
+            x, y, heading = pose
             orn = p.getQuaternionFromEuler([0.0, 0.0, heading])
             p.resetBasePositionAndOrientation(w.body, [x, y, z], orn,
                                               physicsClientId=self.client)
+            placed[k] = pose
 
 
 def _translation(v: Sequence[float]) -> Matrix:

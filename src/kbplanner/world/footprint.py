@@ -179,12 +179,19 @@ class ConfigurationSpace:
         padded = np.pad(grid.occupied, h, constant_values=True).astype(np.float32)
         free = np.empty((n_yaw_bins, *grid.shape), dtype=bool)
         # Correlation by FFT with the grid's transform computed once for all bins (the kernels are
-        # padded to one size); hits < 0.5 means no occupied cell under the swept footprint.
+        # padded to one size); hits < 0.5 means no occupied cell under the swept footprint. The
+        # transform is circular: a length of at least the padded grid's keeps every wrapped-around
+        # term out of the cells kept (rows/columns size-1 .. size-1+n-1 of the correlation).
         size = 2 * h + 1
-        shape = tuple(sp_fft.next_fast_len(n + size - 1, real=True) for n in padded.shape)
+        shape = tuple(sp_fft.next_fast_len(n, real=True) for n in padded.shape)
         grid_f = sp_fft.rfft2(padded, shape)
         ny, nx = grid.shape
+        seen: dict[tuple[tuple[int, ...], bytes], int] = {}  # a kernel met before: the same free map
         for k, kern in enumerate(kernels):
+            j = seen.setdefault((kern.shape, kern.tobytes()), k)
+            if j != k:  # e.g. a centrally symmetric footprint half a turn later
+                free[k] = free[j]
+                continue
             hk = kern.shape[0] // 2
             full = np.zeros((size, size), dtype=np.float32)
             full[h - hk : h + hk + 1, h - hk : h + hk + 1] = kern
