@@ -161,9 +161,12 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
                 sel = project.select_robots()
                 atomic_write_text(sdir / "robots.txt", sel.text())
             with clock.stage("world", name):
+                from kbplanner.world.build import world_of
                 from kbplanner.world.exports import export_world
+                from kbplanner.world.tables import world_tables
 
-                world = project.world()
+                tables = world_tables(project)  # read once: this world, then every task's (--tasks all)
+                world = world_of(project, tables=tables)
                 exported = export_world(world, sdir / "world")
             summary = ScenarioSummary(
                 name=name, conforms=val.conforms, violations=len(val.violations),
@@ -180,7 +183,7 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
                     truns = simulate_tasks(project_dir, name, out_dir=sdir / "tasks",
                                            main_dir=sdir / "simulation", keyframes=True, workers=workers,
                                            seed=seed, progress=say, project=project,
-                                           max_elements=max_elements)
+                                           max_elements=max_elements, tables=tables)
                 summary.simulated, summary.installed, summary.elements = True, truns.installed, truns.elements
                 summary.tasks = len(truns.tasks)
                 summary.sim_time_s = truns.sim_time_s
