@@ -10,6 +10,7 @@ run directory is assembled in ``OUT.partial`` and renamed when complete.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import resource
 import sys
@@ -129,9 +130,16 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
     manifest = read_manifest(project_dir)
     names = scenarios if scenarios is not None else sorted(manifest.scenarios)
     clock = _Clock(say)
-    with run_directory(out_dir) as stage:
+    with run_directory(out_dir) as stage, contextlib.ExitStack() as later:
         with clock.stage("import and load"):
             bare = Project.load(project_dir)
+        pool = None
+        if simulate and tasks == "all" and workers > 1 and names:
+            from kbplanner.scale.task_runs import TaskPool
+
+            # worker processes load the first scenario (the IFC import is cached now) while this one
+            # derives the requirements, validates and builds the world
+            pool = later.enter_context(TaskPool(project_dir, names[0], workers))
         with clock.stage("summary"):
             info = bare.info()
             write_json(stage / "info.json", asdict(info))
@@ -183,7 +191,7 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
                     truns = simulate_tasks(project_dir, name, out_dir=sdir / "tasks",
                                            main_dir=sdir / "simulation", keyframes=True, workers=workers,
                                            seed=seed, progress=say, project=project,
-                                           max_elements=max_elements, tables=tables)
+                                           max_elements=max_elements, tables=tables, pool=pool)
                 summary.simulated, summary.installed, summary.elements = True, truns.installed, truns.elements
                 summary.tasks = len(truns.tasks)
                 summary.sim_time_s = truns.sim_time_s

@@ -18,6 +18,7 @@ Example:
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import multiprocessing
 import os
@@ -170,6 +171,49 @@ def _project(project_dir: Path, scenario: str | None) -> tuple[ProjectData, Worl
 _Outcome = tuple[TaskFigures, ScenarioRun | None, float]
 
 
+def _warm(project_dir: Path, scenario: str | None) -> None:
+    """A new worker process loads the scenario and its world tables before its first task. An error is
+    left for the task to raise (with its message) when it loads them again."""
+    try:
+        _project(project_dir, scenario)
+    except Exception as exc:  # the task raises it again, as a task's error
+        log.info("worker process could not load %s (%s): %s", project_dir, scenario, exc)
+
+
+def _started() -> None:
+    """Nothing: submitted once per worker process so that each starts (and warms up) at once."""
+
+
+class TaskPool:
+    """The ``workers - 1`` spawned processes of :func:`simulate_tasks`, started ahead of it.
+
+    Each process loads the scenario and its world tables as soon as it starts, so a caller that has
+    other work first (the pipeline: requirements, validation, the world) hands over warm processes.
+    Use as a context manager; leaving it on an error stops the processes without waiting.
+    """
+
+    def __init__(self, project_dir: Path, scenario: str | None, workers: int) -> None:
+        self.children = max(0, workers - 1)
+        self.executor: ProcessPoolExecutor | None = None
+        if self.children:
+            self.executor = ProcessPoolExecutor(max_workers=self.children,
+                                                mp_context=multiprocessing.get_context("spawn"),
+                                                initializer=_warm, initargs=(project_dir, scenario))
+            for _ in range(self.children):  # the pool starts a process per submission while none is idle
+                self.executor.submit(_started)
+
+    def __enter__(self) -> TaskPool:
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, *_exc: object) -> None:
+        if self.executor is None:
+            return
+        if exc_type is not None:  # an error: do not wait for a process still loading the project
+            for proc in list(getattr(self.executor, "_processes", {}).values()):
+                proc.terminate()
+        self.executor.shutdown(wait=exc_type is None, cancel_futures=True)
+
+
 def _run(job: _Job) -> _Outcome:
     t0 = time.perf_counter()
     project, tables = _project(job.project_dir, job.scenario)
@@ -189,7 +233,7 @@ def _run(job: _Job) -> _Outcome:
 
 
 def _dispatch(jobs: Sequence[_Job], order: Sequence[int], workers: int,
-              tell: Callable[[_Job, _Outcome], None]) -> dict[int, _Outcome]:
+              tell: Callable[[_Job, _Outcome], None], pool: TaskPool | None = None) -> dict[int, _Outcome]:
     """Run ``jobs`` (taken in ``order``) on ``workers`` processes: this one and ``workers - 1`` spawned.
 
     This process takes the next job whenever it is free, and so does each spawned process (one thread
@@ -213,17 +257,18 @@ def _dispatch(jobs: Sequence[_Job], order: Sequence[int], workers: int,
                 done[i] = outcome
                 tell(jobs[i], outcome)
 
-    def feed(pool: ProcessPoolExecutor) -> None:
+    def feed(pool: ProcessPoolExecutor | None) -> None:
+        assert pool is not None  # a thread per spawned process
         while (i := take()) is not None:
             try:
                 record(i, pool.submit(_run, jobs[i]).result(), None)
             except BaseException as exc:  # raised again in the calling thread
                 record(i, None, exc)
 
-    ctx = multiprocessing.get_context("spawn")
-    children = min(workers, len(jobs)) - 1
-    with ProcessPoolExecutor(max_workers=children, mp_context=ctx) as pool:
-        threads = [threading.Thread(target=feed, args=(pool,), daemon=True) for _ in range(children)]
+    with (TaskPool(jobs[0].project_dir, jobs[0].scenario, min(workers, len(jobs))) if pool is None
+          else contextlib.nullcontext(pool)) as tp:
+        children = min(tp.children, len(jobs) - 1)
+        threads = [threading.Thread(target=feed, args=(tp.executor,), daemon=True) for _ in range(children)]
         for t in threads:
             t.start()
         while (i := take()) is not None:
@@ -276,6 +321,7 @@ def simulate_tasks(
     project: ProjectData | None = None,
     max_elements: int | None = None,
     tables: WorldTables | None = None,
+    pool: TaskPool | None = None,
 ) -> TaskRunsResult:
     """Simulate every robotized task (or ``tasks``) of a scenario; see the module docstring.
 
@@ -285,6 +331,7 @@ def simulate_tasks(
     simulates the first elements of each task only. ``project`` (the loaded scenario) and ``tables`` (its
     world tables) save reading them again in this process, which runs tasks too: with ``workers`` = N,
     this process and N - 1 spawned ones each take the next task when free, the largest first.
+    ``pool`` (a :class:`TaskPool` of the same project and scenario, started ahead) gives the spawned ones.
 
     Raises:
         KbplannerError: an unknown task id, fewer than one worker.
@@ -336,7 +383,7 @@ def simulate_tasks(
         for job in jobs:
             tell(job, _run(job))
     else:
-        _dispatch(jobs, _longest_first(jobs, sizes), workers, tell)
+        _dispatch(jobs, _longest_first(jobs, sizes), workers, tell, pool)
     result.wall_s = time.perf_counter() - t0
     for job in jobs:
         fig, run, wall = done[job.task_id]
