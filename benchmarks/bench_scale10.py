@@ -9,11 +9,12 @@ empty cache (``KBPLANNER_CACHE_DIR``: both start cold, neither reuses the other'
 
 into the same ``RUN`` path (the first run's folder is moved aside), so that every file can be compared
 byte for byte: all but the wall-clock ones (``run_timings.json``, ``tasks_timings.json``, each run's
-``timing.json``) and the run folder's marker (it names the command). Records per command the wall time,
-CPU seconds and peak memory of its process tree (``os.wait4``), the pipeline's stage times, per
-scenario installed / elements and simulated time; ratios are baseline / this tree (> 1: faster now),
-from the median over rounds; the load average before and after (the machine may be shared: CPU
-seconds are the steadier figure).
+``timing.json``) and the run folders' markers (they name the command: the baseline's worker processes
+wrote "kbplanner (Python API)" into the task folders, this tree's the command that was run). Records
+per command the wall time, CPU seconds and peak memory of its process tree (``os.wait4``), the
+pipeline's stage times, per scenario installed / elements and simulated time; ratios are baseline /
+this tree (> 1: faster now), from the median over rounds; the load average before and after (the
+machine may be shared: CPU seconds are the steadier figure).
 
 Usage: .venv/bin/python benchmarks/bench_scale10.py [--before REF] [--size 10x8] [--workers 2]
        [--max-elements N] [--rounds N] [--out FILE]
@@ -50,7 +51,7 @@ def _export(ref: str, into: Path) -> Path:
 
 def _files(root: Path) -> dict[str, bytes]:
     return {p.relative_to(root).as_posix(): p.read_bytes() for p in sorted(root.rglob("*"))
-            if p.is_file() and p.name not in WALL_CLOCK and p.relative_to(root).as_posix() != MARKER}
+            if p.is_file() and p.name not in WALL_CLOCK and p.name != MARKER}
 
 
 def _read(path: Path) -> Any:

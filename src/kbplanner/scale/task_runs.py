@@ -37,6 +37,7 @@ from kbplanner.analysis.report import scenario_figures
 from kbplanner.analysis.run_record import RunRecord
 from kbplanner.analysis.work_done import work_done
 from kbplanner.core.errors import KbplannerError
+from kbplanner.core.output_dirs import current_command, output_options
 from kbplanner.core.outputs import atomic_write_text, write_json
 from kbplanner.core.tables import render
 from kbplanner.model.project_data import ProjectData
@@ -145,6 +146,7 @@ class _Job:
     keyframes: bool
     main: bool
     max_elements: int | None
+    command: str = ""  # recorded in each run folder's marker, whichever process writes it
 
 
 _LOADED: dict[tuple[str, str | None], ProjectData] = {}
@@ -217,9 +219,10 @@ class TaskPool:
 def _run(job: _Job) -> _Outcome:
     t0 = time.perf_counter()
     project, tables = _project(job.project_dir, job.scenario)
-    run = simulate_scenario(job.project_dir, job.scenario, seed=job.seed, out_dir=job.out_dir,
-                            keyframes=job.keyframes, task_id=job.task_id, project=project,
-                            max_elements=job.max_elements, tables=tables)
+    with output_options(command=job.command or None):
+        run = simulate_scenario(job.project_dir, job.scenario, seed=job.seed, out_dir=job.out_dir,
+                                keyframes=job.keyframes, task_id=job.task_id, project=project,
+                                max_elements=job.max_elements, tables=tables)
     rec = RunRecord.load(job.out_dir)
     fig = scenario_figures(rec, rec.proximity(threshold_m=1.0))
     world_date = project.world_date(job.task_id).isoformat()  # the date simulate_scenario's world used
@@ -361,7 +364,7 @@ def simulate_tasks(
         where = main_dir if (is_main and main_dir is not None) else out_dir / task_id
         rel = Path(os.path.relpath(where.resolve(), out_dir.resolve())).as_posix()
         jobs.append(_Job(project_dir, scenario, task_id, label, seed, where, rel,
-                         keyframes and is_main, is_main, max_elements))
+                         keyframes and is_main, is_main, max_elements, current_command()))
     key = (str(project_dir.resolve()), scenario)
     _LOADED.clear()
     _TABLES.clear()
