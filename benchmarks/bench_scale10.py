@@ -18,7 +18,8 @@ machine may be shared: CPU seconds are the steadier figure).
 
 Usage: .venv/bin/python benchmarks/bench_scale10.py [--before REF] [--size 10x8] [--workers 2]
        [--max-elements N] [--rounds N] [--out FILE]
-Prints a table and writes benchmarks/results/scale10.json (or --out).
+Prints a table and writes benchmarks/results/scale10.json (or --out); ``bench_scale10.py --table FILE``
+prints the docs/scale.md table of a written result.
 """
 
 from __future__ import annotations
@@ -88,7 +89,24 @@ def _median(rows: list[dict[str, Any]], key: str) -> float | None:
     return round(statistics.median(values), 2) if values else None
 
 
+def markdown(result: dict[str, Any]) -> str:
+    """The docs/scale.md table of a result (``--table FILE``: the figures are printed, never retyped)."""
+    b, a = result["before"], result["after"]
+    rows = [("`kbplanner run`, wall", b["run_s"], a["run_s"], result["ratio_wall"]),
+            ("`kbplanner run`, CPU (all processes)", b["run_cpu_s"], a["run_cpu_s"], result["ratio_cpu"])]
+    sb, sa = b["runs"][-1]["stages"], a["runs"][-1]["stages"]
+    rows += [(f"stage: {k}", sb.get(k), sa.get(k), round(sb[k] / sa[k], 2) if sa.get(k) else None)
+             for k in sb]
+    lines = ["| | before | after | ratio |", "| --- | ---: | ---: | ---: |"]
+    lines += [f"| {n} | {x:.1f} s | {y:.1f} s | {r if r is not None else ''} |" for n, x, y, r in rows
+              if x is not None and y is not None]
+    return "\n".join(lines) + "\n"
+
+
 def main(argv: list[str] | None = None) -> int:
+    if argv is None and sys.argv[1:2] == ["--table"]:
+        sys.stdout.write(markdown(json.loads(Path(sys.argv[2]).read_text(encoding="utf-8"))))
+        return 0
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--before", default="main", help="git ref of the baseline (default main)")
     ap.add_argument("--size", default="10x8", help="STOREYSxUNITS of the generated building (default 10x8)")
