@@ -133,13 +133,6 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
     with run_directory(out_dir) as stage, contextlib.ExitStack() as later:
         with clock.stage("import and load"):
             bare = Project.load(project_dir)
-        pool = None
-        if simulate and tasks == "all" and workers > 1 and names:
-            from kbplanner.scale.task_runs import TaskPool
-
-            # worker processes load the first scenario (the IFC import is cached now) while this one
-            # derives the requirements, validates and builds the world
-            pool = later.enter_context(TaskPool(project_dir, names[0], workers))
         with clock.stage("summary"):
             info = bare.info()
             write_json(stage / "info.json", asdict(info))
@@ -161,6 +154,13 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
             sdir = stage / "scenarios" / name
             with clock.stage("load", name):
                 project = Project.load(project_dir, scenario=name)
+            pool = None
+            if simulate and tasks == "all" and workers > 1:
+                from kbplanner.scale.task_runs import TaskPool
+
+                # worker processes load the scenario (from the project cache now) while this one
+                # validates it, selects robots and builds the world
+                pool = later.enter_context(TaskPool(project_dir, name, workers))
             with clock.stage("validation", name):
                 val = project.validate()
                 val.write(sdir / "validation.ttl")
@@ -208,6 +208,7 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
                 summary.simulated, summary.installed, summary.elements = True, srun.installed, srun.elements
                 sims.append(srun)
                 sel_rows = [list(r) for r in sel.rows()]
+            later.close()  # this scenario's worker processes end here
         if sims:
             with clock.stage("comparison and report"):
                 result.comparison = write_outputs(project_dir, sims, stage, requirements=req,

@@ -153,17 +153,23 @@ _LOADED: dict[tuple[str, str | None], ProjectData] = {}
 _TABLES: dict[tuple[str, str | None], WorldTables] = {}
 
 
-def _project(project_dir: Path, scenario: str | None) -> tuple[ProjectData, WorldTables]:
-    """The loaded scenario and its world tables, once per process (a worker process simulates several
-    tasks; each task's world is built from the same tables instead of reading the building again)."""
-    from kbplanner.world.tables import world_tables
-
+def _loaded(project_dir: Path, scenario: str | None) -> ProjectData:
+    """The loaded scenario, once per process (a worker process simulates several tasks)."""
     key = (str(project_dir.resolve()), scenario)
     if key not in _LOADED:
         _LOADED.clear()
         _TABLES.clear()
         _LOADED[key] = ProjectData.load(project_dir, scenario=scenario)
-    project = _LOADED[key]
+    return _LOADED[key]
+
+
+def _project(project_dir: Path, scenario: str | None) -> tuple[ProjectData, WorldTables]:
+    """The loaded scenario and its world tables, once per process (each task's world is built from the
+    same tables instead of reading the building again)."""
+    from kbplanner.world.tables import world_tables
+
+    project = _loaded(project_dir, scenario)
+    key = (str(project_dir.resolve()), scenario)
     tables = _TABLES.get(key)
     if tables is None or tables.model_id != id(project.model):
         tables = _TABLES[key] = world_tables(project)
@@ -174,10 +180,11 @@ _Outcome = tuple[TaskFigures, ScenarioRun | None, float]
 
 
 def _warm(project_dir: Path, scenario: str | None) -> None:
-    """A new worker process loads the scenario and its world tables before its first task. An error is
-    left for the task to raise (with its message) when it loads them again."""
+    """A new worker process loads the scenario before its first task (its world tables at the first
+    task: by then the project cache holds their rows). An error is left for the task to raise (with
+    its message) when it loads the scenario again."""
     try:
-        _project(project_dir, scenario)
+        _loaded(project_dir, scenario)
     except Exception as exc:  # the task raises it again, as a task's error
         log.info("worker process could not load %s (%s): %s", project_dir, scenario, exc)
 
@@ -189,8 +196,8 @@ def _started() -> None:
 class TaskPool:
     """The ``workers - 1`` spawned processes of :func:`simulate_tasks`, started ahead of it.
 
-    Each process loads the scenario and its world tables as soon as it starts, so a caller that has
-    other work first (the pipeline: requirements, validation, the world) hands over warm processes.
+    Each process loads the scenario as soon as it starts, so a caller that has other work first (the
+    pipeline: validation, the world) hands over warm processes.
     Use as a context manager; leaving it on an error stops the processes without waiting.
     """
 
