@@ -104,3 +104,42 @@ def test_a_robot_arrival_without_an_elevation_does_not_conform(building: Path) -
     result = project.validate()
     assert not result.conforms
     assert any("kbp:z" in r.message for r in result.violations)
+
+
+def _files(root: Path) -> dict[str, bytes]:
+    return {p.relative_to(root).as_posix(): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
+
+
+# wall-clock files (not deterministic by design: docs/scale.md); the run folders' markers name the command
+# (with its --workers)
+WALL_CLOCK = {"run_timings.json", "tasks_timings.json", "timing.json", ".kbplanner-run"}
+
+
+@pytest.mark.slow  # about 60 s: two pipeline runs of three storeys
+def test_a_whole_building_run_writes_the_same_files_serially_and_on_two_processes(
+        tmp_path_factory: pytest.TempPathFactory, tmp_path: Path) -> None:
+    project = tmp_path_factory.mktemp("tasks3") / "b3x1"
+    generate_building(project, storeys=3, units_per_storey=1)
+    runs = {}
+    for workers in (1, 2):
+        out = tmp_path / f"w{workers}"
+        code = main(["run", str(project), "--out", str(out), "--tasks", "all", "--workers", str(workers),
+                     "--max-elements", "1", "--scenario", SCENARIO])
+        assert code == 0
+        runs[workers] = {k: v for k, v in _files(out).items() if k.rsplit("/", 1)[-1] not in WALL_CLOCK}
+    assert sorted(runs[1]) == sorted(runs[2])
+    assert "scenarios/storage-in-units/tasks/T-FRAME-L03/trajectories.csv" in runs[1]
+    assert [k for k in runs[1] if runs[1][k] != runs[2][k]] == []
+    tasks = tmp_path / "w2" / "scenarios" / SCENARIO / "tasks"
+    marker = json.loads((tasks / "T-FRAME-L02" / ".kbplanner-run").read_text())
+    assert marker["command"].startswith("kbplanner run ")  # the command, whichever process ran the task
+
+
+def test_tasks_start_with_the_main_task_then_the_largest() -> None:
+    from kbplanner.scale.task_runs import _Job, _longest_first
+
+    def job(task_id: str, main: bool = False) -> _Job:
+        return _Job(Path("p"), None, task_id, task_id, None, Path("o"), task_id, False, main, None)
+
+    jobs = [job("A"), job("B"), job("C", main=True), job("D")]
+    assert _longest_first(jobs, [5, 9, 1, 9]) == [2, 1, 3, 0]

@@ -10,6 +10,7 @@ run directory is assembled in ``OUT.partial`` and renamed when complete.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import resource
 import sys
@@ -129,7 +130,7 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
     manifest = read_manifest(project_dir)
     names = scenarios if scenarios is not None else sorted(manifest.scenarios)
     clock = _Clock(say)
-    with run_directory(out_dir) as stage:
+    with run_directory(out_dir) as stage, contextlib.ExitStack() as later:
         with clock.stage("import and load"):
             bare = Project.load(project_dir)
         with clock.stage("summary"):
@@ -153,6 +154,13 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
             sdir = stage / "scenarios" / name
             with clock.stage("load", name):
                 project = Project.load(project_dir, scenario=name)
+            pool = None
+            if simulate and tasks == "all" and workers > 1:
+                from kbplanner.scale.task_runs import TaskPool
+
+                # worker processes load the scenario (from the project cache now) while this one
+                # validates it, selects robots and builds the world
+                pool = later.enter_context(TaskPool(project_dir, name, workers))
             with clock.stage("validation", name):
                 val = project.validate()
                 val.write(sdir / "validation.ttl")
@@ -161,9 +169,12 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
                 sel = project.select_robots()
                 atomic_write_text(sdir / "robots.txt", sel.text())
             with clock.stage("world", name):
+                from kbplanner.world.build import world_of
                 from kbplanner.world.exports import export_world
+                from kbplanner.world.tables import world_tables
 
-                world = project.world()
+                tables = world_tables(project)  # read once: this world, then every task's (--tasks all)
+                world = world_of(project, tables=tables)
                 exported = export_world(world, sdir / "world")
             summary = ScenarioSummary(
                 name=name, conforms=val.conforms, violations=len(val.violations),
@@ -180,7 +191,7 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
                     truns = simulate_tasks(project_dir, name, out_dir=sdir / "tasks",
                                            main_dir=sdir / "simulation", keyframes=True, workers=workers,
                                            seed=seed, progress=say, project=project,
-                                           max_elements=max_elements)
+                                           max_elements=max_elements, tables=tables, pool=pool)
                 summary.simulated, summary.installed, summary.elements = True, truns.installed, truns.elements
                 summary.tasks = len(truns.tasks)
                 summary.sim_time_s = truns.sim_time_s
@@ -197,6 +208,7 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
                 summary.simulated, summary.installed, summary.elements = True, srun.installed, srun.elements
                 sims.append(srun)
                 sel_rows = [list(r) for r in sel.rows()]
+            later.close()  # this scenario's worker processes end here
         if sims:
             with clock.stage("comparison and report"):
                 result.comparison = write_outputs(project_dir, sims, stage, requirements=req,

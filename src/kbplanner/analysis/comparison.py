@@ -44,6 +44,7 @@ from kbplanner.world.occupancy import OccupancyGrid
 
 if TYPE_CHECKING:
     from kbplanner.simulation.skills import ExecSettings
+    from kbplanner.world.tables import WorldTables
 
 log = logging.getLogger(__name__)
 
@@ -75,13 +76,16 @@ def simulate_scenario(
     project: ProjectData | None = None,
     max_elements: int | None = None,
     settings: ExecSettings | None = None,
+    tables: WorldTables | None = None,
 ) -> ScenarioRun:
     """B1-B5 for one scenario into ``out_dir``; returns the run and its map for the report.
 
     ``task_id`` (default ``[simulation] task``) and ``at`` (the world's date, default ``[simulation]
     date``) choose another robotized task; ``project`` is the loaded scenario, to save loading it again;
     ``max_elements`` keeps the first elements of the plan's order only (a quick look, tests);
-    ``settings`` the executor's (monitoring, scripted workers; default: key frames, monitoring on).
+    ``settings`` the executor's (monitoring, scripted workers; default: key frames, monitoring on);
+    ``tables`` the project's world tables (:func:`kbplanner.world.tables.world_tables`), to save reading
+    the building again when several tasks of one project are simulated (same world, same run).
     """
     from kbplanner.planning.manipulation import refine_plan
     from kbplanner.planning.planner import plan_task
@@ -94,7 +98,7 @@ def simulate_scenario(
     if project is None:
         project = ProjectData.load(project_dir, scenario=scenario)
     seed = project.manifest.seed if seed is None else seed
-    world = world_of(project, at, task_id)
+    world = world_of(project, at, task_id, tables=tables)
     plan = plan_task(project, task_id, world=world)
     if max_elements is not None:
         plan.keep_first(max_elements)

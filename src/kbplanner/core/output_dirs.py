@@ -54,6 +54,11 @@ def output_options(*, force: bool = False, command: str | None = None) -> Iterat
         _COMMAND.reset(t2)
 
 
+def current_command() -> str:
+    """The command run directories record in their marker here (set by :func:`output_options`)."""
+    return _COMMAND.get()
+
+
 def _version() -> str:
     from kbplanner.core.version import __version__
 

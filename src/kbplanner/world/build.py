@@ -265,10 +265,12 @@ def ground_level_storey(world: World, storey: StoreyInfo) -> bool:
     return abs(storey.elevation_m - world.ground_z) <= GROUND_STOREY_TOLERANCE_M
 
 
-def world_of(project: ProjectData, at: datetime | str | None = None, task_id: str | None = None) -> World:
-    """A6: the world of a task at a date (default: the task's :meth:`ProjectData.world_date`)."""
+def world_of(project: ProjectData, at: datetime | str | None = None, task_id: str | None = None, *,
+             tables: WorldTables | None = None) -> World:
+    """A6: the world of a task at a date (default: the task's :meth:`ProjectData.world_date`); ``tables``
+    (:func:`world_tables` of the same project) saves reading the building again (several tasks)."""
     when = at if at is not None else project.world_date(task_id)
     if isinstance(when, str):
         when = parse_date(when)
-    return build_world(project, when, task_id=task_id)
+    return build_world(project, when, task_id=task_id, tables=tables)
 
