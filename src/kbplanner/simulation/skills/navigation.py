@@ -10,8 +10,9 @@ storey's occupancy grid with the elements installed so far) and the step's effec
   carry poses). Planning runs on a window of the grid around start and goal (4 m, then 10 m margin,
   then the whole map: cells off a window count as occupied, so a path found in a window is valid),
   seeded from the run seed and the step number.
-- **Time.** :func:`kbplanner.simulation.navigation.time_parameterize` at the control rate with the step's
-  ``maxSpeed`` (capped at the base's top speed), the base's yaw rate and accelerations.
+- **Time.** :func:`kbplanner.simulation.base_trajectory.time_parameterize` at the control rate with the step's
+  ``maxSpeed`` (capped at the base's top speed), the base's yaw rate and accelerations; corners are rounded
+  where the curve is free in the configuration space the piece was planned in (turning while driving).
 - **Carry modes.** NV-2 first turns the element from the lift pose into the carry pose of the first
   stretch ("carry_pose"); before each narrow stretch the arm turns it on its side ("rotate_to_narrow",
   the base standing still) and after it back ("rotate_back"), at the arm's joint speed.
@@ -26,7 +27,6 @@ storey's occupancy grid with the elements installed so far) and the step's effec
 
 from __future__ import annotations
 
-import itertools
 import logging
 import math
 import zlib
@@ -93,22 +93,16 @@ def _nearest_free_pose(checker: PoseChecker, start: Pose2D, footprints: list[Foo
 
 @dataclass
 class _Route:
-    """A planned route: pieces of path, each with the carry mode to drive it in ("" without a load)."""
+    """A planned route: pieces of path, each with the carry mode to drive it in ("" without a load) and
+    the configuration space it was planned in (its corners are rounded where they fit there; None: kept)."""
 
-    pieces: list[tuple[list[Pose2D], str]]
+    pieces: list[tuple[list[Pose2D], str, ConfigurationSpace | None]]
     length_m: float
     narrow_length_m: float
 
 
 def _route_of(cp: CarryPlan) -> _Route:
-    poses = list(cp.path.poses)
-    cuts = sorted({0, len(poses) - 1, *(i for seg in cp.segments for i in (seg.start_index, seg.end_index))})
-    spans = [(seg.start_index, seg.end_index) for seg in cp.segments]
-    pieces = []
-    for a, b in itertools.pairwise(cuts):
-        inside = any(lo <= a and b <= hi for lo, hi in spans)
-        pieces.append((poses[a:b + 1], NARROW if inside else NORMAL))
-    return _Route(pieces or [(poses, NORMAL)], cp.path.length_m, float(cp.extra.get("narrow_length_m", 0.0)))
+    return _Route(cp.pieces(), cp.path.length_m, float(cp.extra.get("narrow_length_m", 0.0)))
 
 
 @dataclass
@@ -254,7 +248,7 @@ class NavigationSkill(Skill):
                     mode = ""
                     if self.geo is not None:
                         mode = NORMAL if fp == self.geo.footprint(NORMAL) else NARROW
-                    return _Route([(list(path.poses), mode)], path.length_m, 0.0 if mode != NARROW else
+                    return _Route([(list(path.poses), mode, cs)], path.length_m, 0.0 if mode != NARROW else
                                   path.length_m)
                 why = path.reason
             else:
@@ -308,7 +302,7 @@ class NavigationSkill(Skill):
                 mode = (self.c.carry_mode or NORMAL) if self.geo is not None else ""
                 step = math.hypot(free[0] - start[0], free[1] - start[1])
                 self.c.emit("unstick", x=round(start[0], 3), y=round(start[1], 3), distance_m=round(step, 3))
-                return _Route([([start, free], mode), *rest.pieces], rest.length_m + step,
+                return _Route([([start, free], mode, None), *rest.pieces], rest.length_m + step,
                               rest.narrow_length_m)
         return self._plan_from(grid, start, normal, narrow)
 
@@ -351,7 +345,7 @@ class NavigationSkill(Skill):
         self.details["path_length_m"] += route.length_m
         self.details["narrow_length_m"] += route.narrow_length_m
         mode = self.c.carry_mode
-        for piece, pmode in route.pieces:
+        for piece, pmode, space in route.pieces:
             if self.geo is not None and pmode != mode:
                 q = list(self.geo.mode(pmode).joints)
                 if first and mode not in (NORMAL, NARROW):
@@ -362,7 +356,7 @@ class NavigationSkill(Skill):
                 mode = pmode
             if len(piece) >= 2:
                 traj = time_parameterize(piece, self.max_speed, base.max_yaw_rate_rps, base.max_accel_mps2,
-                                         base.max_yaw_accel_rps2, rate_hz=env.control_hz)
+                                         base.max_yaw_accel_rps2, rate_hz=env.control_hz, space=space)
                 if len(traj.poses) >= 2:
                     self.queue.append(_Drive(list(traj.poses), pmode))
             first = False
