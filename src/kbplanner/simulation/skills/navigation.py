@@ -49,7 +49,9 @@ from kbplanner.simulation.path_quality import YARDSTICK_MARGIN_M, shortest_path_
 from kbplanner.simulation.separation import reach_m
 from kbplanner.simulation.separation_monitor import SeparationMonitor
 from kbplanner.simulation.skills.base import JointPath, Skill, Status
+from kbplanner.simulation.skills.load_turn import best_turn_pose, turn_poses
 from kbplanner.simulation.skills.make_way import ask_way
+from kbplanner.simulation.skills.nav_grid import nearest_free_pose, window
 from kbplanner.simulation.workers import WORKER_RADIUS_M
 from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect
 from kbplanner.world.occupancy import OccupancyGrid
@@ -57,38 +59,6 @@ from kbplanner.world.occupancy import OccupancyGrid
 log = logging.getLogger(__name__)
 
 Pose2D = tuple[float, float, float]
-
-
-def window(grid: OccupancyGrid, points: list[tuple[float, float]], margin_m: float | None) -> OccupancyGrid:
-    """The part of ``grid`` around ``points`` plus ``margin_m`` (None: the whole grid)."""
-    if margin_m is None:
-        return grid
-    res = grid.resolution
-    ny, nx = grid.shape
-    xs = [p[0] for p in points]
-    ys = [p[1] for p in points]
-    ix0 = max(0, math.floor((min(xs) - margin_m - grid.origin[0]) / res))
-    iy0 = max(0, math.floor((min(ys) - margin_m - grid.origin[1]) / res))
-    ix1 = min(nx, math.ceil((max(xs) + margin_m - grid.origin[0]) / res))
-    iy1 = min(ny, math.ceil((max(ys) + margin_m - grid.origin[1]) / res))
-    return OccupancyGrid(occupied=grid.occupied[iy0:iy1, ix0:ix1].copy(),
-                         origin=(grid.origin[0] + ix0 * res, grid.origin[1] + iy0 * res), resolution=res,
-                         band=grid.band)
-
-
-UNSTICK_RADIUS_M = 0.5  # how far the robot may move straight to leave a blocked start pose
-
-
-def _nearest_free_pose(checker: PoseChecker, start: Pose2D, footprints: list[Footprint]) -> Pose2D | None:
-    """The nearest pose (rings of 2.5 cm, 16 bearings, same heading) where any of the footprints is free."""
-    for k in range(1, int(UNSTICK_RADIUS_M / 0.025) + 1):
-        r = 0.025 * k
-        for j in range(16):
-            x = start[0] + r * math.cos(j * math.pi / 8)
-            y = start[1] + r * math.sin(j * math.pi / 8)
-            if any(checker.free(f, x, y, start[2]) for f in footprints):
-                return (x, y, start[2])
-    return None
 
 
 @dataclass
@@ -265,19 +235,16 @@ class NavigationSkill(Skill):
                 break  # a bigger window does not help
         return "; ".join(reasons)
 
-    def _via(self, checker: PoseChecker, near: Pose2D) -> Pose2D | None:
-        """The nearest pose to ``near`` where both carry footprints fit (rings of 0.25 m, 16 bearings)."""
-        assert self.geo is not None
-        fps = (self.geo.footprint(NORMAL), self.geo.footprint(NARROW))
-        for k in range(1, 13):
-            r = 0.25 * k
-            for j in range(16):
-                bearing = near[2] + math.pi + j * math.pi / 8  # behind the robot first
-                x, y = near[0] + r * math.cos(bearing), near[1] + r * math.sin(bearing)
-                for yaw in (near[2], near[2] + math.pi / 2, near[2] - math.pi / 2, near[2] + math.pi):
-                    if all(checker.free(f, x, y, yaw) for f in fps):
-                        return (x, y, math.atan2(math.sin(yaw), math.cos(yaw)))
-        return None
+    def _timed(self, leg: _Route | str, why: list[str]) -> tuple[_Route, float] | None:
+        """A planned leg and how long driving it takes (None, the reason kept in ``why``, if it failed)."""
+        if isinstance(leg, str):
+            why.append(leg)
+            return None
+        base = self.c.env.robot.spec.base
+        seconds = sum(time_parameterize(p, self.max_speed, base.max_yaw_rate_rps, base.max_accel_mps2,
+                                        base.max_yaw_accel_rps2, self.c.env.control_hz, space).duration_s
+                      for p, _, space in leg.pieces if len(p) >= 2)
+        return leg, seconds
 
     def _plan(self, start: Pose2D, obstacle: shapely.Geometry | None) -> _Route | str:
         """The route to the goal; NV-2 turns the load at a pose near start or goal when it must.
@@ -294,7 +261,7 @@ class NavigationSkill(Skill):
         checker = PoseChecker(grid)
         fps = [normal] if narrow is None else [normal, narrow]
         if not any(checker.free(f, *start) for f in fps):
-            free = _nearest_free_pose(checker, start, fps)
+            free = nearest_free_pose(checker, start, fps)
             if free is not None:
                 rest = self._plan_from(grid, free, normal, narrow)
                 if isinstance(rest, str):
@@ -321,20 +288,37 @@ class NavigationSkill(Skill):
         if not free_start or not free_goal:
             where = "start" if not free_start else "base pose"
             return f"no path to the base pose: the held element fits neither way at the {where} ({first})"
-        v1 = start if len(free_start) == 2 else self._via(checker, start)
-        v2 = self.goal if len(free_goal) == 2 else self._via(checker, self.goal)
-        if v1 is None or v2 is None:
-            return f"no path to the base pose: no room to turn the held element ({first})"
-        legs: list[_Route] = []
-        plan = [(start, v1, free_start[0]), (v1, v2, ""), (v2, self.goal, free_goal[0])]
-        for a, b, mode in plan:
-            if math.hypot(a[0] - b[0], a[1] - b[1]) < 1e-6 and abs(a[2] - b[2]) < 1e-6:
+        geo = self.geo
+        why: list[str] = []
+
+        def fits(x: float, y: float, yaw: float) -> bool:
+            return all(checker.free(geo.footprint(m), x, y, yaw) for m in (NORMAL, NARROW))
+
+        turns: list[tuple[Pose2D, _Route | None]] = []  # where the load turns, near start and goal
+        for i, (near, modes) in enumerate(((start, free_start), (self.goal, free_goal))):
+            if len(modes) == 2:
+                turns.append((near, None))
                 continue
-            leg = self._leg(grid, a, b, normal, narrow) if not mode else \
-                self._leg(grid, a, b, self.geo.footprint(mode), None)
-            if isinstance(leg, str):
-                return f"no path to the base pose ({first}; turning the load on the way: {leg})"
-            legs.append(leg)
+            fp, far = geo.footprint(modes[0]), (self.goal if i == 0 else turns[0][0])
+
+            def leg(v: Pose2D, i: int = i, near: Pose2D = near, fp: Footprint = fp
+                    ) -> tuple[_Route, float] | None:
+                a, b = (near, v) if i == 0 else (v, near)
+                return self._timed(self._leg(grid, a, b, fp, None), why)
+
+            got = best_turn_pose(turn_poses(fits, near), near, far, self.max_speed, leg)
+            if got is None:
+                reason = "; ".join([first, *why[:1]])
+                return f"no path to the base pose: no room to turn the held element ({reason})"
+            turns.append(got)
+        (v1, leg_a), (v2, leg_c) = turns
+        mid: _Route | None = None
+        if math.hypot(v1[0] - v2[0], v1[1] - v2[1]) >= 1e-6 or abs(v1[2] - v2[2]) >= 1e-6:
+            found = self._leg(grid, v1, v2, geo.footprint(NORMAL), geo.footprint(NARROW))
+            if isinstance(found, str):
+                return f"no path to the base pose ({first}; turning the load on the way: {found})"
+            mid = found
+        legs = [r for r in (leg_a, mid, leg_c) if r is not None]
         return _Route([p for leg in legs for p in leg.pieces], sum(leg.length_m for leg in legs),
                       sum(leg.narrow_length_m for leg in legs))
 
