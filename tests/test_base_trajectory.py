@@ -128,3 +128,22 @@ def test_time_parameterisation_is_deterministic() -> None:
     a = time_parameterize(PATH, **LIMITS, space=cs)
     b = time_parameterize(list(PATH), **LIMITS, space=_room())
     assert a == b
+
+
+def test_a_corner_next_to_a_drive_that_turns_as_it_goes_is_rounded_in_se2_within_the_limits() -> None:
+    cs = _room()
+    # the planner's SE(2) fallback: 1.5 m turning by 0.6 rad as it drives, a turn on the spot, then straight
+    end = (2.5 + 2 * math.cos(1.0), 1.0 + 2 * math.sin(1.0), 1.0)
+    path = [(1.0, 1.0, 0.0), (2.5, 1.0, 0.6), (2.5, 1.0, 1.0), end]
+    pieces = blend_corners(path, cs, **LIMITS)
+    assert [type(p) for p in pieces] == [Run]
+    assert path_is_free(cs, pieces[0].poses)  # type: ignore[union-attr]
+    traj = time_parameterize(path, **LIMITS, space=cs)
+    assert traj.duration_s < time_parameterize(path, **LIMITS).duration_s
+    speed, yaw_rate, acc, yaw_acc = _rates(traj)
+    assert speed.max() <= LIMITS["max_speed_mps"] + 1e-9
+    assert np.abs(yaw_rate).max() <= LIMITS["max_yaw_rate_rps"] + 1e-9
+    assert np.abs(acc).max() <= LIMITS["max_accel_mps2"] * 1.02
+    assert np.abs(yaw_acc).max() <= LIMITS["max_yaw_accel_rps2"] * 1.02
+    assert speed[5:-5].min() > 0.05  # no stop at the corner
+    assert traj.poses[-1] == pytest.approx(path[-1])

@@ -5,7 +5,8 @@ rate, accelerations) and, optionally, the configuration space the path was plann
 :func:`time_parameterize` gives a :class:`Trajectory`. The path is cut into pieces
 (:mod:`kbplanner.simulation.path_pieces`): turns on the spot, timed rest to rest (trapezoid), and runs,
 driven without stopping at their inner waypoints: the speed along a run is the largest that keeps
-the top speed, the yaw rate (speed x yaw per metre) and the yaw acceleration within the limits and
+the top speed, the centripetal acceleration (within the acceleration limit), the yaw rate (speed x
+yaw per metre) and the yaw acceleration within the limits and
 reaches each point from rest at the start and to rest at the end within the acceleration (forward and
 backward passes over 1 cm of path). With the configuration space, corners are rounded into curves
 where they fit (the robot turns while driving). The executor moves the base kinematically along the
@@ -129,8 +130,13 @@ def _profile(run: Run, vmax: float, wmax: float, amax: float, alpha: float) -> _
     k1 = np.abs(k1)
     k2 = np.zeros(n)
     k2[1:-1] = np.abs(np.diff(k1c)) / ds
+    # curvature of the centre's path (direction of travel per metre), for the centripetal acceleration
+    heading = np.arctan2(np.diff(np.interp(s, cum, p[:, 1])), np.diff(np.interp(s, cum, p[:, 0])))
+    kappa = np.zeros(n)
+    kappa[1:-1] = np.abs((np.diff(heading) + math.pi) % (2 * math.pi) - math.pi) / ds
     with np.errstate(divide="ignore"):
-        vlim = np.minimum(vmax, np.where(k1 > 1e-12, wmax / np.maximum(k1, 1e-300), np.inf))
+        vlim = np.minimum(vmax, np.where(kappa > 1e-12, np.sqrt(amax / np.maximum(kappa, 1e-300)), np.inf))
+        vlim = np.minimum(vlim, np.where(k1 > 1e-12, wmax / np.maximum(k1, 1e-300), np.inf))
         vlim = np.minimum(vlim, np.where(k2 > 1e-12, np.sqrt(0.5 * alpha / np.maximum(k2, 1e-300)), np.inf))
         alim_pt = np.where(k1 > 1e-12, np.minimum(amax, 0.5 * alpha / np.maximum(k1, 1e-300)), amax)
     alim = np.minimum(alim_pt[:-1], alim_pt[1:])  # per cell

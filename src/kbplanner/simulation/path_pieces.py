@@ -32,6 +32,7 @@ EPS_M = 1e-9
 BLEND_SCALES = (1.0, 0.7, 0.5, 0.35, 0.25)  # fractions of the full-speed curve length tried per corner
 MIN_BLEND_M = 0.1  # shorter curves are not tried
 CURVE_STEP_M = 0.01  # spacing of a curve's poses
+SE2_BLEND_M = (0.8, 0.4, 0.2, 0.1, 0.05)  # how far from a corner an SE(2) rounding may start, tried in order
 
 
 @dataclass(frozen=True)
@@ -80,6 +81,34 @@ class _Drive:
         if abs(abs(off) - math.pi) < 1e-6:
             return math.pi
         return None
+
+
+def _along(dr: _Drive, s: float) -> Pose2D:
+    """The pose ``s`` metres along a drive (position and yaw linear)."""
+    u = s / dr.length
+    return (dr.a[0] + u * (dr.b[0] - dr.a[0]), dr.a[1] + u * (dr.b[1] - dr.a[1]),
+            wrap(dr.a[2] + u * wrap(dr.b[2] - dr.a[2])))
+
+
+def _se2_blend(p: _Drive, q: _Drive, d: float) -> list[Pose2D]:
+    """Poses of a rounded corner between drives ``p`` and ``q`` (at least one turning while it drives):
+    from ``d`` before the corner to ``d`` after it, the centre on a quadratic Bezier curve (the corner its
+    control point), the yaw a cubic through the yaw and yaw per metre of both drives at its ends."""
+    a, c = _along(p, p.length - d), _along(q, d)
+    v = p.b
+    ka, kb = wrap(p.b[2] - p.a[2]) / p.length, wrap(q.b[2] - q.a[2]) / q.length
+    y0 = a[2]
+    y1 = y0 + wrap(c[2] - y0)  # the short way from the yaw at the start to the yaw at the end
+    m0, m1 = 2 * d * ka, 2 * d * kb  # yaw per unit of the curve parameter at its ends
+    n = max(8, math.ceil(2 * d / CURVE_STEP_M))
+    t = np.arange(n + 1) / n
+    x = (1 - t) ** 2 * a[0] + 2 * t * (1 - t) * v[0] + t**2 * c[0]
+    y = (1 - t) ** 2 * a[1] + 2 * t * (1 - t) * v[1] + t**2 * c[1]
+    h00, h10, h01, h11 = 2 * t**3 - 3 * t**2 + 1, t**3 - 2 * t**2 + t, -2 * t**3 + 3 * t**2, t**3 - t**2
+    yaw = h00 * y0 + h10 * m0 + h01 * y1 + h11 * m1
+    pts = [(float(px), float(py), wrap(float(pt))) for px, py, pt in zip(x, y, yaw, strict=True)]
+    pts[0], pts[-1] = a, c
+    return pts
 
 
 def _parse(poses: Sequence[Pose2D]) -> tuple[list[Spin], list[_Drive], list[list[Spin]], list[Spin]]:
@@ -197,7 +226,10 @@ def blend_corners(
     shorter one (``BLEND_SCALES``; slower on it) where that does not fit. A curve may use a drive's
     length up to its end (half of it when the next corner may round too). Candidates are tried from the
     largest estimated saving (time on the spot and stopping, against time on the curve); the first
-    one free in ``space`` by :class:`ExactMotion` is taken. Deterministic: no sampling.
+    one free in ``space`` by :class:`ExactMotion` is taken. A corner next to a drive that already turns
+    while it translates (the planner's SE(2) fallback where turning on the spot is blocked) is rounded
+    as in SE(2) (:func:`_se2_blend`), the largest of ``SE2_BLEND_M`` that fits and is free. Deterministic:
+    no sampling.
     """
     lead, drives, between, trail = _parse(poses)
     if len(drives) < 2:
@@ -206,13 +238,16 @@ def blend_corners(
     vmax, wmax, amax, alpha = max_speed_mps, max_yaw_rate_rps, max_accel_mps2, max_yaw_accel_rps2
     n = len(drives)
 
-    def candidate(k: int) -> tuple[float, float] | None:
-        """(theta, offset) of corner k (between drives k-1 and k) if it may be rounded."""
+    def candidate(k: int) -> tuple[float, float | None] | None:
+        """(theta, offset) of corner k (between drives k-1 and k) if it may be rounded: offset None for
+        a corner rounded in SE(2)."""
         p, q = drives[k - 1], drives[k]
-        if p.offset is None or q.offset is None or p.offset != q.offset:
-            return None
         theta = wrap(q.direction - p.direction)
-        if abs(theta) < 1e-9 or abs(theta) > math.radians(170.0):
+        if abs(theta) > math.radians(170.0):
+            return None
+        if p.offset is None or q.offset is None:
+            return None if _continues(p, q, between[k]) else (theta, None)
+        if p.offset != q.offset or abs(theta) < 1e-9:
             return None
         return theta, p.offset
 
@@ -225,6 +260,15 @@ def blend_corners(
         theta, offset = cand
         room_in = drives[k - 1].length - used_start[k - 1]
         room_out = drives[k].length * (0.5 if k + 1 < n and candidate(k + 1) is not None else 1.0)
+        if offset is None:
+            for d in SE2_BLEND_M:
+                if d <= room_in - 1e-6 and d <= room_out - 1e-6:
+                    pts = _se2_blend(drives[k - 1], drives[k], d)
+                    if exact.path_free(pts):
+                        curves[k] = (pts, d)
+                        used_start[k] = d
+                        break
+            continue
         on_spot = sum(_spin_time(s.dyaw, wmax, alpha) for s in between[k]) + vmax / amax
         full = curve_length_for(theta, vmax, wmax, alpha)
         options = []
@@ -263,11 +307,7 @@ def blend_corners(
                 out.append(Run(tuple(run)))
             out.extend(between[k])
             run = [dr.a]
-        if k + 1 in curves:
-            d = curves[k + 1][1]
-            end = (dr.b[0] - d * math.cos(dr.direction), dr.b[1] - d * math.sin(dr.direction), dr.b[2])
-        else:
-            end = dr.b
+        end = _along(dr, dr.length - curves[k + 1][1]) if k + 1 in curves else dr.b
         if math.hypot(end[0] - run[-1][0], end[1] - run[-1][1]) > EPS_M:
             run.append(end)
     if run:
