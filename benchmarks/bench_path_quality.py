@@ -9,8 +9,8 @@ helpers of ``bench_simspeed.py``). ``--determinism`` runs this tree a second tim
 checks that ``trajectories.csv``, ``events.jsonl`` and ``metrics.json`` are byte-identical.
 
 Usage: .venv/bin/python benchmarks/bench_path_quality.py [--before REF] [--scenario S ...] [--seed N]
-[--determinism]. Prints a table (Markdown, as in docs/scale.md) and writes
-benchmarks/results/path_quality.json (or --out).
+[--determinism]. Prints a table (Markdown, as in docs/scale.md) and the frames' times, and writes
+benchmarks/results/path_quality.json (or --out); ``--print FILE`` prints them again from such a file.
 """
 
 from __future__ import annotations
@@ -58,6 +58,33 @@ def _pair(q: dict[str, Any]) -> str:
     return f"{q['median']} / {q['max']}"
 
 
+def report(out: dict[str, Any]) -> str:
+    """The Markdown table and the per-frame lines of a result (``main``'s JSON)."""
+    rows = out["scenarios"]
+    text = [f"Seed {rows[0]['seed'] if rows else '?'}; before = {out['before']}, after = this tree.\n",
+            "| scenario | frame time / lower bound, median / max | driven / shortest, median / max | "
+            "simulated | installed |", "| --- | --- | --- | --- | --- |"]
+    for r in rows:
+        b, a = r["before"], r["after"]
+        tb, ta = _pair(b["time_over_lower_bound"]), _pair(a["time_over_lower_bound"])
+        db, da = _pair(b["driven_over_shortest"]), _pair(a["driven_over_shortest"])
+        text.append(f"| {r['scenario']} | {tb} -> {ta} | {db} -> {da} | {b['sim_time_s']:,.1f} -> "
+                    f"{a['sim_time_s']:,.1f} s | {b['installed']} -> {a['installed']} of {a['elements']} |")
+    for r in rows:
+        before = {f["global_id"]: f for f in r["before"]["per_element"]}
+        text.append(f"\n{r['scenario']}, per frame: time (s) before -> after (over the lower bound)")
+        for f in r["after"]["per_element"]:
+            g = before.get(f["global_id"])
+            was = f"{g['duration_s']} -> " if g else ""
+            ratio = f"{g['time_over_lower_bound']} -> " if g else ""
+            text.append(f"  {f['global_id']}: {was}{f['duration_s']} ({ratio}{f['time_over_lower_bound']})")
+        if "after_identical_on_repeat" in r:
+            text.append(f"  this tree's outputs identical on a second run: "
+                        f"{'yes' if r['after_identical_on_repeat'] else 'NO'}")
+    text.append(f"\nload average {out['load_average_start'][0]:.2f} -> {out['load_average_end'][0]:.2f}")
+    return "\n".join(text) + "\n"
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--before", default="main", help="git ref of the baseline (default main)")
@@ -65,7 +92,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--determinism", action="store_true", help="run this tree twice, compare the outputs")
     ap.add_argument("--out", type=Path, default=RESULTS_DIR / "path_quality.json")
+    ap.add_argument("--print", type=Path, dest="print_file",
+                    help="print the figures of a result file, run nothing")
     args = ap.parse_args(argv)
+    if args.print_file:
+        sys.stdout.write(report(json.loads(args.print_file.read_text())))
+        return 0
     scenarios = args.scenario or ["storage-outside", "storage-inside"]
     load_before = list(os.getloadavg())
     with tempfile.TemporaryDirectory() as tmp_name:
@@ -75,21 +107,7 @@ def main(argv: list[str] | None = None) -> int:
     out = {"machine": machine_info(("python", "cpus", "platform")), "before": args.before,
            "load_average_start": load_before, "load_average_end": list(os.getloadavg()), "scenarios": rows}
     write_json(args.out, out)
-    w = sys.stdout.write
-    w(f"Seed {args.seed}; before = {args.before}, after = this tree.\n\n"
-      "| scenario | frame time / lower bound, median / max | driven / shortest, median / max | simulated | "
-      "installed |\n| --- | --- | --- | --- | --- |\n")
-    for r in rows:
-        b, a = r["before"], r["after"]
-        w(f"| {r['scenario']} | {_pair(b['time_over_lower_bound'])} -> {_pair(a['time_over_lower_bound'])} | "
-          f"{_pair(b['driven_over_shortest'])} -> {_pair(a['driven_over_shortest'])} | "
-          f"{b['sim_time_s']:,.1f} -> {a['sim_time_s']:,.1f} s | {b['installed']} -> {a['installed']} of "
-          f"{a['elements']} |\n")
-    for r in rows:
-        if "after_identical_on_repeat" in r:
-            w(f"\n{r['scenario']}: this tree's outputs identical on a second run: "
-              f"{'yes' if r['after_identical_on_repeat'] else 'NO'}")
-    w(f"\nload average {load_before[0]:.2f} -> {out['load_average_end'][0]:.2f}; wrote {args.out}\n")
+    sys.stdout.write(report(out) + f"wrote {args.out}\n")
     return 0
 
 
