@@ -30,7 +30,7 @@ from __future__ import annotations
 import logging
 import math
 import zlib
-from dataclasses import dataclass
+from dataclasses import replace
 
 import shapely
 
@@ -41,7 +41,7 @@ from kbplanner.planning.plan_model import Pose2
 from kbplanner.planning.pose_frames import as_pose6_list
 from kbplanner.robot.lidar import LidarSpec, lidar_spec
 from kbplanner.simulation.base_trajectory import time_parameterize
-from kbplanner.simulation.carry_paths import CarryPlan, plan_with_carry_modes
+from kbplanner.simulation.carry_paths import plan_with_carry_modes
 from kbplanner.simulation.grid_yardstick import grid_shortest_path_length
 from kbplanner.simulation.nav_path import NavSettings
 from kbplanner.simulation.navigation import plan_path
@@ -52,48 +52,18 @@ from kbplanner.simulation.skills.base import JointPath, Skill, Status
 from kbplanner.simulation.skills.load_turn import best_turn_pose, turn_poses
 from kbplanner.simulation.skills.make_way import ask_way
 from kbplanner.simulation.skills.nav_grid import nearest_free_pose, window
+from kbplanner.simulation.skills.nav_queue import Drive, Route, Turn, route_of
 from kbplanner.simulation.workers import WORKER_RADIUS_M
 from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect
 from kbplanner.world.occupancy import OccupancyGrid
 
 log = logging.getLogger(__name__)
 
+DETOUR_RATIO = 1.25  # a leg longer than this x the grid yardstick is planned again ...
+DETOUR_MIN_M = 2.0  # ... when the yardstick is at least this long (short hops are mostly turning)
+DETOUR_RETRIES = 2  # with this many other seeds
+
 Pose2D = tuple[float, float, float]
-
-
-@dataclass
-class _Route:
-    """A planned route: pieces of path, each with the carry mode to drive it in ("" without a load) and
-    the configuration space it was planned in (its corners are rounded where they fit there; None: kept)."""
-
-    pieces: list[tuple[list[Pose2D], str, ConfigurationSpace | None]]
-    length_m: float
-    narrow_length_m: float
-
-
-def _route_of(cp: CarryPlan) -> _Route:
-    return _Route(cp.pieces(), cp.path.length_m, float(cp.extra.get("narrow_length_m", 0.0)))
-
-
-@dataclass
-class _Drive:
-    t: list[Pose2D]  # timed poses at the control rate, the first one where the drive starts
-    mode: str
-    s: float = 0.0  # progress in samples (1 per control period at full speed)
-
-    def at(self, s: float) -> Pose2D:
-        i = min(int(s), len(self.t) - 2)
-        u = s - i
-        a, b = self.t[i], self.t[i + 1]
-        dyaw = math.atan2(math.sin(b[2] - a[2]), math.cos(b[2] - a[2]))
-        return (a[0] + u * (b[0] - a[0]), a[1] + u * (b[1] - a[1]), a[2] + u * dyaw)
-
-
-@dataclass
-class _Turn:
-    path: JointPath
-    event: str | None
-    mode: str
 
 
 class NavigationSkill(Skill):
@@ -122,7 +92,7 @@ class NavigationSkill(Skill):
         self.lidar: LidarSpec = lidar_spec(env.robot, s.lidar_step_deg)
         self.monitor = SeparationMonitor(env, self.lidar, params, max_speed=self.max_speed,
                                          enabled=s.monitoring != "off")
-        self.queue: list[_Drive | _Turn] = []
+        self.queue: list[Drive | Turn] = []
         self.geo: CarryGeometry | None = None
         self.stopped_since: float | None = None
         self.slow_since: float | None = None
@@ -144,7 +114,7 @@ class NavigationSkill(Skill):
         elif call.arm_poses.get("initial"):
             q = call.arm_poses["initial"]
             if max(abs(a - b) for a, b in zip(env.robot.arm_positions(), q, strict=True)) > 1e-6:
-                self.queue.append(_Turn(self._joint_path([("navigation pose", q)]), None, ""))
+                self.queue.append(Turn(self._joint_path([("navigation pose", q)]), None, ""))
         start = env.base_pose()
         self.spaces: list[ConfigurationSpace] | None = []  # of the first plan's legs, for the yardstick
         result = self._plan(start, None)
@@ -201,52 +171,82 @@ class NavigationSkill(Skill):
                            allow_reverse=self.c.settings.monitoring == "off")
 
     def _leg(self, grid: OccupancyGrid, start: Pose2D, goal: Pose2D, fp: Footprint,
-             narrow: Footprint | None) -> _Route | str:
+             narrow: Footprint | None) -> Route | str:
         """One planned leg, in growing windows: a plain path (``narrow`` None) or a carry-mode path."""
         s = self.c.settings
         settings = self._settings()
         reasons: list[str] = []
         for margin in s.window_margins_m:
             sub = window(grid, [(start[0], start[1]), (goal[0], goal[1])], margin)
-            if narrow is None:
-                cs = ConfigurationSpace.build(sub, fp, settings.n_yaw_bins, settings.margin_m)
-                path = plan_path(cs, start, goal, settings=settings)  # as plan_path(sub, ..., fp) builds it
-                self.details["planning_time_s"] += path.planning_time_s
-                if path.ok and self.spaces is not None:
-                    self.spaces.append(cs)
-                    self.details["planner"] = path.planner
-                    mode = ""
-                    if self.geo is not None:
-                        mode = NORMAL if fp == self.geo.footprint(NORMAL) else NARROW
-                    return _Route([(list(path.poses), mode, cs)], path.length_m, 0.0 if mode != NARROW else
-                                  path.length_m)
-                why = path.reason
-            else:
-                cp = plan_with_carry_modes(sub, start, goal, fp, narrow, settings, margin_m=s.carry_margin_m)
-                self.details["planning_time_s"] += cp.path.planning_time_s
-                if cp.ok:
-                    self.details["planner"] = cp.path.planner
-                    if cp.space is not None and self.spaces is not None:
-                        self.spaces.append(cp.space)
-                    return _route_of(cp)
-                why = cp.path.reason
-            reasons.append(f"{'whole map' if margin is None else f'{margin:g} m window'}: {why}")
-            if "in collision" in why or "off the map" in why:
-                break  # a bigger window does not help
+            found = self._leg_in(sub, start, goal, fp, narrow, settings)
+            if isinstance(found, str):
+                reasons.append(f"{'whole map' if margin is None else f'{margin:g} m window'}: {found}")
+                if "in collision" in found or "off the map" in found:
+                    break  # a bigger window does not help
+                continue
+            route, space = self._shorter(sub, start, goal, fp, narrow, settings, *found)
+            if space is not None and self.spaces is not None:
+                self.spaces.append(space)
+            return route
         return "; ".join(reasons)
 
-    def _timed(self, leg: _Route | str, why: list[str]) -> tuple[_Route, float] | None:
+    def _leg_in(self, sub: OccupancyGrid, start: Pose2D, goal: Pose2D, fp: Footprint,
+                narrow: Footprint | None, settings: NavSettings
+                ) -> tuple[Route, ConfigurationSpace | None] | str:
+        """A leg planned on ``sub`` with its configuration space, or why there is none."""
+        if narrow is None:
+            cs = ConfigurationSpace.build(sub, fp, settings.n_yaw_bins, settings.margin_m)
+            path = plan_path(cs, start, goal, settings=settings)  # as plan_path(sub, ..., fp) builds it
+            self.details["planning_time_s"] += path.planning_time_s
+            if not path.ok:
+                return path.reason
+            self.details["planner"] = path.planner
+            mode = "" if self.geo is None else NORMAL if fp == self.geo.footprint(NORMAL) else NARROW
+            return Route([(list(path.poses), mode, cs)], path.length_m,
+                          path.length_m if mode == NARROW else 0.0), cs
+        margin = self.c.settings.carry_margin_m
+        cp = plan_with_carry_modes(sub, start, goal, fp, narrow, settings, margin_m=margin)
+        self.details["planning_time_s"] += cp.path.planning_time_s
+        if not cp.ok:
+            return cp.path.reason
+        self.details["planner"] = cp.path.planner
+        return route_of(cp), cp.space
+
+    def _shorter(self, sub: OccupancyGrid, start: Pose2D, goal: Pose2D, fp: Footprint,
+                 narrow: Footprint | None, settings: NavSettings, route: Route,
+                 space: ConfigurationSpace | None) -> tuple[Route, ConfigurationSpace | None]:
+        """A leg whose yardstick on its space is at least ``DETOUR_MIN_M`` and whose path is over
+        ``DETOUR_RATIO`` x that (the planner went round the long way) is planned again with up to
+        ``DETOUR_RETRIES`` other seeds (derived from the step's); the quickest to drive is kept."""
+        best = grid_shortest_path_length(space, start, goal) if space is not None else math.inf
+        if not (DETOUR_MIN_M <= best < math.inf) or route.length_m <= DETOUR_RATIO * best:
+            return route, space
+        seconds = self._drive_s(route)
+        for k in range(1, DETOUR_RETRIES + 1):
+            again = self._leg_in(sub, start, goal, fp, narrow,
+                                 replace(settings, seed=(settings.seed + 7919 * k) % (2**31 - 1) + 1))
+            if not isinstance(again, str) and self._drive_s(again[0]) < seconds - 1e-9:
+                route, space = again
+                seconds = self._drive_s(route)
+            if route.length_m <= DETOUR_RATIO * best:
+                break
+        return route, space
+
+    def _timed(self, leg: Route | str, why: list[str]) -> tuple[Route, float] | None:
         """A planned leg and how long driving it takes (None, the reason kept in ``why``, if it failed)."""
         if isinstance(leg, str):
             why.append(leg)
             return None
-        base = self.c.env.robot.spec.base
-        seconds = sum(time_parameterize(p, self.max_speed, base.max_yaw_rate_rps, base.max_accel_mps2,
-                                        base.max_yaw_accel_rps2, self.c.env.control_hz, space).duration_s
-                      for p, _, space in leg.pieces if len(p) >= 2)
-        return leg, seconds
+        return leg, self._drive_s(leg)
 
-    def _plan(self, start: Pose2D, obstacle: shapely.Geometry | None) -> _Route | str:
+    def _drive_s(self, route: Route) -> float:
+        """How long driving a route takes (its timed pieces; the load's turns between them left out)."""
+        base = self.c.env.robot.spec.base
+        return sum(time_parameterize(p, self.max_speed, base.max_yaw_rate_rps, base.max_accel_mps2,
+                                     base.max_yaw_accel_rps2, self.c.env.control_hz, space).duration_s
+                   for p, _, space in route.pieces if len(p) >= 2)
+
+    def _plan(self, start: Pose2D, obstacle: shapely.Geometry | None) -> Route | str:
         """The route to the goal; NV-2 turns the load at a pose near start or goal when it must.
 
         A robot that stands where the (conservative) configuration space calls it blocked - a few
@@ -269,12 +269,12 @@ class NavigationSkill(Skill):
                 mode = (self.c.carry_mode or NORMAL) if self.geo is not None else ""
                 step = math.hypot(free[0] - start[0], free[1] - start[1])
                 self.c.emit("unstick", x=round(start[0], 3), y=round(start[1], 3), distance_m=round(step, 3))
-                return _Route([([start, free], mode, None), *rest.pieces], rest.length_m + step,
+                return Route([([start, free], mode, None), *rest.pieces], rest.length_m + step,
                               rest.narrow_length_m)
         return self._plan_from(grid, start, normal, narrow)
 
     def _plan_from(self, grid: OccupancyGrid, start: Pose2D, normal: Footprint,
-                   narrow: Footprint | None) -> _Route | str:
+                   narrow: Footprint | None) -> Route | str:
         first = self._leg(grid, start, self.goal, normal, narrow)
         if not isinstance(first, str):
             return first
@@ -294,7 +294,7 @@ class NavigationSkill(Skill):
         def fits(x: float, y: float, yaw: float) -> bool:
             return all(checker.free(geo.footprint(m), x, y, yaw) for m in (NORMAL, NARROW))
 
-        turns: list[tuple[Pose2D, _Route | None]] = []  # where the load turns, near start and goal
+        turns: list[tuple[Pose2D, Route | None]] = []  # where the load turns, near start and goal
         for i, (near, modes) in enumerate(((start, free_start), (self.goal, free_goal))):
             if len(modes) == 2:
                 turns.append((near, None))
@@ -302,7 +302,7 @@ class NavigationSkill(Skill):
             fp, far = geo.footprint(modes[0]), (self.goal if i == 0 else turns[0][0])
 
             def leg(v: Pose2D, i: int = i, near: Pose2D = near, fp: Footprint = fp
-                    ) -> tuple[_Route, float] | None:
+                    ) -> tuple[Route, float] | None:
                 a, b = (near, v) if i == 0 else (v, near)
                 return self._timed(self._leg(grid, a, b, fp, None), why)
 
@@ -312,17 +312,17 @@ class NavigationSkill(Skill):
                 return f"no path to the base pose: no room to turn the held element ({reason})"
             turns.append(got)
         (v1, leg_a), (v2, leg_c) = turns
-        mid: _Route | None = None
+        mid: Route | None = None
         if math.hypot(v1[0] - v2[0], v1[1] - v2[1]) >= 1e-6 or abs(v1[2] - v2[2]) >= 1e-6:
             found = self._leg(grid, v1, v2, geo.footprint(NORMAL), geo.footprint(NARROW))
             if isinstance(found, str):
                 return f"no path to the base pose ({first}; turning the load on the way: {found})"
             mid = found
         legs = [r for r in (leg_a, mid, leg_c) if r is not None]
-        return _Route([p for leg in legs for p in leg.pieces], sum(leg.length_m for leg in legs),
+        return Route([p for leg in legs for p in leg.pieces], sum(leg.length_m for leg in legs),
                       sum(leg.narrow_length_m for leg in legs))
 
-    def _enqueue(self, route: _Route, *, first: bool) -> None:
+    def _enqueue(self, route: Route, *, first: bool) -> None:
         """Queue drives (and carry turns) for a planned route; ``first``: the step's first plan."""
         env = self.c.env
         base = env.robot.spec.base
@@ -336,13 +336,13 @@ class NavigationSkill(Skill):
                     event = "carry_pose"
                 else:
                     event = "rotate_to_narrow" if pmode == NARROW else "rotate_back"
-                self.queue.append(_Turn(self._joint_path([(f"carry {pmode}", q)]), event, pmode))
+                self.queue.append(Turn(self._joint_path([(f"carry {pmode}", q)]), event, pmode))
                 mode = pmode
             if len(piece) >= 2:
                 traj = time_parameterize(piece, self.max_speed, base.max_yaw_rate_rps, base.max_accel_mps2,
                                          base.max_yaw_accel_rps2, rate_hz=env.control_hz, space=space)
                 if len(traj.poses) >= 2:
-                    self.queue.append(_Drive(list(traj.poses), pmode))
+                    self.queue.append(Drive(list(traj.poses), pmode))
             first = False
 
     # ---- running -------------------------------------------------------------------------------------
@@ -350,7 +350,7 @@ class NavigationSkill(Skill):
         env = self.c.env
         while self.queue:
             head = self.queue[0]
-            if isinstance(head, _Turn):
+            if isinstance(head, Turn):
                 if head.event and head.path._i == 0:
                     x, y, yaw = env.base_pose()
                     self.c.emit(head.event, mode=head.mode, x=round(x, 3), y=round(y, 3))
@@ -440,7 +440,7 @@ class NavigationSkill(Skill):
             if self.blocked_s >= s.replan_after_s and self.replanned_at is None and d.sensed is not None:
                 self.replanned_at = env.t
                 self._replan(d.sensed.worker, d.sensed.separation_m)
-                pts = [(p[0], p[1]) for q in self.queue if isinstance(q, _Drive) for p in q.t[int(q.s)::5]]
+                pts = [(p[0], p[1]) for q in self.queue if isinstance(q, Drive) for p in q.t[int(q.s)::5]]
                 ask_way(env, d.sensed.worker, pts, reach_m(self._rects()) + d.protective_m, self.c.emit)
             return 0.0
         if self.stopped_since is not None:
@@ -459,9 +459,9 @@ class NavigationSkill(Skill):
         if isinstance(result, str):
             self.c.emit("replan", worker=who, outcome="failed", reason=result)
             return
-        keep: list[_Drive | _Turn] = []
+        keep: list[Drive | Turn] = []
         for q in self.queue:  # a carry turn already under way is finished first
-            if isinstance(q, _Turn) and q.path._i > 0:
+            if isinstance(q, Turn) and q.path._i > 0:
                 keep.append(q)
                 break
         self.queue = keep
