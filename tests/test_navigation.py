@@ -216,3 +216,19 @@ def test_where_free_cells_certainly_cross_the_door_the_cell_path_settles_what_om
     assert a.poses == b.poses
     assert path_is_free(cs, a.poses)
     assert a.length_m < 1.3 * grid_shortest_path_length(cs, START, GOAL)
+
+
+def test_each_piece_of_a_carry_plan_is_rounded_in_the_space_of_the_footprint_it_is_carried_in(
+    door_09: OccupancyGrid,
+) -> None:
+    from kbplanner.simulation.path_pieces import Run, blend_corners
+
+    plan = plan_with_carry_modes(door_09, START, GOAL, WIDE, NARROW, NavSettings(seed=3), margin_m=0.5)
+    pieces = plan.pieces()
+    assert [mode for _, mode, _ in pieces] == ["normal", "narrow", "normal"]
+    assert [space.footprint for _, _, space in pieces if space is not None] == [WIDE, NARROW, WIDE]
+    for poses, _, space in pieces:
+        assert space is not None
+        runs = [p for p in blend_corners(poses, space, 0.3, 2.0, 1.0, 2.0) if isinstance(p, Run)]
+        assert runs and all(path_is_free(space, run.poses) for run in runs)
+        assert runs[0].poses[0] == poses[0] and runs[-1].poses[-1][:2] == pytest.approx(poses[-1][:2])

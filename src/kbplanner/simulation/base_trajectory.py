@@ -1,22 +1,33 @@
 """Navigation (B5), time parameterisation: a planned base path as timed samples at a fixed rate.
 
-Takes a :class:`~kbplanner.simulation.nav_path.NavPath` (or its poses) and the base's limits (speed,
-yaw rate, accelerations); :func:`time_parameterize` gives a :class:`Trajectory` with rest-to-rest
-trapezoidal velocity profiles per segment, translation and rotation progressing together so that
-neither limit is exceeded. The executor moves the base kinematically along these samples.
+Takes a :class:`~kbplanner.simulation.nav_path.NavPath` (or its poses), the base's limits (speed, yaw
+rate, accelerations) and, optionally, the configuration space the path was planned in;
+:func:`time_parameterize` gives a :class:`Trajectory`. The path is cut into pieces
+(:mod:`kbplanner.simulation.path_pieces`): turns on the spot, timed rest to rest (trapezoid), and runs,
+driven without stopping at their inner waypoints: the speed along a run is the largest that keeps
+the top speed, the centripetal acceleration (within the acceleration limit), the yaw rate (speed x
+yaw per metre) and the yaw acceleration within the limits and
+reaches each point from rest at the start and to rest at the end within the acceleration (forward and
+backward passes over 1 cm of path). With the configuration space, corners are rounded into curves
+where they fit (the robot turns while driving). The executor moves the base kinematically along the
+samples; speed and separation monitoring scales how far along them it gets per control period.
 """
 
 from __future__ import annotations
 
-import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from kbplanner.core.errors import KbplannerError
 from kbplanner.simulation.nav_path import NavPath, Pose2D, wrap
+from kbplanner.simulation.path_pieces import Piece, Run, Spin, blend_corners, split_pieces
+from kbplanner.world.footprint import ConfigurationSpace
+
+PROFILE_STEP_M = 0.01  # path step of the speed profile of a run
 
 
 @dataclass(frozen=True)
@@ -63,6 +74,86 @@ def _trapezoid_progress(t: float, total_t: float, dist: float, vmax: float, amax
     return min(1.0, max(0.0, d / dist))
 
 
+@dataclass(frozen=True)
+class _Profile:
+    """A run's speed profile: at arc lengths ``s`` (m), speeds ``v`` and times ``t`` (constant
+    acceleration between grid points); ``cum`` the arc length at each pose of the run, ``yaw`` the
+    run's yaw without wraps there."""
+
+    poses: npt.NDArray[np.float64]
+    cum: npt.NDArray[np.float64]
+    yaw: npt.NDArray[np.float64]
+    s: npt.NDArray[np.float64]
+    v: npt.NDArray[np.float64]
+    t: npt.NDArray[np.float64]
+
+    @property
+    def duration(self) -> float:
+        return float(self.t[-1])
+
+    def at(self, times: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+        """Poses (n, 3) at ``times`` from the run's start."""
+        tt = np.clip(times, 0.0, self.duration)
+        i = np.clip(np.searchsorted(self.t, tt, side="right") - 1, 0, len(self.t) - 2)
+        ds = self.s[i + 1] - self.s[i]
+        acc = (self.v[i + 1] ** 2 - self.v[i] ** 2) / (2.0 * ds)
+        tau = tt - self.t[i]
+        s = np.clip(self.s[i] + self.v[i] * tau + 0.5 * acc * tau * tau, self.s[i], self.s[i + 1])
+        s = np.where(tt >= self.duration, self.cum[-1], s)
+        x = np.interp(s, self.cum, self.poses[:, 0])
+        y = np.interp(s, self.cum, self.poses[:, 1])
+        yaw = np.interp(s, self.cum, self.yaw)
+        return np.stack([x, y, yaw], axis=1)
+
+
+def _profile(run: Run, vmax: float, wmax: float, amax: float, alpha: float) -> _Profile:
+    """The fastest speed profile along ``run`` from rest to rest within the limits (module doc)."""
+    p = np.asarray(run.poses, dtype=np.float64).reshape(-1, 3)
+    seg = np.hypot(np.diff(p[:, 0]), np.diff(p[:, 1]))
+    keep = np.concatenate([[True], seg > 1e-12])
+    p = p[keep]
+    seg = np.hypot(np.diff(p[:, 0]), np.diff(p[:, 1]))
+    cum = np.concatenate([[0.0], np.cumsum(seg)])
+    dyaw = (np.diff(p[:, 2]) + math.pi) % (2 * math.pi) - math.pi
+    yaw = p[0, 2] + np.concatenate([[0.0], np.cumsum(dyaw)])
+    total = float(cum[-1])
+    if total <= 0.0:
+        zero = np.zeros(2)
+        return _Profile(p[:1].repeat(2, axis=0), zero, np.full(2, p[0, 2]), np.array([0.0, 1.0]), zero, zero)
+    n = max(3, math.ceil(total / PROFILE_STEP_M) + 1)
+    s = np.linspace(0.0, total, n)
+    ds = total / (n - 1)
+    # yaw per metre (k1) and its change per metre (k2), per grid cell
+    yg = np.interp(s, cum, yaw)
+    k1c = np.diff(yg) / ds  # per cell
+    k1 = np.concatenate([[k1c[0]], np.maximum(np.abs(k1c[:-1]), np.abs(k1c[1:])), [k1c[-1]]])
+    k1 = np.abs(k1)
+    k2 = np.zeros(n)
+    k2[1:-1] = np.abs(np.diff(k1c)) / ds
+    # curvature of the centre's path (direction of travel per metre), for the centripetal acceleration
+    heading = np.arctan2(np.diff(np.interp(s, cum, p[:, 1])), np.diff(np.interp(s, cum, p[:, 0])))
+    kappa = np.zeros(n)
+    kappa[1:-1] = np.abs((np.diff(heading) + math.pi) % (2 * math.pi) - math.pi) / ds
+    with np.errstate(divide="ignore"):
+        vlim = np.minimum(vmax, np.where(kappa > 1e-12, np.sqrt(amax / np.maximum(kappa, 1e-300)), np.inf))
+        vlim = np.minimum(vlim, np.where(k1 > 1e-12, wmax / np.maximum(k1, 1e-300), np.inf))
+        vlim = np.minimum(vlim, np.where(k2 > 1e-12, np.sqrt(0.5 * alpha / np.maximum(k2, 1e-300)), np.inf))
+        alim_pt = np.where(k1 > 1e-12, np.minimum(amax, 0.5 * alpha / np.maximum(k1, 1e-300)), amax)
+    alim = np.minimum(alim_pt[:-1], alim_pt[1:])  # per cell
+    vl = vlim.tolist()
+    two_a_ds = (2.0 * alim * ds).tolist()
+    vv = [0.0] * n
+    for i in range(n - 1):  # forward: from rest, within the acceleration
+        vv[i + 1] = min(vl[i + 1], math.sqrt(vv[i] * vv[i] + two_a_ds[i]))
+    vv[-1] = 0.0
+    for i in range(n - 2, -1, -1):  # backward: to rest
+        vv[i] = min(vv[i], math.sqrt(vv[i + 1] * vv[i + 1] + two_a_ds[i]))
+    v = np.asarray(vv)
+    dt = 2.0 * ds / (v[:-1] + v[1:])
+    t = np.concatenate([[0.0], np.cumsum(dt)])
+    return _Profile(p, cum, yaw, s, v, t)
+
+
 def time_parameterize(
     path: NavPath | Sequence[Pose2D],
     max_speed_mps: float,
@@ -70,13 +161,16 @@ def time_parameterize(
     max_accel_mps2: float = 1.0,
     max_yaw_accel_rps2: float = 2.0,
     rate_hz: float = 10.0,
+    space: ConfigurationSpace | None = None,
 ) -> Trajectory:
-    """Timed samples along a path, stopping at each waypoint (rest-to-rest trapezoids per segment).
+    """Timed samples along a path: turns on the spot rest to rest, drives without stopping where the
+    direction and yaw rate go on smoothly (module doc).
 
-    Each segment takes the longer of its translation time (``max_speed_mps``, ``max_accel_mps2``)
-    and its rotation time (``max_yaw_rate_rps``, ``max_yaw_accel_rps2``); translation and rotation
-    progress together along that time, so neither limit is exceeded. Samples are ``1 / rate_hz``
-    apart, plus the final pose.
+    Without ``space`` the path's geometry is kept: the robot stops at every waypoint where it turns
+    (or where its yaw rate per metre changes). With ``space`` (the configuration space the path was
+    planned in) corners are rounded into curves checked free in it
+    (:func:`~kbplanner.simulation.path_pieces.blend_corners`), and the robot turns while it drives.
+    Samples are ``1 / rate_hz`` apart, plus the final pose, which is the path's last waypoint.
     """
     poses = list(path.poses if isinstance(path, NavPath) else path)
     if min(max_speed_mps, max_yaw_rate_rps, max_accel_mps2, max_yaw_accel_rps2, rate_hz) <= 0:
@@ -84,31 +178,49 @@ def time_parameterize(
                              element="time_parameterize", fix="give the robot's limits (> 0)")
     if not poses:
         return Trajectory((), ())
-    seg_t: list[float] = []
-    for a, b in itertools.pairwise(poses):
-        d = math.hypot(b[0] - a[0], b[1] - a[1])
-        dyaw = abs(wrap(b[2] - a[2]))
-        seg_t.append(max(_trapezoid_time(d, max_speed_mps, max_accel_mps2),
-                         _trapezoid_time(dyaw, max_yaw_rate_rps, max_yaw_accel_rps2)))
-    starts = np.concatenate([[0.0], np.cumsum(seg_t)])
+    limits = (max_speed_mps, max_yaw_rate_rps, max_accel_mps2, max_yaw_accel_rps2)
+    pieces: list[Piece] = blend_corners(poses, space, *limits) if space is not None else split_pieces(poses)
+    return time_pieces(pieces, poses[0], poses[-1], *limits, rate_hz=rate_hz)
+
+
+def time_pieces(
+    pieces: Sequence[Piece],
+    first: Pose2D,
+    last: Pose2D,
+    max_speed_mps: float,
+    max_yaw_rate_rps: float,
+    max_accel_mps2: float,
+    max_yaw_accel_rps2: float,
+    rate_hz: float = 10.0,
+) -> Trajectory:
+    """Timed samples at ``rate_hz`` through ``pieces`` (from ``first``, ending exactly at ``last``)."""
+    timed: list[tuple[float, Spin | _Profile]] = []
+    for pc in pieces:
+        if isinstance(pc, Spin):
+            timed.append((_trapezoid_time(abs(pc.dyaw), max_yaw_rate_rps, max_yaw_accel_rps2), pc))
+        else:
+            prof = _profile(pc, max_speed_mps, max_yaw_rate_rps, max_accel_mps2, max_yaw_accel_rps2)
+            timed.append((prof.duration, prof))
+    starts = np.concatenate([[0.0], np.cumsum([d for d, _ in timed])])
     total = float(starts[-1])
     n = math.floor(total * rate_hz + 1e-9)
-    times = [i / rate_hz for i in range(n + 1)]
-    if total - times[-1] > 1e-9:
-        times.append(total)
-    out: list[Pose2D] = []
-    for t in times:
-        i = min(int(np.searchsorted(starts, t, side="right")) - 1, len(seg_t) - 1)
-        if i < 0 or not seg_t:
-            out.append(poses[0])
+    times = np.arange(n + 1) / rate_hz
+    if total - float(times[-1]) > 1e-9:
+        times = np.append(times, total)
+    out = np.empty((len(times), 3))
+    out[:] = first
+    which = np.clip(np.searchsorted(starts, times, side="right") - 1, 0, max(0, len(timed) - 1))
+    for k, (dur, item) in enumerate(timed):
+        sel = np.flatnonzero(which == k)
+        if not len(sel):
             continue
-        a, b = poses[i], poses[i + 1]
-        d = math.hypot(b[0] - a[0], b[1] - a[1])
-        dyaw = wrap(b[2] - a[2])
-        ts = t - float(starts[i])
-        if d >= abs(dyaw) * max_speed_mps / max_yaw_rate_rps:
-            u = _trapezoid_progress(ts, seg_t[i], d, max_speed_mps, max_accel_mps2)
+        local = times[sel] - starts[k]
+        if isinstance(item, Spin):
+            u = np.array([_trapezoid_progress(float(t), dur, abs(item.dyaw), max_yaw_rate_rps,
+                                              max_yaw_accel_rps2) for t in local])
+            out[sel, 0], out[sel, 1], out[sel, 2] = item.x, item.y, item.yaw0 + u * item.dyaw
         else:
-            u = _trapezoid_progress(ts, seg_t[i], abs(dyaw), max_yaw_rate_rps, max_yaw_accel_rps2)
-        out.append((a[0] + u * (b[0] - a[0]), a[1] + u * (b[1] - a[1]), wrap(a[2] + u * dyaw)))
-    return Trajectory(tuple(round(t, 9) for t in times), tuple(out))
+            out[sel] = item.at(local)
+    result = [(float(x), float(y), wrap(float(t))) for x, y, t in out]
+    result[-1] = (float(last[0]), float(last[1]), float(last[2]))
+    return Trajectory(tuple(round(float(t), 9) for t in times), tuple(result))

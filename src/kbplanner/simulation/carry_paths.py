@@ -9,6 +9,7 @@ marks the stretches of the path where the wide load does not fit, with "rotate t
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
@@ -61,6 +62,7 @@ class CarryPlan:
     normal_attempt: NavPath | None = None
     extra: dict[str, float] = field(default_factory=dict)
     space: ConfigurationSpace | None = None  # the configuration space of the path's footprint
+    normal_space: ConfigurationSpace | None = None  # that of the normal carry (same grid)
 
     @property
     def ok(self) -> bool:
@@ -76,6 +78,19 @@ class CarryPlan:
     def reason(self) -> str:
         """Why it failed, or how it was found."""
         return self.path.reason
+
+    def pieces(self) -> list[tuple[list[Pose2D], str, ConfigurationSpace | None]]:
+        """The path cut where the load turns: each stretch with its carry mode (``"normal"`` or
+        ``"narrow"``) and the configuration space of that mode's footprint."""
+        poses = list(self.path.poses)
+        spans = [(seg.start_index, seg.end_index) for seg in self.segments]
+        cuts = sorted({0, len(poses) - 1, *(i for span in spans for i in span)})
+        out: list[tuple[list[Pose2D], str, ConfigurationSpace | None]] = []
+        for a, b in itertools.pairwise(cuts):
+            inside = any(lo <= a and b <= hi for lo, hi in spans)
+            out.append((poses[a:b + 1], "narrow" if inside else "normal",
+                        self.space if inside or self.mode == "normal" else self.normal_space))
+        return out or [(poses, "normal", self.space)]
 
 
 def _arc_lengths(poses: Sequence[Pose2D]) -> npt.NDArray[np.float64]:
@@ -154,7 +169,8 @@ def plan_with_carry_modes(
     checks = min(settings.max_motion_checks, settings.normal_carry_checks)
     first = plan_path(cs_normal, start, goal, settings=replace(settings, max_motion_checks=checks))
     if first.ok:
-        return CarryPlan(path=first, mode="normal", normal_attempt=first, space=cs_normal)
+        return CarryPlan(path=first, mode="normal", normal_attempt=first, space=cs_normal,
+                         normal_space=cs_normal)
     cs_narrow = ConfigurationSpace.build(grid, narrow, settings.n_yaw_bins, settings.margin_m)
     second = plan_path(cs_narrow, start, goal, settings=settings)
     if not second.ok:
@@ -186,4 +202,5 @@ def plan_with_carry_modes(
                    footprint=narrow.name)
     narrow_len = sum(seg.end_s_m - seg.start_s_m for seg in segments)
     return CarryPlan(path=path, mode="narrow", segments=tuple(segments), events=tuple(events),
-                     normal_attempt=first, extra={"narrow_length_m": narrow_len}, space=cs_narrow)
+                     normal_attempt=first, extra={"narrow_length_m": narrow_len}, space=cs_narrow,
+                     normal_space=cs_normal)

@@ -10,8 +10,9 @@ storey's occupancy grid with the elements installed so far) and the step's effec
   carry poses). Planning runs on a window of the grid around start and goal (4 m, then 10 m margin,
   then the whole map: cells off a window count as occupied, so a path found in a window is valid),
   seeded from the run seed and the step number.
-- **Time.** :func:`kbplanner.simulation.navigation.time_parameterize` at the control rate with the step's
-  ``maxSpeed`` (capped at the base's top speed), the base's yaw rate and accelerations.
+- **Time.** :func:`kbplanner.simulation.base_trajectory.time_parameterize` at the control rate with the step's
+  ``maxSpeed`` (capped at the base's top speed), the base's yaw rate and accelerations; corners are rounded
+  where the curve is free in the configuration space the piece was planned in (turning while driving).
 - **Carry modes.** NV-2 first turns the element from the lift pose into the carry pose of the first
   stretch ("carry_pose"); before each narrow stretch the arm turns it on its side ("rotate_to_narrow",
   the base standing still) and after it back ("rotate_back"), at the arm's joint speed.
@@ -26,11 +27,10 @@ storey's occupancy grid with the elements installed so far) and the step's effec
 
 from __future__ import annotations
 
-import itertools
 import logging
 import math
 import zlib
-from dataclasses import dataclass
+from dataclasses import replace
 
 import shapely
 
@@ -41,7 +41,7 @@ from kbplanner.planning.plan_model import Pose2
 from kbplanner.planning.pose_frames import as_pose6_list
 from kbplanner.robot.lidar import LidarSpec, lidar_spec
 from kbplanner.simulation.base_trajectory import time_parameterize
-from kbplanner.simulation.carry_paths import CarryPlan, plan_with_carry_modes
+from kbplanner.simulation.carry_paths import plan_with_carry_modes
 from kbplanner.simulation.grid_yardstick import grid_shortest_path_length
 from kbplanner.simulation.nav_path import NavSettings
 from kbplanner.simulation.navigation import plan_path
@@ -49,87 +49,21 @@ from kbplanner.simulation.path_quality import YARDSTICK_MARGIN_M, shortest_path_
 from kbplanner.simulation.separation import reach_m
 from kbplanner.simulation.separation_monitor import SeparationMonitor
 from kbplanner.simulation.skills.base import JointPath, Skill, Status
+from kbplanner.simulation.skills.load_turn import best_turn_pose, turn_poses
 from kbplanner.simulation.skills.make_way import ask_way
+from kbplanner.simulation.skills.nav_grid import nearest_free_pose, window
+from kbplanner.simulation.skills.nav_queue import Drive, Route, Turn, route_of
 from kbplanner.simulation.workers import WORKER_RADIUS_M
 from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect
 from kbplanner.world.occupancy import OccupancyGrid
 
 log = logging.getLogger(__name__)
 
+DETOUR_RATIO = 1.25  # a leg longer than this x the grid yardstick is planned again ...
+DETOUR_MIN_M = 2.0  # ... when the yardstick is at least this long (short hops are mostly turning)
+DETOUR_RETRIES = 2  # with this many other seeds
+
 Pose2D = tuple[float, float, float]
-
-
-def window(grid: OccupancyGrid, points: list[tuple[float, float]], margin_m: float | None) -> OccupancyGrid:
-    """The part of ``grid`` around ``points`` plus ``margin_m`` (None: the whole grid)."""
-    if margin_m is None:
-        return grid
-    res = grid.resolution
-    ny, nx = grid.shape
-    xs = [p[0] for p in points]
-    ys = [p[1] for p in points]
-    ix0 = max(0, math.floor((min(xs) - margin_m - grid.origin[0]) / res))
-    iy0 = max(0, math.floor((min(ys) - margin_m - grid.origin[1]) / res))
-    ix1 = min(nx, math.ceil((max(xs) + margin_m - grid.origin[0]) / res))
-    iy1 = min(ny, math.ceil((max(ys) + margin_m - grid.origin[1]) / res))
-    return OccupancyGrid(occupied=grid.occupied[iy0:iy1, ix0:ix1].copy(),
-                         origin=(grid.origin[0] + ix0 * res, grid.origin[1] + iy0 * res), resolution=res,
-                         band=grid.band)
-
-
-UNSTICK_RADIUS_M = 0.5  # how far the robot may move straight to leave a blocked start pose
-
-
-def _nearest_free_pose(checker: PoseChecker, start: Pose2D, footprints: list[Footprint]) -> Pose2D | None:
-    """The nearest pose (rings of 2.5 cm, 16 bearings, same heading) where any of the footprints is free."""
-    for k in range(1, int(UNSTICK_RADIUS_M / 0.025) + 1):
-        r = 0.025 * k
-        for j in range(16):
-            x = start[0] + r * math.cos(j * math.pi / 8)
-            y = start[1] + r * math.sin(j * math.pi / 8)
-            if any(checker.free(f, x, y, start[2]) for f in footprints):
-                return (x, y, start[2])
-    return None
-
-
-@dataclass
-class _Route:
-    """A planned route: pieces of path, each with the carry mode to drive it in ("" without a load)."""
-
-    pieces: list[tuple[list[Pose2D], str]]
-    length_m: float
-    narrow_length_m: float
-
-
-def _route_of(cp: CarryPlan) -> _Route:
-    poses = list(cp.path.poses)
-    cuts = sorted({0, len(poses) - 1, *(i for seg in cp.segments for i in (seg.start_index, seg.end_index))})
-    spans = [(seg.start_index, seg.end_index) for seg in cp.segments]
-    pieces = []
-    for a, b in itertools.pairwise(cuts):
-        inside = any(lo <= a and b <= hi for lo, hi in spans)
-        pieces.append((poses[a:b + 1], NARROW if inside else NORMAL))
-    return _Route(pieces or [(poses, NORMAL)], cp.path.length_m, float(cp.extra.get("narrow_length_m", 0.0)))
-
-
-@dataclass
-class _Drive:
-    t: list[Pose2D]  # timed poses at the control rate, the first one where the drive starts
-    mode: str
-    s: float = 0.0  # progress in samples (1 per control period at full speed)
-
-    def at(self, s: float) -> Pose2D:
-        i = min(int(s), len(self.t) - 2)
-        u = s - i
-        a, b = self.t[i], self.t[i + 1]
-        dyaw = math.atan2(math.sin(b[2] - a[2]), math.cos(b[2] - a[2]))
-        return (a[0] + u * (b[0] - a[0]), a[1] + u * (b[1] - a[1]), a[2] + u * dyaw)
-
-
-@dataclass
-class _Turn:
-    path: JointPath
-    event: str | None
-    mode: str
 
 
 class NavigationSkill(Skill):
@@ -158,7 +92,7 @@ class NavigationSkill(Skill):
         self.lidar: LidarSpec = lidar_spec(env.robot, s.lidar_step_deg)
         self.monitor = SeparationMonitor(env, self.lidar, params, max_speed=self.max_speed,
                                          enabled=s.monitoring != "off")
-        self.queue: list[_Drive | _Turn] = []
+        self.queue: list[Drive | Turn] = []
         self.geo: CarryGeometry | None = None
         self.stopped_since: float | None = None
         self.slow_since: float | None = None
@@ -180,7 +114,7 @@ class NavigationSkill(Skill):
         elif call.arm_poses.get("initial"):
             q = call.arm_poses["initial"]
             if max(abs(a - b) for a, b in zip(env.robot.arm_positions(), q, strict=True)) > 1e-6:
-                self.queue.append(_Turn(self._joint_path([("navigation pose", q)]), None, ""))
+                self.queue.append(Turn(self._joint_path([("navigation pose", q)]), None, ""))
         start = env.base_pose()
         self.spaces: list[ConfigurationSpace] | None = []  # of the first plan's legs, for the yardstick
         result = self._plan(start, None)
@@ -237,55 +171,82 @@ class NavigationSkill(Skill):
                            allow_reverse=self.c.settings.monitoring == "off")
 
     def _leg(self, grid: OccupancyGrid, start: Pose2D, goal: Pose2D, fp: Footprint,
-             narrow: Footprint | None) -> _Route | str:
+             narrow: Footprint | None) -> Route | str:
         """One planned leg, in growing windows: a plain path (``narrow`` None) or a carry-mode path."""
         s = self.c.settings
         settings = self._settings()
         reasons: list[str] = []
         for margin in s.window_margins_m:
             sub = window(grid, [(start[0], start[1]), (goal[0], goal[1])], margin)
-            if narrow is None:
-                cs = ConfigurationSpace.build(sub, fp, settings.n_yaw_bins, settings.margin_m)
-                path = plan_path(cs, start, goal, settings=settings)  # as plan_path(sub, ..., fp) builds it
-                self.details["planning_time_s"] += path.planning_time_s
-                if path.ok and self.spaces is not None:
-                    self.spaces.append(cs)
-                    self.details["planner"] = path.planner
-                    mode = ""
-                    if self.geo is not None:
-                        mode = NORMAL if fp == self.geo.footprint(NORMAL) else NARROW
-                    return _Route([(list(path.poses), mode)], path.length_m, 0.0 if mode != NARROW else
-                                  path.length_m)
-                why = path.reason
-            else:
-                cp = plan_with_carry_modes(sub, start, goal, fp, narrow, settings, margin_m=s.carry_margin_m)
-                self.details["planning_time_s"] += cp.path.planning_time_s
-                if cp.ok:
-                    self.details["planner"] = cp.path.planner
-                    if cp.space is not None and self.spaces is not None:
-                        self.spaces.append(cp.space)
-                    return _route_of(cp)
-                why = cp.path.reason
-            reasons.append(f"{'whole map' if margin is None else f'{margin:g} m window'}: {why}")
-            if "in collision" in why or "off the map" in why:
-                break  # a bigger window does not help
+            found = self._leg_in(sub, start, goal, fp, narrow, settings)
+            if isinstance(found, str):
+                reasons.append(f"{'whole map' if margin is None else f'{margin:g} m window'}: {found}")
+                if "in collision" in found or "off the map" in found:
+                    break  # a bigger window does not help
+                continue
+            route, space = self._shorter(sub, start, goal, fp, narrow, settings, *found)
+            if space is not None and self.spaces is not None:
+                self.spaces.append(space)
+            return route
         return "; ".join(reasons)
 
-    def _via(self, checker: PoseChecker, near: Pose2D) -> Pose2D | None:
-        """The nearest pose to ``near`` where both carry footprints fit (rings of 0.25 m, 16 bearings)."""
-        assert self.geo is not None
-        fps = (self.geo.footprint(NORMAL), self.geo.footprint(NARROW))
-        for k in range(1, 13):
-            r = 0.25 * k
-            for j in range(16):
-                bearing = near[2] + math.pi + j * math.pi / 8  # behind the robot first
-                x, y = near[0] + r * math.cos(bearing), near[1] + r * math.sin(bearing)
-                for yaw in (near[2], near[2] + math.pi / 2, near[2] - math.pi / 2, near[2] + math.pi):
-                    if all(checker.free(f, x, y, yaw) for f in fps):
-                        return (x, y, math.atan2(math.sin(yaw), math.cos(yaw)))
-        return None
+    def _leg_in(self, sub: OccupancyGrid, start: Pose2D, goal: Pose2D, fp: Footprint,
+                narrow: Footprint | None, settings: NavSettings
+                ) -> tuple[Route, ConfigurationSpace | None] | str:
+        """A leg planned on ``sub`` with its configuration space, or why there is none."""
+        if narrow is None:
+            cs = ConfigurationSpace.build(sub, fp, settings.n_yaw_bins, settings.margin_m)
+            path = plan_path(cs, start, goal, settings=settings)  # as plan_path(sub, ..., fp) builds it
+            self.details["planning_time_s"] += path.planning_time_s
+            if not path.ok:
+                return path.reason
+            self.details["planner"] = path.planner
+            mode = "" if self.geo is None else NORMAL if fp == self.geo.footprint(NORMAL) else NARROW
+            return Route([(list(path.poses), mode, cs)], path.length_m,
+                          path.length_m if mode == NARROW else 0.0), cs
+        margin = self.c.settings.carry_margin_m
+        cp = plan_with_carry_modes(sub, start, goal, fp, narrow, settings, margin_m=margin)
+        self.details["planning_time_s"] += cp.path.planning_time_s
+        if not cp.ok:
+            return cp.path.reason
+        self.details["planner"] = cp.path.planner
+        return route_of(cp), cp.space
 
-    def _plan(self, start: Pose2D, obstacle: shapely.Geometry | None) -> _Route | str:
+    def _shorter(self, sub: OccupancyGrid, start: Pose2D, goal: Pose2D, fp: Footprint,
+                 narrow: Footprint | None, settings: NavSettings, route: Route,
+                 space: ConfigurationSpace | None) -> tuple[Route, ConfigurationSpace | None]:
+        """A leg whose yardstick on its space is at least ``DETOUR_MIN_M`` and whose path is over
+        ``DETOUR_RATIO`` x that (the planner went round the long way) is planned again with up to
+        ``DETOUR_RETRIES`` other seeds (derived from the step's); the quickest to drive is kept."""
+        best = grid_shortest_path_length(space, start, goal) if space is not None else math.inf
+        if not (DETOUR_MIN_M <= best < math.inf) or route.length_m <= DETOUR_RATIO * best:
+            return route, space
+        seconds = self._drive_s(route)
+        for k in range(1, DETOUR_RETRIES + 1):
+            again = self._leg_in(sub, start, goal, fp, narrow,
+                                 replace(settings, seed=(settings.seed + 7919 * k) % (2**31 - 1) + 1))
+            if not isinstance(again, str) and self._drive_s(again[0]) < seconds - 1e-9:
+                route, space = again
+                seconds = self._drive_s(route)
+            if route.length_m <= DETOUR_RATIO * best:
+                break
+        return route, space
+
+    def _timed(self, leg: Route | str, why: list[str]) -> tuple[Route, float] | None:
+        """A planned leg and how long driving it takes (None, the reason kept in ``why``, if it failed)."""
+        if isinstance(leg, str):
+            why.append(leg)
+            return None
+        return leg, self._drive_s(leg)
+
+    def _drive_s(self, route: Route) -> float:
+        """How long driving a route takes (its timed pieces; the load's turns between them left out)."""
+        base = self.c.env.robot.spec.base
+        return sum(time_parameterize(p, self.max_speed, base.max_yaw_rate_rps, base.max_accel_mps2,
+                                     base.max_yaw_accel_rps2, self.c.env.control_hz, space).duration_s
+                   for p, _, space in route.pieces if len(p) >= 2)
+
+    def _plan(self, start: Pose2D, obstacle: shapely.Geometry | None) -> Route | str:
         """The route to the goal; NV-2 turns the load at a pose near start or goal when it must.
 
         A robot that stands where the (conservative) configuration space calls it blocked - a few
@@ -300,7 +261,7 @@ class NavigationSkill(Skill):
         checker = PoseChecker(grid)
         fps = [normal] if narrow is None else [normal, narrow]
         if not any(checker.free(f, *start) for f in fps):
-            free = _nearest_free_pose(checker, start, fps)
+            free = nearest_free_pose(checker, start, fps)
             if free is not None:
                 rest = self._plan_from(grid, free, normal, narrow)
                 if isinstance(rest, str):
@@ -308,12 +269,12 @@ class NavigationSkill(Skill):
                 mode = (self.c.carry_mode or NORMAL) if self.geo is not None else ""
                 step = math.hypot(free[0] - start[0], free[1] - start[1])
                 self.c.emit("unstick", x=round(start[0], 3), y=round(start[1], 3), distance_m=round(step, 3))
-                return _Route([([start, free], mode), *rest.pieces], rest.length_m + step,
+                return Route([([start, free], mode, None), *rest.pieces], rest.length_m + step,
                               rest.narrow_length_m)
         return self._plan_from(grid, start, normal, narrow)
 
     def _plan_from(self, grid: OccupancyGrid, start: Pose2D, normal: Footprint,
-                   narrow: Footprint | None) -> _Route | str:
+                   narrow: Footprint | None) -> Route | str:
         first = self._leg(grid, start, self.goal, normal, narrow)
         if not isinstance(first, str):
             return first
@@ -327,44 +288,61 @@ class NavigationSkill(Skill):
         if not free_start or not free_goal:
             where = "start" if not free_start else "base pose"
             return f"no path to the base pose: the held element fits neither way at the {where} ({first})"
-        v1 = start if len(free_start) == 2 else self._via(checker, start)
-        v2 = self.goal if len(free_goal) == 2 else self._via(checker, self.goal)
-        if v1 is None or v2 is None:
-            return f"no path to the base pose: no room to turn the held element ({first})"
-        legs: list[_Route] = []
-        plan = [(start, v1, free_start[0]), (v1, v2, ""), (v2, self.goal, free_goal[0])]
-        for a, b, mode in plan:
-            if math.hypot(a[0] - b[0], a[1] - b[1]) < 1e-6 and abs(a[2] - b[2]) < 1e-6:
+        geo = self.geo
+        why: list[str] = []
+
+        def fits(x: float, y: float, yaw: float) -> bool:
+            return all(checker.free(geo.footprint(m), x, y, yaw) for m in (NORMAL, NARROW))
+
+        turns: list[tuple[Pose2D, Route | None]] = []  # where the load turns, near start and goal
+        for i, (near, modes) in enumerate(((start, free_start), (self.goal, free_goal))):
+            if len(modes) == 2:
+                turns.append((near, None))
                 continue
-            leg = self._leg(grid, a, b, normal, narrow) if not mode else \
-                self._leg(grid, a, b, self.geo.footprint(mode), None)
-            if isinstance(leg, str):
-                return f"no path to the base pose ({first}; turning the load on the way: {leg})"
-            legs.append(leg)
-        return _Route([p for leg in legs for p in leg.pieces], sum(leg.length_m for leg in legs),
+            fp, far = geo.footprint(modes[0]), (self.goal if i == 0 else turns[0][0])
+
+            def leg(v: Pose2D, i: int = i, near: Pose2D = near, fp: Footprint = fp
+                    ) -> tuple[Route, float] | None:
+                a, b = (near, v) if i == 0 else (v, near)
+                return self._timed(self._leg(grid, a, b, fp, None), why)
+
+            got = best_turn_pose(turn_poses(fits, near), near, far, self.max_speed, leg)
+            if got is None:
+                reason = "; ".join([first, *why[:1]])
+                return f"no path to the base pose: no room to turn the held element ({reason})"
+            turns.append(got)
+        (v1, leg_a), (v2, leg_c) = turns
+        mid: Route | None = None
+        if math.hypot(v1[0] - v2[0], v1[1] - v2[1]) >= 1e-6 or abs(v1[2] - v2[2]) >= 1e-6:
+            found = self._leg(grid, v1, v2, geo.footprint(NORMAL), geo.footprint(NARROW))
+            if isinstance(found, str):
+                return f"no path to the base pose ({first}; turning the load on the way: {found})"
+            mid = found
+        legs = [r for r in (leg_a, mid, leg_c) if r is not None]
+        return Route([p for leg in legs for p in leg.pieces], sum(leg.length_m for leg in legs),
                       sum(leg.narrow_length_m for leg in legs))
 
-    def _enqueue(self, route: _Route, *, first: bool) -> None:
+    def _enqueue(self, route: Route, *, first: bool) -> None:
         """Queue drives (and carry turns) for a planned route; ``first``: the step's first plan."""
         env = self.c.env
         base = env.robot.spec.base
         self.details["path_length_m"] += route.length_m
         self.details["narrow_length_m"] += route.narrow_length_m
         mode = self.c.carry_mode
-        for piece, pmode in route.pieces:
+        for piece, pmode, space in route.pieces:
             if self.geo is not None and pmode != mode:
                 q = list(self.geo.mode(pmode).joints)
                 if first and mode not in (NORMAL, NARROW):
                     event = "carry_pose"
                 else:
                     event = "rotate_to_narrow" if pmode == NARROW else "rotate_back"
-                self.queue.append(_Turn(self._joint_path([(f"carry {pmode}", q)]), event, pmode))
+                self.queue.append(Turn(self._joint_path([(f"carry {pmode}", q)]), event, pmode))
                 mode = pmode
             if len(piece) >= 2:
                 traj = time_parameterize(piece, self.max_speed, base.max_yaw_rate_rps, base.max_accel_mps2,
-                                         base.max_yaw_accel_rps2, rate_hz=env.control_hz)
+                                         base.max_yaw_accel_rps2, rate_hz=env.control_hz, space=space)
                 if len(traj.poses) >= 2:
-                    self.queue.append(_Drive(list(traj.poses), pmode))
+                    self.queue.append(Drive(list(traj.poses), pmode))
             first = False
 
     # ---- running -------------------------------------------------------------------------------------
@@ -372,7 +350,7 @@ class NavigationSkill(Skill):
         env = self.c.env
         while self.queue:
             head = self.queue[0]
-            if isinstance(head, _Turn):
+            if isinstance(head, Turn):
                 if head.event and head.path._i == 0:
                     x, y, yaw = env.base_pose()
                     self.c.emit(head.event, mode=head.mode, x=round(x, 3), y=round(y, 3))
@@ -462,7 +440,7 @@ class NavigationSkill(Skill):
             if self.blocked_s >= s.replan_after_s and self.replanned_at is None and d.sensed is not None:
                 self.replanned_at = env.t
                 self._replan(d.sensed.worker, d.sensed.separation_m)
-                pts = [(p[0], p[1]) for q in self.queue if isinstance(q, _Drive) for p in q.t[int(q.s)::5]]
+                pts = [(p[0], p[1]) for q in self.queue if isinstance(q, Drive) for p in q.t[int(q.s)::5]]
                 ask_way(env, d.sensed.worker, pts, reach_m(self._rects()) + d.protective_m, self.c.emit)
             return 0.0
         if self.stopped_since is not None:
@@ -481,9 +459,9 @@ class NavigationSkill(Skill):
         if isinstance(result, str):
             self.c.emit("replan", worker=who, outcome="failed", reason=result)
             return
-        keep: list[_Drive | _Turn] = []
+        keep: list[Drive | Turn] = []
         for q in self.queue:  # a carry turn already under way is finished first
-            if isinstance(q, _Turn) and q.path._i > 0:
+            if isinstance(q, Turn) and q.path._i > 0:
                 keep.append(q)
                 break
         self.queue = keep
