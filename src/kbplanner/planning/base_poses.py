@@ -97,6 +97,47 @@ class PoseChecker:
         return not bool((window & kern).any())
 
 
+def window(grid: OccupancyGrid, points: list[tuple[float, float]], margin_m: float | None) -> OccupancyGrid:
+    """The part of ``grid`` around ``points`` plus ``margin_m`` (None: the whole grid).
+
+    The navigation (B5) plans in such windows (cells off a window count as occupied, so what is free
+    and connected in a window is so on the whole grid); B4's carry-leg check uses the same windows.
+    """
+    if margin_m is None:
+        return grid
+    res = grid.resolution
+    ny, nx = grid.shape
+    xs = [p[0] for p in points]
+    ys = [p[1] for p in points]
+    ix0 = max(0, math.floor((min(xs) - margin_m - grid.origin[0]) / res))
+    iy0 = max(0, math.floor((min(ys) - margin_m - grid.origin[1]) / res))
+    ix1 = min(nx, math.ceil((max(xs) + margin_m - grid.origin[0]) / res))
+    iy1 = min(ny, math.ceil((max(ys) + margin_m - grid.origin[1]) / res))
+    return OccupancyGrid(occupied=grid.occupied[iy0:iy1, ix0:ix1].copy(),
+                         origin=(grid.origin[0] + ix0 * res, grid.origin[1] + iy0 * res), resolution=res,
+                         band=grid.band)
+
+
+UNSTICK_RADIUS_M = 0.5  # how far the robot may move straight to leave a blocked start pose
+
+
+def nearest_free_pose(checker: PoseChecker, start: tuple[float, float, float],
+                      footprints: list[Footprint]) -> tuple[float, float, float] | None:
+    """The nearest pose (rings of 2.5 cm, 16 bearings, same heading) where any of the footprints is free.
+
+    Where the navigation (B5) moves a robot that stands on a cell its configuration space calls
+    blocked before it plans (at most :data:`UNSTICK_RADIUS_M`); B4's carry-leg check starts there too.
+    """
+    for k in range(1, int(UNSTICK_RADIUS_M / 0.025) + 1):
+        r = 0.025 * k
+        for j in range(16):
+            x = start[0] + r * math.cos(j * math.pi / 8)
+            y = start[1] + r * math.sin(j * math.pi / 8)
+            if any(checker.free(f, x, y, start[2]) for f in footprints):
+                return (x, y, start[2])
+    return None
+
+
 def escapes(grid: OccupancyGrid, footprint: Footprint, pose: Pose2, *, radius_m: float = 3.0,
             n_bins: int = N_YAW_BINS) -> bool:
     """Whether a robot at ``pose`` is not shut in: its free configurations reach ``radius_m`` away.

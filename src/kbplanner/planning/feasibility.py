@@ -42,6 +42,14 @@ FIXES: tuple[tuple[str, str], ...] = (
     (r"out of reach from any base pose",
      "bring the element within the arm's height range: a lower storage or stack (kbp:sizeZ, fewer "
      "elements per stack), or a robot with a longer arm"),
+    (r"carry way closed by ",
+     "install this element before the element the reason names (a lower kbp:workSequence than its; "
+     "without kbp:workSequence B4 tries that order itself), or put the storage and its "
+     "kbp:pickupLocation on this element's side of the element that closes the way"),
+    (r"carry way walled off",
+     "give the robot carrying the element a way: move the storage and its kbp:pickupLocation so that an "
+     "opening wider than the carried element (the reason gives its sizes) leads to the installed pose, "
+     "or split the element into shorter panels"),
     (r"walled off: no way for the robot",
      "install this element before the elements that close its way (a lower kbp:workSequence than "
      "theirs; without kbp:workSequence B4 tries that order itself), or move the storage so that the "

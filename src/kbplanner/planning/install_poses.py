@@ -4,7 +4,10 @@ Takes the element, the :class:`~kbplanner.planning.grasp_poses.Pick` that holds 
 pose and the installed pose (a 4x4 site frame); gives an :class:`Install` (base pose, arm poses
 ``initial``/``orient``/``pre_place``/``place``/``retract``/``final``) or the reason why none was found.
 The element's own installed footprint is marked occupied, the robot must not be shut in by it
-(:func:`~kbplanner.planning.base_poses.escapes`), and a box symmetric about its vertical axis may be
+(:func:`~kbplanner.planning.base_poses.escapes`), the robot holding the element must be able to drive
+there from the pick base pose (:mod:`~kbplanner.planning.carry_reach`, the navigation's test with the
+carry footprints; when no free base pose is reachable the reason names the element installed before
+that closes the way), and a box symmetric about its vertical axis may be
 placed turned by 180 degrees (:func:`~kbplanner.planning.pose_frames.target_variants`). Details in
 :mod:`kbplanner.planning.manipulation`.
 """
@@ -21,6 +24,13 @@ import numpy.typing as npt
 
 from kbplanner.planning.base_poses import element_polygon, escapes, mark_polygon
 from kbplanner.planning.carry import ElementProbe, Matrix
+from kbplanner.planning.carry_reach import (
+    CarryReach,
+    carry_footprints,
+    carry_leg_reason,
+    first_blocker,
+    reaches_alone,
+)
 from kbplanner.planning.grasp_poses import Pick
 from kbplanner.planning.plan_model import Pose2, SkillCall
 from kbplanner.planning.pose_frames import joints, shifted, target_variants, tool_frame
@@ -95,6 +105,9 @@ class InstallSearch(PoseSearch):
         probe = ElementProbe(self.robot, we.local_bounds)
         tried = free_count = 0
         last = "no base pose near the installed pose is free"
+        around = (float(tool[0, 3]), float(tool[1, 3]))
+        reach = self._carry_reach(pick, around)
+        walled: list[Pose2] = []
         best: Install | None = None
         try:
             # Pass 1: seeded samples nearest to the pick base pose; pass 2 (no clear install yet): the
@@ -109,6 +122,9 @@ class InstallSearch(PoseSearch):
                         continue
                     modes = self.carry_free(checker, pick.geometry, base)
                     if not modes:
+                        continue
+                    if not reach.reaches(base):
+                        walled.append(base)
                         continue
                     free_count += 1
                     if tried >= budget:
@@ -138,7 +154,30 @@ class InstallSearch(PoseSearch):
             probe.close()
         if best is not None:
             return best
-        return f"installed pose out of reach from {tried} free base pose(s) tried: {last}"
+        if walled and not tried:
+            return self._walled_reason(pick, walled, around)
+        more = (f" ({len(walled)} other free base pose(s) the robot holding it cannot drive to)"
+                if walled else "")
+        return f"installed pose out of reach from {tried} free base pose(s) tried{more}: {last}"
+
+    def _carry_reach(self, pick: Pick, around: tuple[float, float]) -> CarryReach:
+        """The carry-leg check from the pick base pose on the current grid (one per grid, pick and place)."""
+        key = (id(self.checker.grid), pick.base, id(pick.geometry), round(around[0], 2), round(around[1], 2))
+        reach = self.reach_cache.get(key)
+        if reach is None:
+            self.reach_cache.clear()  # one grid state at a time
+            reach = CarryReach(self.checker.grid, carry_footprints(pick.geometry), pick.base, around)
+            self.reach_cache[key] = reach
+        return reach
+
+    def _walled_reason(self, pick: Pick, walled: list[Pose2], around: tuple[float, float]) -> str:
+        """Why none of the free install base poses ``walled`` is reachable holding the element."""
+        goals = walled[:12]
+        blocker = first_blocker(self.base_grid, self.installed, pick.geometry, pick.base, goals, around)
+        alone = blocker is None and reaches_alone(self.checker.grid, self.base_fp, pick.base, goals, around)
+        reach = self._carry_reach(pick, around)
+        within = reach.margins[-1] if reach.capped else None
+        return carry_leg_reason(pick.geometry, pick.base, len(walled), alone, blocker, within)
 
     def _install_at(
         self,

@@ -73,7 +73,7 @@ import logging
 from collections.abc import Callable
 
 from kbplanner.core.vocab import KBP
-from kbplanner.planning.base_poses import PoseChecker, element_polygon, mark_polygon, way_between
+from kbplanner.planning.base_poses import PoseChecker, element_polygon, mark_polygon
 from kbplanner.planning.grasp_poses import Pick, PickSearch
 from kbplanner.planning.install_order import blocked_move, installable, move_before, stack_above
 from kbplanner.planning.install_poses import InstallSearch
@@ -100,7 +100,7 @@ _NOT_IK_FAILURES = ("no free base pose", "the element lies under", "the element 
 
 
 _StepState = tuple[bool, str | None, Pose2 | None, dict[str, list[float]], list[str]]
-_State = tuple[list[_StepState], set[str], Pose2, PoseChecker]
+_State = tuple[list[_StepState], set[str], Pose2, PoseChecker, int]
 
 
 class _Refiner(PickSearch, InstallSearch):
@@ -152,12 +152,13 @@ class _Refiner(PickSearch, InstallSearch):
 
     def _state(self, steps: list[SkillCall]) -> _State:
         return ([(s.feasible, s.reason, s.base_pose, dict(s.arm_poses), list(s.notes)) for s in steps],
-                set(self.picked), self.robot_at, self.checker)
+                set(self.picked), self.robot_at, self.checker, len(self.installed))
 
     def _restore(self, steps: list[SkillCall], saved: _State) -> None:
         for s, (feasible, reason, base, arm, notes) in zip(steps, saved[0], strict=True):
             s.feasible, s.reason, s.base_pose, s.arm_poses, s.notes = feasible, reason, base, arm, list(notes)
         self.picked, self.robot_at, self.checker = set(saved[1]), saved[2], saved[3]
+        del self.installed[saved[4]:]
 
     def _element_regrasp(self, iri: str, steps: list[SkillCall], saved: _State) -> None:
         """The element; when its install fails, again with another grasp (the carried element's footprint
@@ -269,12 +270,6 @@ class _Refiner(PickSearch, InstallSearch):
                 if isinstance(res_i, str):
                     _fail(steps, i, res_i)
                     return
-                if not way_between(self.checker.grid, self.base_fp, pick.base, res_i.base):
-                    _fail(steps, i, "walled off: no way for the robot from the pick base pose "
-                                    f"({pick.base.x:.2f}, {pick.base.y:.2f}) to the install base pose "
-                                    f"({res_i.base.x:.2f}, "
-                                    f"{res_i.base.y:.2f}) once the elements installed before it stand")
-                    return
                 s.base_pose = res_i.base
                 s.arm_poses = res_i.poses
                 s.notes.append(res_i.note)
@@ -294,8 +289,9 @@ class _Refiner(PickSearch, InstallSearch):
                 self.robot_at = res_i.base
                 pick = None
                 installed = True
-                self.checker = self.checker.with_grid(
-                    mark_polygon(self.checker.grid, element_polygon(we.local_bounds, target)))
+                polygon = element_polygon(we.local_bounds, target)
+                self.checker = self.checker.with_grid(mark_polygon(self.checker.grid, polygon))
+                self.installed.append((we.iri, we.label, polygon))
                 continue
             s.notes.append(f"no B4 refinement for skill kind {s.skill_kind}")
         if pending is not None:
