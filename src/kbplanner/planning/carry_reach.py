@@ -263,12 +263,13 @@ class Blocker:
 
 def first_blocker(base_grid: OccupancyGrid, installed: Sequence[tuple[str, str, shapely.Geometry]],
                   geo: CarryGeometry, start: Pose2, goals: Sequence[Pose2],
-                  around: tuple[float, float]) -> Blocker | None:
+                  around: tuple[float, float], *, known_closed: bool = False) -> Blocker | None:
     """The first element of ``installed`` (iri, label, floor polygon; in install order) whose footprint,
     added to ``base_grid`` with those before it, leaves no goal reachable from ``start``; None when the
     way is closed even with none of them (the walls, the storage or the site close it).
 
-    Bisection over the number of elements installed (reachability only shrinks as elements are added).
+    Bisection over the number of elements installed (reachability only shrinks as elements are added);
+    ``known_closed``: the caller saw no goal reachable with all of them (not checked again).
     """
     def reachable(k: int) -> bool:
         g = base_grid
@@ -277,9 +278,9 @@ def first_blocker(base_grid: OccupancyGrid, installed: Sequence[tuple[str, str, 
         reach = CarryReach(g, carry_footprints(geo), start, around)
         return any(reach.reaches(b) for b in goals)
 
-    if not installed or not reachable(0):
+    if not installed or not reachable(0) or (not known_closed and reachable(len(installed))):
         return None
-    lo, hi = 0, len(installed)  # reachable with lo installed; not with hi (the caller saw it fail)
+    lo, hi = 0, len(installed)  # reachable with lo installed; not with hi
     while hi - lo > 1:
         mid = (lo + hi) // 2
         if reachable(mid):

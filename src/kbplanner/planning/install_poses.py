@@ -173,7 +173,8 @@ class InstallSearch(PoseSearch):
     def _walled_reason(self, pick: Pick, walled: list[Pose2], around: tuple[float, float]) -> str:
         """Why none of the free install base poses ``walled`` is reachable holding the element."""
         goals = walled[:12]
-        blocker = first_blocker(self.base_grid, self.installed, pick.geometry, pick.base, goals, around)
+        blocker = first_blocker(self.base_grid, self.installed, pick.geometry, pick.base, goals, around,
+                                known_closed=True)
         alone = blocker is None and reaches_alone(self.checker.grid, self.base_fp, pick.base, goals, around)
         reach = self._carry_reach(pick, around)
         within = reach.margins[-1] if reach.capped else None
