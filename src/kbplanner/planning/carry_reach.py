@@ -49,6 +49,7 @@ from __future__ import annotations
 
 import logging
 import math
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -70,6 +71,9 @@ WINDOW_MARGINS_M: tuple[float | None, ...] = (6.0, 12.0, None)
 #: Maps of more cells (x, y) are not labelled whole (72 yaw bins, two footprints: seconds per element):
 #: there the largest window decides (a way that leaves it is not counted, and the reason says so).
 WHOLE_MAP_MAX_CELLS = 250_000
+#: The windows that name what closes a way (:func:`first_blocker`, :func:`reaches_alone`): only the first
+#: (a hint for the reason and the install order, which B4 checks again; the verdict is :class:`CarryReach`'s).
+BLOCKER_MARGINS_M: tuple[float | None, ...] = WINDOW_MARGINS_M[:1]
 
 _Space = tuple[ConfigurationSpace, npt.NDArray[np.int32], npt.NDArray[np.int64]]
 
@@ -124,9 +128,11 @@ def joint_components(parts: Sequence[tuple[npt.NDArray[np.int32], npt.NDArray[np
         for j in range(i + 1, len(parts)):
             (li, ri), (lj, rj) = parts[i], parts[j]
             both = (li > 0) & (lj > 0)
-            a = ri[li[both]] + offsets[i]
-            b = rj[lj[both]] + offsets[j]
-            edges.append(np.unique(np.stack([a, b], axis=1), axis=0))
+            # the distinct label pairs (one int64 key each: a 1-D unique, far faster than rows)
+            keys = np.unique(li[both].astype(np.int64) * len(rj) + lj[both])
+            a = ri[keys // len(rj)] + offsets[i]
+            b = rj[keys % len(rj)] + offsets[j]
+            edges.append(np.stack([a, b], axis=1))
     e = np.concatenate(edges)
     graph = coo_matrix((np.ones(len(e), dtype=np.int8), (e[:, 0], e[:, 1])), shape=(n_nodes, n_nodes))
     _, joint = connected_components(graph, directed=False)
@@ -176,9 +182,12 @@ class CarryReach:
         """Footprint ``k``'s configuration space on window ``i`` and its labels and roots (built once)."""
         got = self._spaces.get((i, k))
         if got is None:
+            t0 = time.perf_counter()
             cs = ConfigurationSpace.build(self._window(i), self.footprints[k], self.n_bins)
             got = (cs, *cs.labels_and_roots(True))
             self._spaces[(i, k)] = got
+            log.debug("carry reach: footprint %d on window %d (%s cells): %.2f s", k, i, cs.grid.shape,
+                      time.perf_counter() - t0)
         return got
 
     def _first_joins(self, goal: Pose2) -> bool:
@@ -275,7 +284,7 @@ def first_blocker(base_grid: OccupancyGrid, installed: Sequence[tuple[str, str, 
         g = base_grid
         for _iri, _label, poly in installed[:k]:
             g = mark_polygon(g, poly)
-        reach = CarryReach(g, carry_footprints(geo), start, around)
+        reach = CarryReach(g, carry_footprints(geo), start, around, margins=BLOCKER_MARGINS_M)
         return any(reach.reaches(b) for b in goals)
 
     if not installed or not reachable(0) or (not known_closed and reachable(len(installed))):
@@ -331,5 +340,5 @@ def blocker_in(reason: str) -> str | None:
 def reaches_alone(grid: OccupancyGrid, base: Footprint, start: Pose2, goals: Sequence[Pose2],
                   around: tuple[float, float]) -> bool:
     """Whether the robot without a load reaches any of ``goals`` from ``start`` (same test, one footprint)."""
-    reach = CarryReach(grid, (base,), start, around)
+    reach = CarryReach(grid, (base,), start, around, margins=BLOCKER_MARGINS_M)
     return any(reach.reaches(g) for g in goals)

@@ -45,7 +45,11 @@ closest to the target (:meth:`~kbplanner.planning.pose_search.PoseSearch.closest
 whose install fails is picked again with another grasp (at most ``max_regrasps``), and one whose
 install is blocked by elements installed before it is moved before them
 (:mod:`~kbplanner.planning.install_order`, in :func:`refine_plan`). After an install the robot must
-not be shut in by what it installed (:func:`escapes`). A stud frame whose box is symmetric about its
+not be shut in by what it installed (:func:`escapes`). An install base pose must be reachable from the
+pick base pose by the robot holding the element, in the configuration spaces of its carry footprints
+that the navigation with object plans in (:mod:`~kbplanner.planning.carry_reach`); when none is, the
+reason gives the carry sizes and the element installed before that closes the way, and that element
+is what the order feedback moves it before. A stud frame whose box is symmetric about its
 vertical axis may be placed turned by 180 degrees about it when only that way the gripper (which
 holds the face that was up at the storage) can reach. The held element should stay clear of the arm
 and base; when no candidate achieves that, the best one overlapping by at most
@@ -96,7 +100,8 @@ NAVIGATION_KINDS = (KIND_NAVIGATION, KIND_NAVIGATION_WITH_OBJECT)
 
 # Reasons of B4 failures that do not depend on the IK (no retry with the fallback IK).
 _NOT_IK_FAILURES = ("no free base pose", "the element lies under", "the element is not at a storage",
-                    "out of reach from any base pose", "skipped", "the element weighs")
+                    "out of reach from any base pose", "skipped", "the element weighs",
+                    "carry way walled off")
 
 
 _StepState = tuple[bool, str | None, Pose2 | None, dict[str, list[float]], list[str]]
@@ -171,8 +176,9 @@ class _Refiner(PickSearch, InstallSearch):
         for _ in range(self.s.max_regrasps):
             bad = next((s for s in steps if not s.feasible), None)
             used = self.grasp_used()
-            if bad is None or bad.skill_kind != KIND_RELEASE or used is None:
-                break
+            if bad is None or bad.skill_kind != KIND_RELEASE or used is None or \
+                    (bad.reason or "").startswith("carry way walled off"):
+                break  # (another grasp changes the carried footprint by centimetres: not a way through)
             if first is None:
                 first = self._state(steps)
             self.excluded_grasps.add(used)
