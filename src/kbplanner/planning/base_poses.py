@@ -5,8 +5,10 @@ footprint (:class:`~kbplanner.world.footprint.Footprint`: the base, or the base 
 element); gives :class:`PoseChecker` (is the footprint free at a pose, with the navigation's
 conservative test, so a pose found free is a valid start or goal for the planner), :func:`escapes`
 (is a robot at a pose not shut in), and :func:`element_polygon` / :func:`mark_polygon` (an element's
-floor projection marked occupied, for installed elements). Used by the base-pose search of
-:mod:`kbplanner.planning.pose_search` and by the executor (B5).
+floor projection marked occupied, for installed elements), :func:`window` (the part of a grid the
+navigation plans in) and :func:`nearest_free_pose` (where the navigation moves a robot standing on a
+blocked cell). Used by the base-pose search of :mod:`kbplanner.planning.pose_search`, the carry-leg
+check of :mod:`kbplanner.planning.carry_reach` and by the executor and navigation (B5).
 """
 
 from __future__ import annotations
@@ -183,44 +185,3 @@ def escapes(grid: OccupancyGrid, footprint: Footprint, pose: Pose2, *, radius_m:
         border[-band:, :] = True
     return bool((labels[:, border] == root).any())
 
-
-def way_between(grid: OccupancyGrid, footprint: Footprint, a: Pose2, b: Pose2) -> bool:
-    """Whether the robot may get from base pose ``a`` to ``b`` on the grid: a necessary condition only.
-
-    A disc of the first rectangle's inscribed radius (the base's half width), which lies inside the
-    footprint, must get from the one rectangle centre to the other through free cells (8-connected,
-    the occupied cells grown by the disc, rounded down to whole cells). When even that disc cannot,
-    the robot cannot either: the goal is walled off (e.g. by elements installed before). When it can,
-    the navigation (B5) still plans the real footprint; ``True`` is no promise. Poses whose centre
-    cell is not free after growing are not judged (``True``).
-
-    Example:
-        >>> occ = np.zeros((60, 60), dtype=bool); occ[:, 30] = True
-        >>> g = OccupancyGrid(occ, origin=(0.0, 0.0), resolution=0.05)
-        >>> from kbplanner.world.footprint import Rect
-        >>> fp = Footprint((Rect(0, 0, 0.5, 0.3),))
-        >>> way_between(g, fp, Pose2(0.5, 1.5, 0.0), Pose2(2.5, 1.5, 0.0))
-        False
-        >>> occ[10:20, 30] = False
-        >>> way_between(OccupancyGrid(occ, origin=(0.0, 0.0), resolution=0.05), fp,
-        ...             Pose2(0.5, 1.5, 0.0), Pose2(2.5, 1.5, 0.0))
-        True
-    """
-    from scipy import ndimage
-
-    rect = footprint.rects[0]
-    k = math.floor(min(rect.length, rect.width) / 2 / grid.resolution) - 1
-    occupied = grid.occupied
-    if k > 0:
-        yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
-        occupied = ndimage.binary_dilation(occupied, structure=(xx * xx + yy * yy) <= k * k)
-    labels, _ = ndimage.label(~occupied, structure=np.ones((3, 3), dtype=bool))
-    ny, nx = occupied.shape
-
-    def label_at(p: Pose2) -> int:
-        c, s = math.cos(p.yaw), math.sin(p.yaw)
-        ix, iy = grid.cell_of(p.x + c * rect.cx - s * rect.cy, p.y + s * rect.cx + c * rect.cy)
-        return int(labels[iy, ix]) if 0 <= ix < nx and 0 <= iy < ny else 0
-
-    la, lb = label_at(a), label_at(b)
-    return la == 0 or lb == 0 or la == lb

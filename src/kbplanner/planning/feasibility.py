@@ -50,10 +50,6 @@ FIXES: tuple[tuple[str, str], ...] = (
      "give the robot carrying the element a way: move the storage and its kbp:pickupLocation so that an "
      "opening wider than the carried element (the reason gives its sizes) leads to the installed pose, "
      "or split the element into shorter panels"),
-    (r"walled off: no way for the robot",
-     "install this element before the elements that close its way (a lower kbp:workSequence than "
-     "theirs; without kbp:workSequence B4 tries that order itself), or move the storage so that the "
-     "way from the pickup location stays open"),
     (r"shut in by the installed element",
      "install this element earlier (a lower kbp:workSequence than the elements around it), so the "
      "robot does not close itself in"),
