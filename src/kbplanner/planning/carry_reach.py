@@ -168,6 +168,7 @@ class CarryReach:
             s = moved if moved is not None else s
         self.start = Pose2(*s)
         self._levels: dict[int, _Level] = {}
+        self.reason: str | None = None  # the caller's reason once no goal was reachable (kept with it)
         self._spaces: dict[tuple[int, int], _Space] = {}
         n_cells = grid.shape[0] * grid.shape[1]
         # the whole map only where it is small enough to label quickly; else the largest window is final
@@ -239,6 +240,26 @@ class CarryReach:
     def start_blocked(self) -> bool:
         """Whether the robot holding the element fits neither way at (or near) the start."""
         return self._level(0).start == 0
+
+    def direct(self, goal: Pose2) -> bool:
+        """Whether one footprint alone joins the start and ``goal`` on the first two windows: the
+        navigation's first plan (normal carry, else narrow all the way) gets there without turning the
+        load at a standstill."""
+        for i in range(min(2, len(self.margins))):
+            for k in range(len(self.footprints)):
+                cs, lab, roots = self._space(i, k)
+                a, b = (cs.component_of_labels(lab, roots, p.x, p.y, p.yaw) for p in (self.start, goal))
+                if a > 0 and a == b:
+                    return True
+        return False
+
+    def way(self, goal: Pose2) -> int:
+        """2: :meth:`direct`; 1: reachable only by changing footprint on the way (:meth:`reaches`); 0: not."""
+        if self._first_joins(goal):
+            return 2
+        if not self.reaches(goal):
+            return 0
+        return 2 if self.direct(goal) else 1
 
     def reaches(self, goal: Pose2) -> bool:
         """Whether ``goal`` lies in the start's joint component (on the smallest window that joins them)."""

@@ -105,16 +105,23 @@ class InstallSearch(PoseSearch):
         probe = ElementProbe(self.robot, we.local_bounds)
         tried = free_count = 0
         last = "no base pose near the installed pose is free"
-        around = (float(tool[0, 3]), float(tool[1, 3]))
+        around = (float(target[0, 3]), float(target[1, 3]))  # the installed pose: the same for both turns
         reach = self._carry_reach(pick, around)
         walled: list[Pose2] = []
+        turning: list[Pose2] = []  # reachable only by turning the load on the way
         best: Install | None = None
         try:
             # Pass 1: seeded samples nearest to the pick base pose; pass 2 (no clear install yet): the
-            # deterministic closest free poses (PoseSearch.closest_free), independent of the seed.
-            for pass_no in (1, 2):
+            # deterministic closest free poses (PoseSearch.closest_free), independent of the seed; pass 3:
+            # the base poses the robot reaches only by turning the load on the way (the navigation's last
+            # resort), when no other one works.
+            for pass_no in (1, 2, 3):
                 if pass_no == 2:
                     bases = self.closest_free(tool[:3, 3], checker, side, pick.base)
+                elif pass_no == 3:
+                    if best is not None:
+                        break
+                    bases = turning
                 how = "sampled" if pass_no == 1 else "closest free"
                 budget = tried + self.s.max_ik_bases
                 for base in bases:
@@ -123,9 +130,14 @@ class InstallSearch(PoseSearch):
                     modes = self.carry_free(checker, pick.geometry, base)
                     if not modes:
                         continue
-                    if not reach.reaches(base):
-                        walled.append(base)
-                        continue
+                    if pass_no < 3:
+                        way = reach.way(base)
+                        if way == 0:
+                            walled.append(base)
+                            continue
+                        if way == 1:
+                            turning.append(base)
+                            continue
                     free_count += 1
                     if tried >= budget:
                         break
@@ -141,9 +153,11 @@ class InstallSearch(PoseSearch):
                         continue
                     which = (f"nearest to the pick base pose of {free_count} free samples" if pass_no == 1
                              else "arm mount closest to the installed pose; seed-independent pass")
+                    turn = ("; reached only by turning the load on the way (no carry mode drives it there "
+                            "directly)" if pass_no == 3 else "")
                     note = (f"base pose: {how} ({base.x:.3f}, {base.y:.3f}, {math.degrees(base.yaw):.1f} "
-                            f"deg), {which}; arrives carrying {'/'.join(modes)}; element-robot clearance "
-                            f"{clear:.3f} m"
+                            f"deg), {which}; arrives carrying {'/'.join(modes)}{turn}; element-robot "
+                            f"clearance {clear:.3f} m"
                             f"{' (the element reaches into the robot: not resolved)' if clear < 0 else ''}")
                     found = Install(base, poses, note, clear)
                     if clear >= 0.0:
@@ -162,7 +176,7 @@ class InstallSearch(PoseSearch):
 
     def _carry_reach(self, pick: Pick, around: tuple[float, float]) -> CarryReach:
         """The carry-leg check from the pick base pose on the current grid (one per grid, pick and place)."""
-        key = (id(self.checker.grid), pick.base, id(pick.geometry), round(around[0], 2), round(around[1], 2))
+        key = (id(self.checker.grid), pick.base, id(pick.geometry), round(around[0], 1), round(around[1], 1))
         reach = self.reach_cache.get(key)
         if reach is None:
             self.reach_cache.clear()  # one grid state at a time
@@ -171,14 +185,18 @@ class InstallSearch(PoseSearch):
         return reach
 
     def _walled_reason(self, pick: Pick, walled: list[Pose2], around: tuple[float, float]) -> str:
-        """Why none of the free install base poses ``walled`` is reachable holding the element."""
-        goals = walled[:12]
-        blocker = first_blocker(self.base_grid, self.installed, pick.geometry, pick.base, goals, around,
-                                known_closed=True)
-        alone = blocker is None and reaches_alone(self.checker.grid, self.base_fp, pick.base, goals, around)
+        """Why none of the free install base poses ``walled`` is reachable holding the element (worked out
+        once per grid, pick and element: both turns of a symmetric element ask again)."""
         reach = self._carry_reach(pick, around)
-        within = reach.margins[-1] if reach.capped else None
-        return carry_leg_reason(pick.geometry, pick.base, len(walled), alone, blocker, within)
+        if reach.reason is None:
+            goals = walled[:12]
+            blocker = first_blocker(self.base_grid, self.installed, pick.geometry, pick.base, goals, around,
+                                    known_closed=True)
+            alone = blocker is None and reaches_alone(self.checker.grid, self.base_fp, pick.base, goals,
+                                                      around)
+            within = reach.margins[-1] if reach.capped else None
+            reach.reason = carry_leg_reason(pick.geometry, pick.base, len(walled), alone, blocker, within)
+        return reach.reason
 
     def _install_at(
         self,

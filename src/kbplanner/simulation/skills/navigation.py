@@ -34,8 +34,7 @@ from dataclasses import dataclass
 
 import shapely
 
-from kbplanner.planning.base_poses import PoseChecker, mark_polygon, window
-from kbplanner.planning.base_poses import nearest_free_pose as _nearest_free_pose
+from kbplanner.planning.base_poses import PoseChecker, mark_polygon
 from kbplanner.planning.carry import NARROW, NORMAL, CarryGeometry, geometry_from_joints
 from kbplanner.planning.manipulation import KIND_NAVIGATION, KIND_NAVIGATION_WITH_OBJECT
 from kbplanner.planning.plan_model import Pose2
@@ -58,6 +57,38 @@ from kbplanner.world.occupancy import OccupancyGrid
 log = logging.getLogger(__name__)
 
 Pose2D = tuple[float, float, float]
+
+
+def window(grid: OccupancyGrid, points: list[tuple[float, float]], margin_m: float | None) -> OccupancyGrid:
+    """The part of ``grid`` around ``points`` plus ``margin_m`` (None: the whole grid)."""
+    if margin_m is None:
+        return grid
+    res = grid.resolution
+    ny, nx = grid.shape
+    xs = [p[0] for p in points]
+    ys = [p[1] for p in points]
+    ix0 = max(0, math.floor((min(xs) - margin_m - grid.origin[0]) / res))
+    iy0 = max(0, math.floor((min(ys) - margin_m - grid.origin[1]) / res))
+    ix1 = min(nx, math.ceil((max(xs) + margin_m - grid.origin[0]) / res))
+    iy1 = min(ny, math.ceil((max(ys) + margin_m - grid.origin[1]) / res))
+    return OccupancyGrid(occupied=grid.occupied[iy0:iy1, ix0:ix1].copy(),
+                         origin=(grid.origin[0] + ix0 * res, grid.origin[1] + iy0 * res), resolution=res,
+                         band=grid.band)
+
+
+UNSTICK_RADIUS_M = 0.5  # how far the robot may move straight to leave a blocked start pose
+
+
+def _nearest_free_pose(checker: PoseChecker, start: Pose2D, footprints: list[Footprint]) -> Pose2D | None:
+    """The nearest pose (rings of 2.5 cm, 16 bearings, same heading) where any of the footprints is free."""
+    for k in range(1, int(UNSTICK_RADIUS_M / 0.025) + 1):
+        r = 0.025 * k
+        for j in range(16):
+            x = start[0] + r * math.cos(j * math.pi / 8)
+            y = start[1] + r * math.sin(j * math.pi / 8)
+            if any(checker.free(f, x, y, start[2]) for f in footprints):
+                return (x, y, start[2])
+    return None
 
 
 @dataclass
