@@ -111,3 +111,12 @@ def test_a_start_in_collision_is_left_for_the_nearest_free_pose_as_the_navigatio
     reach = CarryReach(grid, carry_footprints(FRAME), start, (INSTALL.x, INSTALL.y))
     assert reach.start != start and abs(reach.start.x - start.x) + abs(reach.start.y - start.y) <= 0.5 * 2
     assert not reach.start_blocked()
+
+
+def test_a_way_one_carry_mode_drives_is_direct_and_a_closed_one_is_none() -> None:
+    grid = _two_rooms(0.8)
+    reach = CarryReach(grid, carry_footprints(FRAME), PICK, (INSTALL.x, INSTALL.y))
+    assert reach.way(INSTALL) == 2  # narrow all the way, as the navigation's first plan
+    assert reach.way(Pose2(4.0, 3.0, 0.0)) == 2  # the same room
+    closed = CarryReach(_two_rooms(0.45), carry_footprints(FRAME), PICK, (INSTALL.x, INSTALL.y))
+    assert closed.way(INSTALL) == 0
