@@ -261,6 +261,48 @@ class CarryReach:
             return 0
         return 2 if self.direct(goal) else 1
 
+    def joins(self, k: int, a: Pose2, b: Pose2) -> bool:
+        """Whether footprint ``k`` alone joins ``a`` and ``b`` on one of the first two windows."""
+        for i in range(min(2, len(self.margins))):
+            cs, lab, roots = self._space(i, k)
+            ca, cb = (cs.component_of_labels(lab, roots, p.x, p.y, p.yaw) for p in (a, b))
+            if ca > 0 and ca == cb:
+                return True
+        return False
+
+    def turn_route(self, goal: Pose2) -> str | None:
+        """None when the navigation's way of turning the load on the way gets to ``goal``, else why not.
+
+        As the navigation with object does when no carry mode drives from start to goal: where only one
+        carry footprint fits at the start (or the goal), the load is turned at the nearest pose where both
+        fit (:func:`turn_pose`: rings of 0.25 m around it); the robot drives start -> that pose in the
+        footprint that fits at the start, then to the turning pose near the goal in either carry mode,
+        then to the goal in the footprint that fits there. Each leg must be joined in its footprint.
+        """
+        checker = PoseChecker(self.grid, self.n_bins)
+        fps = self.footprints
+        fits_s = [k for k, f in enumerate(fps) if checker.free(f, self.start.x, self.start.y, self.start.yaw)]
+        fits_g = [k for k, f in enumerate(fps) if checker.free(f, goal.x, goal.y, goal.yaw)]
+        if not fits_s or not fits_g:
+            return "the held element fits neither way at the " + ("pick" if not fits_s else "install") + \
+                " base pose"
+        v1 = self.start if len(fits_s) == len(fps) else turn_pose(checker, fps, self.start)
+        v2 = goal if len(fits_g) == len(fps) else turn_pose(checker, fps, goal)
+        if v1 is None or v2 is None:
+            where = self.start if v1 is None else goal
+            return (f"no pose within {TURN_RINGS * TURN_RING_M:g} m of ({where.x:.2f}, {where.y:.2f}) where "
+                    "the held element fits both ways, to turn it")
+        if not self.joins(fits_s[0], self.start, v1):
+            return (f"the place to turn the load nearest the pick base pose, ({v1.x:.2f}, {v1.y:.2f}), is "
+                    "not reachable from it")
+        if not any(self.joins(k, v1, v2) for k in range(len(fps))):
+            return (f"no carry mode drives from the turning place ({v1.x:.2f}, {v1.y:.2f}) to the one near "
+                    f"the install base pose ({v2.x:.2f}, {v2.y:.2f})")
+        if not self.joins(fits_g[0], v2, goal):
+            return (f"the install base pose is not reachable from the place to turn the load nearest it "
+                    f"({v2.x:.2f}, {v2.y:.2f})")
+        return None
+
     def reaches(self, goal: Pose2) -> bool:
         """Whether ``goal`` lies in the start's joint component (on the smallest window that joins them)."""
         if self._first_joins(goal):
@@ -275,6 +317,25 @@ class CarryReach:
             if level.start not in level.open or (there and there not in level.open):
                 return False  # one of the two components is closed within the window: as on the map
         return False
+
+
+TURN_RING_M = 0.25
+TURN_RINGS = 12
+
+
+def turn_pose(checker: PoseChecker, footprints: Sequence[Footprint], near: Pose2) -> Pose2 | None:
+    """The nearest pose to ``near`` where every footprint fits: rings of :data:`TURN_RING_M` (at most
+    :data:`TURN_RINGS`), 16 bearings from behind the robot, yaws: the robot's, turned by +-90 degrees,
+    reversed; where the navigation with object (B5) turns the held element."""
+    for k in range(1, TURN_RINGS + 1):
+        r = TURN_RING_M * k
+        for j in range(16):
+            bearing = near.yaw + math.pi + j * math.pi / 8  # behind the robot first
+            x, y = near.x + r * math.cos(bearing), near.y + r * math.sin(bearing)
+            for yaw in (near.yaw, near.yaw + math.pi / 2, near.yaw - math.pi / 2, near.yaw + math.pi):
+                if all(checker.free(f, x, y, yaw) for f in footprints):
+                    return Pose2(x, y, math.atan2(math.sin(yaw), math.cos(yaw)))
+    return None
 
 
 def _size(fp: Footprint) -> tuple[float, float]:

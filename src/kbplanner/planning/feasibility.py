@@ -46,6 +46,10 @@ FIXES: tuple[tuple[str, str], ...] = (
      "install this element before the element the reason names (a lower kbp:workSequence than its; "
      "without kbp:workSequence B4 tries that order itself), or put the storage and its "
      "kbp:pickupLocation on this element's side of the element that closes the way"),
+    (r"carry way needs the load turned",
+     "give the robot room to turn the carried element near the pickup location: move the storage and its "
+     "kbp:pickupLocation to a more open spot (where the element fits both ways next to the robot), or "
+     "put the pickup location on the side of the stack facing the way to the walls"),
     (r"carry way walled off",
      "give the robot carrying the element a way: move the storage and its kbp:pickupLocation so that an "
      "opening wider than the carried element (the reason gives its sizes) leads to the installed pose, "

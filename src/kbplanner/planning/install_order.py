@@ -31,8 +31,8 @@ from kbplanner.world.world_types import World
 KIND_RELEASE = str(KBP.MoveManipulatorAndRelease)
 
 #: Install failures that elements standing around the installed pose can cause.
-BLOCKED = re.compile(r"free base pose|walled off|shut in|carry footprint|into the robot|place unreachable|"
-                     r"pre-place|orient pose|retract pose")
+BLOCKED = re.compile(r"free base pose|walled off|load turned|shut in|carry footprint|into the robot|"
+                     r"place unreachable|pre-place|orient pose|retract pose")
 
 
 def installable(plan: Plan) -> int:

@@ -109,6 +109,7 @@ class InstallSearch(PoseSearch):
         reach = self._carry_reach(pick, around)
         walled: list[Pose2] = []
         turning: list[Pose2] = []  # reachable only by turning the load on the way
+        no_turn = ""  # why the navigation's way of turning the load does not get to them
         best: Install | None = None
         try:
             # Pass 1: seeded samples nearest to the pick base pose; pass 2 (no clear install yet): the
@@ -137,6 +138,11 @@ class InstallSearch(PoseSearch):
                             continue
                         if way == 1:
                             turning.append(base)
+                            continue
+                    else:
+                        why = reach.turn_route(base)
+                        if why is not None:
+                            no_turn = why
                             continue
                     free_count += 1
                     if tried >= budget:
@@ -168,6 +174,13 @@ class InstallSearch(PoseSearch):
             probe.close()
         if best is not None:
             return best
+        if turning and not tried:
+            ln, wn = (pick.geometry.footprint(m).bounds_m() for m in ("normal", "narrow"))
+            return (f"carry way needs the load turned: no carry mode drives the robot holding the element "
+                    f"(normal {ln[2] - ln[0]:.2f} x {ln[3] - ln[1]:.2f} m, narrow {wn[2] - wn[0]:.2f} x "
+                    f"{wn[3] - wn[1]:.2f} m) from the pick base pose ({pick.base.x:.2f}, {pick.base.y:.2f}) "
+                    f"to any of {len(turning)} free install base pose(s) it can reach only by turning the "
+                    f"load on the way, and the navigation's way of turning it fails: {no_turn}")
         if walled and not tried:
             return self._walled_reason(pick, walled, around)
         more = (f" ({len(walled)} other free base pose(s) the robot holding it cannot drive to)"

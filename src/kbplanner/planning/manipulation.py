@@ -99,9 +99,10 @@ NAVIGATION_KINDS = (KIND_NAVIGATION, KIND_NAVIGATION_WITH_OBJECT)
 
 
 # Reasons of B4 failures that do not depend on the IK (no retry with the fallback IK).
+_CARRY_WAY = ("carry way walled off", "carry way needs the load turned")
 _NOT_IK_FAILURES = ("no free base pose", "the element lies under", "the element is not at a storage",
                     "out of reach from any base pose", "skipped", "the element weighs",
-                    "carry way walled off")
+                    *_CARRY_WAY)
 
 
 _StepState = tuple[bool, str | None, Pose2 | None, dict[str, list[float]], list[str]]
@@ -177,7 +178,7 @@ class _Refiner(PickSearch, InstallSearch):
             bad = next((s for s in steps if not s.feasible), None)
             used = self.grasp_used()
             if bad is None or bad.skill_kind != KIND_RELEASE or used is None or \
-                    (bad.reason or "").startswith("carry way walled off"):
+                    (bad.reason or "").startswith(_CARRY_WAY):
                 break  # (another grasp changes the carried footprint by centimetres: not a way through)
             if first is None:
                 first = self._state(steps)
