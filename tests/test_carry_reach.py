@@ -120,3 +120,11 @@ def test_a_way_one_carry_mode_drives_is_direct_and_a_closed_one_is_none() -> Non
     assert reach.way(Pose2(4.0, 3.0, 0.0)) == 2  # the same room
     closed = CarryReach(_two_rooms(0.45), carry_footprints(FRAME), PICK, (INSTALL.x, INSTALL.y))
     assert closed.way(INSTALL) == 0
+
+
+def test_a_frame_that_fits_only_flat_at_the_pick_is_turned_behind_the_robot_as_the_navigation_does() -> None:
+    grid = _two_rooms(0.8)
+    facing_wall = Pose2(1.0, 3.0, np.pi)  # on its side (2.4 m along the heading) it would touch the wall
+    reach = CarryReach(grid, carry_footprints(FRAME), facing_wall, (INSTALL.x, INSTALL.y))
+    assert reach.way(INSTALL) == 1  # flat it does not pass the door, on its side it does not fit here
+    assert reach.turn_route(INSTALL) is None  # turned a little behind the robot, then through on its side
