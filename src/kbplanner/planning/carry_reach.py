@@ -71,9 +71,10 @@ WINDOW_MARGINS_M: tuple[float | None, ...] = (6.0, 12.0, None)
 #: Maps of more cells (x, y) are not labelled whole (72 yaw bins, two footprints: seconds per element):
 #: there the largest window decides (a way that leaves it is not counted, and the reason says so).
 WHOLE_MAP_MAX_CELLS = 250_000
-#: The windows that name what closes a way (:func:`first_blocker`, :func:`reaches_alone`): only the first
-#: (a hint for the reason and the install order, which B4 checks again; the verdict is :class:`CarryReach`'s).
-BLOCKER_MARGINS_M: tuple[float | None, ...] = WINDOW_MARGINS_M[:1]
+#: The windows that name what closes a way (:func:`first_blocker`, :func:`reaches_alone`): not the whole
+#: map (a hint for the reason and the install order, which B4 checks again; the verdict is
+#: :class:`CarryReach`'s).
+BLOCKER_MARGINS_M: tuple[float | None, ...] = WINDOW_MARGINS_M[:2]
 
 _Space = tuple[ConfigurationSpace, npt.NDArray[np.int32], npt.NDArray[np.int64]]
 
@@ -403,7 +404,8 @@ def carry_leg_reason(geo: CarryGeometry, start: Pose2, n_goals: int, base_reache
         text += ("; the robot alone gets there, so the held element does not pass: the pickup location or "
                  "the storage is too far from a way wide enough, or the element too large")
     else:
-        text += "; even the robot alone does not get there (the install base poses are walled off)"
+        text += (f"; even the robot alone does not get there within {BLOCKER_MARGINS_M[-1]:g} m of the pick "
+                 "base pose and the installed pose")
     return text
 
 
