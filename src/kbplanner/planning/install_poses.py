@@ -108,7 +108,7 @@ class InstallSearch(PoseSearch):
         around = (float(target[0, 3]), float(target[1, 3]))  # the installed pose: the same for both turns
         reach = self._carry_reach(pick, around)
         walled: list[Pose2] = []
-        turning: list[Pose2] = []  # reachable only by turning the load on the way
+        turning: list[tuple[Pose2, int]] = []  # reachable only by turning the load on the way (pass found)
         no_turn = ""  # why the navigation's way of turning the load does not get to them
         best: Install | None = None
         try:
@@ -122,8 +122,7 @@ class InstallSearch(PoseSearch):
                 elif pass_no == 3:
                     if best is not None:
                         break
-                    bases = turning
-                how = "sampled" if pass_no == 1 else "closest free"
+                    bases = [b for b, _n in turning]
                 budget = tried + self.s.max_ik_bases
                 for base in bases:
                     if not checker.free(self.base_fp, base.x, base.y, base.yaw):
@@ -137,7 +136,7 @@ class InstallSearch(PoseSearch):
                             walled.append(base)
                             continue
                         if way == 1:
-                            turning.append(base)
+                            turning.append((base, pass_no))
                             continue
                     else:
                         why = reach.turn_route(base)
@@ -157,7 +156,9 @@ class InstallSearch(PoseSearch):
                     if not escapes(checker.grid, self.base_fp, base, radius_m=self.s.escape_radius_m):
                         last = "the robot would be shut in by the installed element"
                         continue
-                    which = (f"nearest to the pick base pose of {free_count} free samples" if pass_no == 1
+                    found_in = next((n for b, n in turning if b is base), 0) if pass_no == 3 else pass_no
+                    how = "sampled" if found_in == 1 else "closest free"
+                    which = (f"nearest to the pick base pose of {free_count} free samples" if found_in == 1
                              else "arm mount closest to the installed pose; seed-independent pass")
                     turn = ("; reached only by turning the load on the way (no carry mode drives it there "
                             "directly)" if pass_no == 3 else "")
