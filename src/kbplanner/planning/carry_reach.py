@@ -71,10 +71,10 @@ WINDOW_MARGINS_M: tuple[float | None, ...] = (6.0, 12.0, None)
 #: Maps of more cells (x, y) are not labelled whole (72 yaw bins, two footprints: seconds per element):
 #: there the largest window decides (a way that leaves it is not counted, and the reason says so).
 WHOLE_MAP_MAX_CELLS = 250_000
-#: The windows that name what closes a way (:func:`first_blocker`, :func:`reaches_alone`): not the whole
-#: map (a hint for the reason and the install order, which B4 checks again; the verdict is
-#: :class:`CarryReach`'s).
-BLOCKER_MARGINS_M: tuple[float | None, ...] = WINDOW_MARGINS_M[:2]
+#: The window that names what closes a way (:func:`first_blocker`, :func:`reaches_alone`): the first only,
+#: as the bisection builds it several times (a hint for the reason and the install order, which B4
+#: checks again; the verdict is :class:`CarryReach`'s).
+BLOCKER_MARGINS_M: tuple[float | None, ...] = WINDOW_MARGINS_M[:1]
 
 _Space = tuple[ConfigurationSpace, npt.NDArray[np.int32], npt.NDArray[np.int64]]
 
