@@ -5,8 +5,10 @@ footprint (:class:`~kbplanner.world.footprint.Footprint`: the base, or the base 
 element); gives :class:`PoseChecker` (is the footprint free at a pose, with the navigation's
 conservative test, so a pose found free is a valid start or goal for the planner), :func:`escapes`
 (is a robot at a pose not shut in), and :func:`element_polygon` / :func:`mark_polygon` (an element's
-floor projection marked occupied, for installed elements). Used by the base-pose search of
-:mod:`kbplanner.planning.pose_search` and by the executor (B5).
+floor projection marked occupied, for installed elements), :func:`window` (the part of a grid the
+navigation plans in) and :func:`nearest_free_pose` (where the navigation moves a robot standing on a
+blocked cell). Used by the base-pose search of :mod:`kbplanner.planning.pose_search`, the carry-leg
+check of :mod:`kbplanner.planning.carry_reach` and by the executor and navigation (B5).
 """
 
 from __future__ import annotations
@@ -97,6 +99,47 @@ class PoseChecker:
         return not bool((window & kern).any())
 
 
+def window(grid: OccupancyGrid, points: list[tuple[float, float]], margin_m: float | None) -> OccupancyGrid:
+    """The part of ``grid`` around ``points`` plus ``margin_m`` (None: the whole grid).
+
+    The navigation (B5) plans in such windows (cells off a window count as occupied, so what is free
+    and connected in a window is so on the whole grid); B4's carry-leg check uses the same windows.
+    """
+    if margin_m is None:
+        return grid
+    res = grid.resolution
+    ny, nx = grid.shape
+    xs = [p[0] for p in points]
+    ys = [p[1] for p in points]
+    ix0 = max(0, math.floor((min(xs) - margin_m - grid.origin[0]) / res))
+    iy0 = max(0, math.floor((min(ys) - margin_m - grid.origin[1]) / res))
+    ix1 = min(nx, math.ceil((max(xs) + margin_m - grid.origin[0]) / res))
+    iy1 = min(ny, math.ceil((max(ys) + margin_m - grid.origin[1]) / res))
+    return OccupancyGrid(occupied=grid.occupied[iy0:iy1, ix0:ix1].copy(),
+                         origin=(grid.origin[0] + ix0 * res, grid.origin[1] + iy0 * res), resolution=res,
+                         band=grid.band)
+
+
+UNSTICK_RADIUS_M = 0.5  # how far the robot may move straight to leave a blocked start pose
+
+
+def nearest_free_pose(checker: PoseChecker, start: tuple[float, float, float],
+                      footprints: list[Footprint]) -> tuple[float, float, float] | None:
+    """The nearest pose (rings of 2.5 cm, 16 bearings, same heading) where any of the footprints is free.
+
+    Where the navigation (B5) moves a robot that stands on a cell its configuration space calls
+    blocked before it plans (at most :data:`UNSTICK_RADIUS_M`); B4's carry-leg check starts there too.
+    """
+    for k in range(1, int(UNSTICK_RADIUS_M / 0.025) + 1):
+        r = 0.025 * k
+        for j in range(16):
+            x = start[0] + r * math.cos(j * math.pi / 8)
+            y = start[1] + r * math.sin(j * math.pi / 8)
+            if any(checker.free(f, x, y, start[2]) for f in footprints):
+                return (x, y, start[2])
+    return None
+
+
 def escapes(grid: OccupancyGrid, footprint: Footprint, pose: Pose2, *, radius_m: float = 3.0,
             n_bins: int = N_YAW_BINS) -> bool:
     """Whether a robot at ``pose`` is not shut in: its free configurations reach ``radius_m`` away.
@@ -142,44 +185,3 @@ def escapes(grid: OccupancyGrid, footprint: Footprint, pose: Pose2, *, radius_m:
         border[-band:, :] = True
     return bool((labels[:, border] == root).any())
 
-
-def way_between(grid: OccupancyGrid, footprint: Footprint, a: Pose2, b: Pose2) -> bool:
-    """Whether the robot may get from base pose ``a`` to ``b`` on the grid: a necessary condition only.
-
-    A disc of the first rectangle's inscribed radius (the base's half width), which lies inside the
-    footprint, must get from the one rectangle centre to the other through free cells (8-connected,
-    the occupied cells grown by the disc, rounded down to whole cells). When even that disc cannot,
-    the robot cannot either: the goal is walled off (e.g. by elements installed before). When it can,
-    the navigation (B5) still plans the real footprint; ``True`` is no promise. Poses whose centre
-    cell is not free after growing are not judged (``True``).
-
-    Example:
-        >>> occ = np.zeros((60, 60), dtype=bool); occ[:, 30] = True
-        >>> g = OccupancyGrid(occ, origin=(0.0, 0.0), resolution=0.05)
-        >>> from kbplanner.world.footprint import Rect
-        >>> fp = Footprint((Rect(0, 0, 0.5, 0.3),))
-        >>> way_between(g, fp, Pose2(0.5, 1.5, 0.0), Pose2(2.5, 1.5, 0.0))
-        False
-        >>> occ[10:20, 30] = False
-        >>> way_between(OccupancyGrid(occ, origin=(0.0, 0.0), resolution=0.05), fp,
-        ...             Pose2(0.5, 1.5, 0.0), Pose2(2.5, 1.5, 0.0))
-        True
-    """
-    from scipy import ndimage
-
-    rect = footprint.rects[0]
-    k = math.floor(min(rect.length, rect.width) / 2 / grid.resolution) - 1
-    occupied = grid.occupied
-    if k > 0:
-        yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
-        occupied = ndimage.binary_dilation(occupied, structure=(xx * xx + yy * yy) <= k * k)
-    labels, _ = ndimage.label(~occupied, structure=np.ones((3, 3), dtype=bool))
-    ny, nx = occupied.shape
-
-    def label_at(p: Pose2) -> int:
-        c, s = math.cos(p.yaw), math.sin(p.yaw)
-        ix, iy = grid.cell_of(p.x + c * rect.cx - s * rect.cy, p.y + s * rect.cx + c * rect.cy)
-        return int(labels[iy, ix]) if 0 <= ix < nx and 0 <= iy < ny else 0
-
-    la, lb = label_at(a), label_at(b)
-    return la == 0 or lb == 0 or la == lb

@@ -42,10 +42,18 @@ FIXES: tuple[tuple[str, str], ...] = (
     (r"out of reach from any base pose",
      "bring the element within the arm's height range: a lower storage or stack (kbp:sizeZ, fewer "
      "elements per stack), or a robot with a longer arm"),
-    (r"walled off: no way for the robot",
-     "install this element before the elements that close its way (a lower kbp:workSequence than "
-     "theirs; without kbp:workSequence B4 tries that order itself), or move the storage so that the "
-     "way from the pickup location stays open"),
+    (r"carry way closed by ",
+     "install this element before the element the reason names (a lower kbp:workSequence than its; "
+     "without kbp:workSequence B4 tries that order itself), or put the storage and its "
+     "kbp:pickupLocation on this element's side of the element that closes the way"),
+    (r"carry way needs the load turned",
+     "give the robot room to turn the carried element near the pickup location: move the storage and its "
+     "kbp:pickupLocation to a more open spot (where the element fits both ways next to the robot), or "
+     "put the pickup location on the side of the stack facing the way to the walls"),
+    (r"carry way walled off",
+     "give the robot carrying the element a way: move the storage and its kbp:pickupLocation so that an "
+     "opening wider than the carried element (the reason gives its sizes) leads to the installed pose, "
+     "or split the element into shorter panels"),
     (r"shut in by the installed element",
      "install this element earlier (a lower kbp:workSequence than the elements around it), so the "
      "robot does not close itself in"),

@@ -5,7 +5,9 @@ stack); only B4 (:mod:`kbplanner.planning.manipulation`) knows where the robot m
 each element. When B4 finds no base pose to install an element E (no free base pose, the robot shut
 in, no carry footprint or arm pose that fits) while elements installed earlier stand within
 ``RefineSettings.blocking_radius_m`` of E's installed pose, E is moved before the earliest of them
-(:func:`blocked_move`, :func:`move_before`) and B4 runs again; the new order is kept only when more
+(:func:`blocked_move`, :func:`move_before`) and B4 runs again; when B4 names the element installed
+before that closes E's carry way (:mod:`~kbplanner.planning.carry_reach`, wherever it stands), E is
+moved before that one; the new order is kept only when more
 elements become installable. The stack still holds (the elements lying on E at its storage move with
 it, in their order), and an explicit ``kbp:workSequence`` wins: an element that carries one is
 neither moved nor passed.
@@ -22,14 +24,15 @@ import re
 from collections.abc import Collection, Mapping
 
 from kbplanner.core.vocab import KBP
+from kbplanner.planning.carry_reach import blocker_in
 from kbplanner.planning.plan_model import Plan
 from kbplanner.world.world_types import World
 
 KIND_RELEASE = str(KBP.MoveManipulatorAndRelease)
 
 #: Install failures that elements standing around the installed pose can cause.
-BLOCKED = re.compile(r"free base pose|walled off|shut in|carry footprint|into the robot|place unreachable|"
-                     r"pre-place|orient pose|retract pose")
+BLOCKED = re.compile(r"free base pose|walled off|load turned|shut in|carry footprint|into the robot|"
+                     r"place unreachable|pre-place|orient pose|retract pose")
 
 
 def installable(plan: Plan) -> int:
@@ -41,6 +44,13 @@ def _blocked(refined: Plan, iri: str) -> bool:
     steps = refined.steps_for(iri)
     bad = next((s for s in steps if not s.feasible), None)
     return bad is not None and bad.skill_kind == KIND_RELEASE and bool(BLOCKED.search(bad.reason or ""))
+
+
+def _named_blocker(refined: Plan, iri: str) -> str | None:
+    """The element B4 named as closing the carry way of ``iri``
+    (:func:`~kbplanner.planning.carry_reach.blocker_in`)."""
+    bad = next((s for s in refined.steps_for(iri) if not s.feasible), None)
+    return blocker_in(bad.reason or "") if bad is not None else None
 
 
 def stack_above(world: World) -> dict[str, set[str]]:
@@ -72,6 +82,12 @@ def blocked_move(plan: Plan, refined: Plan, above: Mapping[str, set[str]], radiu
         if me.work_sequence is not None or not _blocked(refined, iri):
             continue
         lying_on = above.get(iri, set())
+        named = _named_blocker(refined, iri)
+        if named is not None and named in order[:n] and ok.get(named) and (iri, named) not in tried:
+            k = order.index(named)
+            if info[named].work_sequence is None and not any(
+                    info[i].work_sequence is not None for i in order[k:n] if i in lying_on):
+                return iri, named  # the element B4 found closing the carry way
         for k, other in enumerate(order[:n]):
             o = info[other]
             if not ok.get(other) or o.work_sequence is not None or (iri, other) in tried:

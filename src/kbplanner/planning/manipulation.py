@@ -45,7 +45,11 @@ closest to the target (:meth:`~kbplanner.planning.pose_search.PoseSearch.closest
 whose install fails is picked again with another grasp (at most ``max_regrasps``), and one whose
 install is blocked by elements installed before it is moved before them
 (:mod:`~kbplanner.planning.install_order`, in :func:`refine_plan`). After an install the robot must
-not be shut in by what it installed (:func:`escapes`). A stud frame whose box is symmetric about its
+not be shut in by what it installed (:func:`escapes`). An install base pose must be reachable from the
+pick base pose by the robot holding the element, in the configuration spaces of its carry footprints
+that the navigation with object plans in (:mod:`~kbplanner.planning.carry_reach`); when none is, the
+reason gives the carry sizes and the element installed before that closes the way, and that element
+is what the order feedback moves it before. A stud frame whose box is symmetric about its
 vertical axis may be placed turned by 180 degrees about it when only that way the gripper (which
 holds the face that was up at the storage) can reach. The held element should stay clear of the arm
 and base; when no candidate achieves that, the best one overlapping by at most
@@ -73,7 +77,7 @@ import logging
 from collections.abc import Callable
 
 from kbplanner.core.vocab import KBP
-from kbplanner.planning.base_poses import PoseChecker, element_polygon, mark_polygon, way_between
+from kbplanner.planning.base_poses import PoseChecker, element_polygon, mark_polygon
 from kbplanner.planning.grasp_poses import Pick, PickSearch
 from kbplanner.planning.install_order import blocked_move, installable, move_before, stack_above
 from kbplanner.planning.install_poses import InstallSearch
@@ -95,12 +99,14 @@ NAVIGATION_KINDS = (KIND_NAVIGATION, KIND_NAVIGATION_WITH_OBJECT)
 
 
 # Reasons of B4 failures that do not depend on the IK (no retry with the fallback IK).
+_CARRY_WAY = ("carry way walled off", "carry way needs the load turned")
 _NOT_IK_FAILURES = ("no free base pose", "the element lies under", "the element is not at a storage",
-                    "out of reach from any base pose", "skipped", "the element weighs")
+                    "out of reach from any base pose", "skipped", "the element weighs",
+                    *_CARRY_WAY)
 
 
 _StepState = tuple[bool, str | None, Pose2 | None, dict[str, list[float]], list[str]]
-_State = tuple[list[_StepState], set[str], Pose2, PoseChecker]
+_State = tuple[list[_StepState], set[str], Pose2, PoseChecker, int]
 
 
 class _Refiner(PickSearch, InstallSearch):
@@ -152,12 +158,13 @@ class _Refiner(PickSearch, InstallSearch):
 
     def _state(self, steps: list[SkillCall]) -> _State:
         return ([(s.feasible, s.reason, s.base_pose, dict(s.arm_poses), list(s.notes)) for s in steps],
-                set(self.picked), self.robot_at, self.checker)
+                set(self.picked), self.robot_at, self.checker, len(self.installed))
 
     def _restore(self, steps: list[SkillCall], saved: _State) -> None:
         for s, (feasible, reason, base, arm, notes) in zip(steps, saved[0], strict=True):
             s.feasible, s.reason, s.base_pose, s.arm_poses, s.notes = feasible, reason, base, arm, list(notes)
         self.picked, self.robot_at, self.checker = set(saved[1]), saved[2], saved[3]
+        del self.installed[saved[4]:]
 
     def _element_regrasp(self, iri: str, steps: list[SkillCall], saved: _State) -> None:
         """The element; when its install fails, again with another grasp (the carried element's footprint
@@ -170,8 +177,9 @@ class _Refiner(PickSearch, InstallSearch):
         for _ in range(self.s.max_regrasps):
             bad = next((s for s in steps if not s.feasible), None)
             used = self.grasp_used()
-            if bad is None or bad.skill_kind != KIND_RELEASE or used is None:
-                break
+            if bad is None or bad.skill_kind != KIND_RELEASE or used is None or \
+                    (bad.reason or "").startswith(_CARRY_WAY):
+                break  # (another grasp changes the carried footprint by centimetres: not a way through)
             if first is None:
                 first = self._state(steps)
             self.excluded_grasps.add(used)
@@ -269,12 +277,6 @@ class _Refiner(PickSearch, InstallSearch):
                 if isinstance(res_i, str):
                     _fail(steps, i, res_i)
                     return
-                if not way_between(self.checker.grid, self.base_fp, pick.base, res_i.base):
-                    _fail(steps, i, "walled off: no way for the robot from the pick base pose "
-                                    f"({pick.base.x:.2f}, {pick.base.y:.2f}) to the install base pose "
-                                    f"({res_i.base.x:.2f}, "
-                                    f"{res_i.base.y:.2f}) once the elements installed before it stand")
-                    return
                 s.base_pose = res_i.base
                 s.arm_poses = res_i.poses
                 s.notes.append(res_i.note)
@@ -294,8 +296,9 @@ class _Refiner(PickSearch, InstallSearch):
                 self.robot_at = res_i.base
                 pick = None
                 installed = True
-                self.checker = self.checker.with_grid(
-                    mark_polygon(self.checker.grid, element_polygon(we.local_bounds, target)))
+                polygon = element_polygon(we.local_bounds, target)
+                self.checker = self.checker.with_grid(mark_polygon(self.checker.grid, polygon))
+                self.installed.append((we.iri, we.label, polygon))
                 continue
             s.notes.append(f"no B4 refinement for skill kind {s.skill_kind}")
         if pending is not None:

@@ -16,9 +16,11 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
+import shapely
 
 from kbplanner.planning.base_poses import PoseChecker
 from kbplanner.planning.carry import CarryGeometry, Matrix, base_transform, rpy_of
+from kbplanner.planning.carry_reach import CarryReach
 from kbplanner.planning.plan_model import Plan, Pose2
 from kbplanner.planning.pose_frames import pose2
 from kbplanner.robot.arm_ik import IkMethod, IkResult, solve_ik
@@ -73,6 +75,9 @@ class PoseSearch:
         self.world = world
         self.robot = robot
         self.checker = PoseChecker(grid)
+        self.base_grid = grid  # before any install
+        self.installed: list[tuple[str, str, shapely.Geometry]] = []  # (iri, label, floor polygon), in order
+        self.reach_cache: dict[object, CarryReach] = {}
         self.seed = seed
         self.s = settings
         self.base_fp = robot.spec.footprint()

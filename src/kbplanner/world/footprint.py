@@ -240,14 +240,14 @@ class ConfigurationSpace:
         (across the wrap too), which over-connects, so different components are certainly apart.
         0 is blocked; labels are joined across the wrap (bin n-1 next to bin 0).
         """
-        labels, roots = self._labels_and_roots(diagonal)
+        labels, roots = self.labels_and_roots(diagonal)
         return np.asarray(roots[labels], dtype=np.int64)
 
     def components_of(
         self, poses: Sequence[tuple[float, float, float]], *, diagonal: bool = False
     ) -> list[int]:
         """:meth:`component_of` of each pose under :meth:`components`, without mapping every cell."""
-        labels, roots = self._labels_and_roots(diagonal)
+        labels, roots = self.labels_and_roots(diagonal)
         ny, nx = self.grid.shape
         out = []
         for x, y, yaw in poses:
@@ -256,10 +256,14 @@ class ConfigurationSpace:
             out.append(int(roots[labels[self.yaw_bin(yaw), iy, ix]]) if inside else 0)
         return out
 
-    def _labels_and_roots(
+    def labels_and_roots(
         self, diagonal: bool
     ) -> tuple[npt.NDArray[np.int32], npt.NDArray[np.int64]]:
-        """``ndimage.label`` of the free cells and, per label, the smallest label it is joined to."""
+        """``ndimage.label`` of the free cells and, per label, the smallest label it is joined to.
+
+        ``roots[labels]`` is :meth:`components`; kept apart, the (bin, iy, ix) array stays int32 and
+        only the cells looked up are mapped (:meth:`components_of`, the carry-leg check of B4).
+        """
         from scipy import ndimage
 
         structure = np.ones((3, 3, 3), dtype=bool) if diagonal else ndimage.generate_binary_structure(3, 1)
@@ -285,6 +289,16 @@ class ConfigurationSpace:
         smallest = np.full(n_cls, n + 1, dtype=np.int64)
         np.minimum.at(smallest, cls, np.arange(n + 1, dtype=np.int64))
         return labels, np.asarray(smallest[cls], dtype=np.int64)
+
+    def component_of_labels(self, labels: npt.NDArray[np.int32], roots: npt.NDArray[np.int64], x: float,
+                            y: float, yaw: float) -> int:
+        """The component of a pose under (``labels``, ``roots``) of :meth:`labels_and_roots`; 0 when blocked
+        or off the grid."""
+        ix, iy = self.grid.cell_of(x, y)
+        ny, nx = self.grid.shape
+        if not (0 <= ix < nx and 0 <= iy < ny):
+            return 0
+        return int(roots[labels[self.yaw_bin(yaw), iy, ix]])
 
     def component_of(self, labels: npt.NDArray[np.int64], x: float, y: float, yaw: float) -> int:
         """The component (of :meth:`components`) of a pose; 0 when blocked or off the grid."""
