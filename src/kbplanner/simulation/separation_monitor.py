@@ -24,11 +24,16 @@ S_p(v) fits the measured separation:
   (protective stop).
 - **Moving away is allowed.** Stopped, the robot may still make a step (at ``minSpeed``) that takes
   the footprint farther from every sensed point, never closer.
+- **Resume with hysteresis.** After a protective stop the robot resumes only once every person it sees
+  is farther than the stop distance plus ``resumeMargin`` and has stayed so for ``resumeHoldTime``
+  (knowledge base defaults 0.2 m and 1.0 s; ``RESUME_MARGIN_M``, ``RESUME_HOLD_S`` when a skill lacks
+  them): a person standing at the stop distance, swaying by centimetres, no longer makes the robot stop
+  and go every control period (docs/safety.md).
 
 The parameters are the step's effective skill parameters (knowledge base defaults, jobsite
 overrides): ``maxSpeed``, ``minSpeed``, ``safetyStopDistance``, ``humanApproachSpeed``,
 ``reactionTime``, ``brakingDeceleration``, ``intrusionDistance``, ``positionUncertainty``,
-``trackedApproachSpeed``.
+``trackedApproachSpeed``, ``resumeMargin``, ``resumeHoldTime``.
 """
 
 from __future__ import annotations
@@ -46,6 +51,15 @@ from kbplanner.world.footprint import Rect
 
 Pose2D = tuple[float, float, float]
 TRACKED_SPEED_FLOOR_MPS = 0.3  # fallback of kbp:trackedApproachSpeed (ontology/kb/skills.ttl, NV-1/NV-2)
+RESUME_MARGIN_M = 0.2  # fallback of kbp:resumeMargin (ontology/kb/skills.ttl, NV-1/NV-2)
+RESUME_HOLD_S = 1.0  # fallback of kbp:resumeHoldTime (ontology/kb/skills.ttl, NV-1/NV-2)
+
+
+def _non_negative(value: object, default: float) -> float:
+    """A finite non-negative number from a skill parameter, else ``default``."""
+    if isinstance(value, (int, float)) and math.isfinite(float(value)) and float(value) >= 0:
+        return float(value)
+    return default
 
 
 @dataclass(frozen=True)
@@ -98,7 +112,13 @@ class SeparationMonitor:
             float(replace(self.ssm, human_speed_mps=self.tracked_floor).separation_m(0.0)),
         )
         self.min_speed = float(lo) if isinstance(lo, (int, float)) else 0.05
+        self.resume_margin_m = _non_negative(params.get("resumeMargin"), RESUME_MARGIN_M)
+        self.resume_hold_s = _non_negative(params.get("resumeHoldTime"), RESUME_HOLD_S)
         self._tracks: dict[str, tuple[float, np.ndarray]] = {}
+        self._stopped = False  # in a protective stop (until the hysteresis lets the robot resume)
+        self._clear_since: float | None = None  # since when everyone seen is beyond stop + margin
+        self._last_t: float | None = None
+        self._stopped_by: Sensed | None = None  # who caused the protective stop
 
     def sense(self, rects: Sequence[Rect], *, horizon_m: float) -> list[Sensed]:
         """The people the lidar sees, with separation and approach speed (none beyond ``horizon_m``)."""
@@ -146,7 +166,7 @@ class SeparationMonitor:
         horizon = float(self.ssm.separation_m(max(v_nom, self.max_speed))) + 0.5
         seen = self.sense(rects, horizon_m=horizon)
         if not seen:
-            return Decision(1.0, None, protective, False)
+            return self._hysteresis(Decision(1.0, None, protective, False), math.inf)
         allowed, sensed = min(
             (
                 (replace(self.ssm, human_speed_mps=s.approach_mps).allowed_speed(s.separation_m), s)
@@ -155,11 +175,14 @@ class SeparationMonitor:
             key=lambda a: (a[0], a[1].separation_m),
         )
         protective = float(replace(self.ssm, human_speed_mps=sensed.approach_mps).separation_m(v_nom))
+        nearest = min(s.separation_m for s in seen)
         if allowed >= v_nom:
-            return Decision(1.0, sensed, protective, False)
+            return self._hysteresis(Decision(1.0, sensed, protective, False), nearest)
         if sensed.separation_m > self.stop_m and allowed >= min(self.min_speed, v_nom):
-            return Decision(min(1.0, allowed / v_nom), sensed, protective, False)
+            return self._hysteresis(Decision(min(1.0, allowed / v_nom), sensed, protective, False), nearest)
         # protective stop, unless the step takes the footprint away from every sensed point
+        self._stopped, self._clear_since, self._stopped_by = True, None, sensed
+        self._last_t = self.env.t
         f = min(1.0, self.min_speed / v_nom)
         step = (
             here[0] + f * (nxt[0] - here[0]),
@@ -172,3 +195,19 @@ class SeparationMonitor:
         if bool(np.all(d1 > d0 + 1e-6)):
             return Decision(f, sensed, protective, False)
         return Decision(0.0, sensed, protective, True)
+
+    def _hysteresis(self, d: Decision, nearest_m: float) -> Decision:
+        """After a protective stop, ``d`` (a go) holds until everyone seen has been beyond the stop
+        distance plus ``resume_margin_m`` for ``resume_hold_s`` (nobody seen counts as beyond)."""
+        t = self.env.t
+        last, self._last_t = self._last_t, t
+        if not self._stopped:
+            return d
+        if nearest_m <= self.stop_m + self.resume_margin_m:
+            self._clear_since = None
+        elif self._clear_since is None or last is None or t - last > 1.5 * self.env.dt + 1e-9:
+            self._clear_since = t  # clear from now (or again after a pause in monitoring)
+        if self._clear_since is not None and t - self._clear_since >= self.resume_hold_s - 1e-9:
+            self._stopped, self._clear_since = False, None
+            return d
+        return Decision(0.0, d.sensed or self._stopped_by, d.protective_m, True)
