@@ -209,3 +209,46 @@ def test_nowhere_better_to_stand_is_no_move() -> None:
     path = np.array([(x, 0.0) for x in np.arange(-1.0, 1.01, 0.1)])
     assert crowd.make_way(0, path, 1.0) is None
     assert crowd.agents[0].anchor == (0.0, 0.0)
+
+
+@pytest.fixture(scope="module")
+def door_case(tmp_path_factory: pytest.TempPathFactory):  # type: ignore[no-untyped-def]
+    """The small project with its carpenter standing (reactive) just outside the door, on the robot's way."""
+    from rdflib import Literal
+
+    from kbplanner.core.vocab import KBP
+
+    c = load_sim_case(tmp_path_factory.mktemp("door") / "p", high_panel=False)
+    c.refined.keep_first(1)
+    g = c.project.model
+    for stop in set(g.objects(None, KBP.routeStop)):
+        g.set((stop, KBP.dwellTime, Literal(1e6)))
+        for location in g.objects(stop, KBP.location):
+            for pose in g.objects(location, KBP.installedPose):
+                g.set((pose, KBP.x, Literal(DOOR_STANDER[0])))
+                g.set((pose, KBP.y, Literal(DOOR_STANDER[1])))
+    return c
+
+
+DOOR_STANDER = (2.5, -0.9)  # 0.75 m south of the 0.9 m door (x 2.05-2.95, wall y 0-0.3), on the way in
+
+
+def test_a_worker_standing_in_the_robot_s_way_costs_a_bounded_wait_and_no_stop_and_go(
+    door_case, tmp_path: Path
+) -> None:  # type: ignore[no-untyped-def]
+    free = _run(door_case, tmp_path / "free", workers=[])
+    assert free.all_installed
+    r = _run(door_case, tmp_path / "run")
+    assert r.all_installed and r.metrics["safety"]["collisions"] == 0
+    # bounded: the robot reaches its goal after a wait, not a stop-and-go until the step gives up
+    assert r.sim_time_s - free.sim_time_s < ExecSettings().replan_after_s + 60.0
+    stops = [e for e in r.events if e["kind"] == "stop"]
+    resumes = [e for e in r.events if e["kind"] == "resume"]
+    assert stops and len(stops) <= 4
+    # hysteresis: no resume before the hold time, none with the person within stop distance + margin
+    margin, hold = 0.2, 1.0  # kbp:resumeMargin, kbp:resumeHoldTime of NV-2 (ontology/kb/skills.ttl)
+    limit = max(e["details"]["stop_distance_m"] for e in stops) + margin
+    for e in resumes:
+        assert e["details"]["waited_s"] >= hold - 1e-6
+        sep = e["details"].get("separation_m")
+        assert sep is None or sep > limit - 1e-3

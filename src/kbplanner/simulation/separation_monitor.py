@@ -28,7 +28,9 @@ S_p(v) fits the measured separation:
   is farther than the stop distance plus ``resumeMargin`` and has stayed so for ``resumeHoldTime``
   (knowledge base defaults 0.2 m and 1.0 s; ``RESUME_MARGIN_M``, ``RESUME_HOLD_S`` when a skill lacks
   them): a person standing at the stop distance, swaying by centimetres, no longer makes the robot stop
-  and go every control period (docs/safety.md).
+  and go every control period (docs/safety.md). Until then it stays in the protective stop, in which
+  it may make a step (at ``minSpeed``) away from everyone it sees (the decision says stopped, with
+  that fraction).
 
 The parameters are the step's effective skill parameters (knowledge base defaults, jobsite
 overrides): ``maxSpeed``, ``minSpeed``, ``safetyStopDistance``, ``humanApproachSpeed``,
@@ -166,7 +168,7 @@ class SeparationMonitor:
         horizon = float(self.ssm.separation_m(max(v_nom, self.max_speed))) + 0.5
         seen = self.sense(rects, horizon_m=horizon)
         if not seen:
-            return self._hysteresis(Decision(1.0, None, protective, False), math.inf)
+            return self._hysteresis(Decision(1.0, None, protective, False), math.inf)  # nobody: no step back
         allowed, sensed = min(
             (
                 (replace(self.ssm, human_speed_mps=s.approach_mps).allowed_speed(s.separation_m), s)
@@ -176,25 +178,34 @@ class SeparationMonitor:
         )
         protective = float(replace(self.ssm, human_speed_mps=sensed.approach_mps).separation_m(v_nom))
         nearest = min(s.separation_m for s in seen)
-        if allowed >= v_nom:
-            return self._hysteresis(Decision(1.0, sensed, protective, False), nearest)
-        if sensed.separation_m > self.stop_m and allowed >= min(self.min_speed, v_nom):
-            return self._hysteresis(Decision(min(1.0, allowed / v_nom), sensed, protective, False), nearest)
+        if allowed >= v_nom or (sensed.separation_m > self.stop_m and allowed >= min(self.min_speed, v_nom)):
+            go = Decision(min(1.0, allowed / v_nom), sensed, protective, False)
+            held = self._hysteresis(go, nearest)
+            if held is go:
+                return go
+            # held after a stop: only a step away from everyone seen (a stop all the same)
+            away = self._away(rects, here, nxt, np.concatenate([s.points for s in seen]), v_nom)
+            return replace(held, fraction=away)
         # protective stop, unless the step takes the footprint away from every sensed point
         self._stopped, self._clear_since, self._stopped_by = True, None, sensed
         self._last_t = self.env.t
+        f = self._away(rects, here, nxt, sensed.points, v_nom)
+        if f > 0:
+            return Decision(f, sensed, protective, False)
+        return Decision(0.0, sensed, protective, True)
+
+    def _away(self, rects: Sequence[Rect], here: Pose2D, nxt: Pose2D, pts: np.ndarray, v_nom: float) -> float:
+        """The fraction of the step (at ``minSpeed``) if it takes the footprint farther from every point
+        of ``pts``, else 0."""
         f = min(1.0, self.min_speed / v_nom)
         step = (
             here[0] + f * (nxt[0] - here[0]),
             here[1] + f * (nxt[1] - here[1]),
             here[2] + f * math.atan2(math.sin(nxt[2] - here[2]), math.cos(nxt[2] - here[2])),
         )
-        pts = sensed.points
         d0, _, _ = rects_distance(pts[:, 0], pts[:, 1], here, rects)
         d1, _, _ = rects_distance(pts[:, 0], pts[:, 1], step, rects)
-        if bool(np.all(d1 > d0 + 1e-6)):
-            return Decision(f, sensed, protective, False)
-        return Decision(0.0, sensed, protective, True)
+        return f if bool(np.all(d1 > d0 + 1e-6)) else 0.0
 
     def _hysteresis(self, d: Decision, nearest_m: float) -> Decision:
         """After a protective stop, ``d`` (a go) holds until everyone seen has been beyond the stop
