@@ -15,7 +15,7 @@ stopped robot has waited (the navigation asks, :meth:`Crowd.make_way`) walks to 
 spot clear of the robot's remaining path by the protective separation distance plus their comfort
 distance (reached without passing the robot), as people on a site let a machine pass, and stays there
 until the robot has passed: until the rest of its path and the robot itself are that far from where
-the worker will go back to (their stop, or where a walking worker left their route); then a waiting
+the worker will go back to (their stop, or a walking worker's next stop); then a waiting
 worker goes back to their stop and a walking worker walks on. ``MAKE_WAY_MAX_HOLD_S`` bounds the wait
 (a robot that gave up or went another way).
 
@@ -44,10 +44,11 @@ STUCK_SPEED_MPS = 0.2  # a walking worker slower than this for STUCK_S looks for
 STUCK_S = 2.0
 WAYPOINT_REACHED_M = 0.35
 ARRIVED_M = 0.2
+LEG_CLEAR_M = WORKER_RADIUS_M + 0.3  # the walk to a make-way spot keeps this clear of the robot's footprint
+WAY_ROUTED_M = 1.0  # a waiting worker farther than this from their anchor walks there along the router's path
 CONTACT_MARGIN_M = 0.01  # a worker's own step keeps at least this much clear of the robot
 MAKE_WAY_MAX_HOLD_S = 300.0  # a worker who made way goes back after this even if the robot has not passed
 OFF_PATH_M = 1.0  # a robot this far from the path it asked for has left it (replanned, gave up)
-LEG_CLEAR_M = WORKER_RADIUS_M + 0.3  # the walk to a make-way spot keeps this clear of the robot's footprint
 MAKE_WAY_RINGS_M = tuple(0.5 * k for k in range(1, 13))  # where a worker looks for a spot to make way
 
 
@@ -57,7 +58,7 @@ class _Yield:
 
     path: FloatArray  # the robot's remaining path (base centre, n x 2) when it asked
     clear_m: float  # from the base centre: footprint reach + S_p + the worker's radius
-    home: FloatArray  # where the worker goes back to (their stop, or where they left their route)
+    home: FloatArray  # where the worker goes back to: their stop, or the next stop of a walking worker
     walking: bool  # walk on to the next stop when released (else: back to the stop)
     deadline: float  # released at this time at the latest
     progress: int = 0  # index of the path point the robot has reached
@@ -78,6 +79,10 @@ class _Agent:
     slow_s: float = 0.0  # how long the worker has made little headway on their walk
     making_way: bool = False  # on the way to (or at) a spot where the worker lets the robot pass
     yielding: _Yield | None = None  # made way: waits there until the robot has passed
+    way: FloatArray | None = None  # a waiting worker's walking path to their anchor (far from it)
+    way_i: int = 0
+    way_to: tuple[float, float] = (math.nan, math.nan)  # the anchor ``way`` leads to
+    way_slow_s: float = 0.0  # how long they have made little headway on it
 
 
 class Crowd:
@@ -148,11 +153,36 @@ class Crowd:
                     out[i] = (goal - p) / max(d, 1e-9) * a.v0
                     continue
             # waiting: back to the stop (or the spot where they make way), at walking pace at most
-            d_vec = np.array(a.anchor) - p
+            target = self._way_target(i, a, p)
+            d_vec = target - p
             d = float(np.hypot(*d_vec))
             if d > 0.05:
                 out[i] = d_vec / d * min(a.v0, d / a.params.relaxation_time_s)
         return out
+
+    def _way_target(self, i: int, a: _Agent, p: FloatArray) -> FloatArray:
+        """Where a waiting worker heads for: their anchor, along a walking path (the router's) when it is
+        more than ``WAY_ROUTED_M`` away; the path is planned again from where they are when they make
+        little headway for ``STUCK_S`` (pushed aside by the robot, sliding along a wall)."""
+        anchor = np.array(a.anchor)
+        if float(np.hypot(*(anchor - p))) <= WAY_ROUTED_M:
+            a.way, a.way_slow_s = None, 0.0
+            return anchor
+        if float(np.hypot(*self.vel[i])) < STUCK_SPEED_MPS:
+            a.way_slow_s += self.dt
+        else:
+            a.way_slow_s = 0.0
+        if a.way is None or a.way_to != a.anchor or a.way_slow_s >= STUCK_S:
+            step = self.router.grid.resolution / 2 if self.router.grid is not None else 0.05
+            f = np.linspace(0.0, 1.0, max(2, int(float(np.hypot(*(anchor - p))) / step) + 1))[:, None]
+            if self._walkable_along(p[None, :] + f * (anchor - p)[None, :]):
+                a.way = np.array([p, anchor])  # straight there
+            else:
+                a.way = self.router.path((float(p[0]), float(p[1])), a.anchor)
+            a.way_i, a.way_to, a.way_slow_s = 1, a.anchor, 0.0
+        while a.way_i < len(a.way) - 1 and float(np.hypot(*(a.way[a.way_i] - p))) < WAYPOINT_REACHED_M:
+            a.way_i += 1
+        return np.asarray(a.way[min(a.way_i, len(a.way) - 1)], dtype=np.float64)
 
     # ---- stepping ----------------------------------------------------------------------------------
     def step(self, robot: Obstacle | None) -> None:
@@ -223,8 +253,9 @@ class Crowd:
     def make_way(self, i: int, path: FloatArray, clear_m: float) -> tuple[float, float] | None:
         """Worker ``i`` makes way for the robot, whose remaining ``path`` (n, 2, base centre) must pass
         them by ``clear_m`` (footprint reach + S_p + the worker's radius). The spot: on rings of 0.5 m,
-        16 bearings, nearest first, walkable in a straight line from where the worker stands without
-        coming within ``LEG_CLEAR_M`` of the robot's footprint (no way past the robot); the first at
+        16 bearings, nearest first, walkable in a straight line from where the worker stands and never
+        closer to the robot's footprint than now or than ``LEG_CLEAR_M`` (not through the robot); the
+        first at
         ``clear_m`` plus the worker's comfort distance from every path point, else the first at
         ``clear_m``, else the walkable spot farthest from the path if it gains 0.5 m. The worker stays
         there until the robot has passed (:meth:`_release`). Returns the spot, or None (nowhere
@@ -248,7 +279,7 @@ class Crowd:
                      for j in range(16)]
             f = np.linspace(0.0, 1.0, max(2, int(r / step) + 1))[:, None]  # no wall skipped
             legs = [p[None, :] + f * (q - p)[None, :] for q in cands]
-            away = self._legs_clear_of(legs, robot)
+            away = self._legs_clear_of(legs, robot, LEG_CLEAR_M)
             for q, leg, ok in zip(cands, legs, away, strict=True):
                 if not ok or not self._free_at(q) or not self._walkable_along(leg):
                     continue
@@ -270,8 +301,9 @@ class Crowd:
         spot = (float(best[0]), float(best[1]))
         if a.yielding is not None:
             home, walking = a.yielding.home, a.yielding.walking
-        elif a.walking:
-            home, walking = p.copy(), True
+        elif a.walking:  # they will walk on to their next stop: the robot must have passed it
+            nxt = a.spec.stops[(a.k + 1) % len(a.spec.stops)]
+            home, walking = np.array([nxt.x, nxt.y]), True
         else:
             stop = a.spec.stops[a.k]
             home, walking = np.array([stop.x, stop.y]), False
@@ -283,9 +315,10 @@ class Crowd:
         a.anchor = spot
         return spot
 
-    def _legs_clear_of(self, legs: Sequence[FloatArray], robot: Obstacle | None) -> list[bool]:
-        """Per leg (sampled points): whether it keeps ``LEG_CLEAR_M`` from the robot's footprint, or
-        never comes closer than where it starts (one distance query for all legs)."""
+    def _legs_clear_of(self, legs: Sequence[FloatArray], robot: Obstacle | None, clear_m: float
+                       ) -> list[bool]:
+        """Per leg (sampled points): whether it keeps ``clear_m`` from the robot's footprint, or never
+        comes closer to it than where it starts (one distance query for all legs)."""
         if robot is None or not legs:
             return [True] * len(legs)
         pts = np.concatenate(legs)
@@ -295,7 +328,7 @@ class Crowd:
         for leg in legs:
             d = d_all[start : start + len(leg)]
             start += len(leg)
-            out.append(bool(d.min() >= min(LEG_CLEAR_M, float(d[0])) - 1e-9))
+            out.append(bool(d.min() >= min(clear_m, float(d[0])) - 1e-9))
         return out
 
     def _release(self, robot: Obstacle | None) -> None:
