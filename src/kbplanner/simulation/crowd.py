@@ -25,6 +25,7 @@ a fixed order; the same inputs and seed give the same motion.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections import deque
 from collections.abc import Sequence
@@ -45,11 +46,27 @@ STUCK_S = 2.0
 WAYPOINT_REACHED_M = 0.35
 ARRIVED_M = 0.2
 LEG_CLEAR_M = WORKER_RADIUS_M + 0.3  # the walk to a make-way spot keeps this clear of the robot's footprint
+HOME_STRETCH_M = 10.0  # how much of a walking worker's route the robot must have passed before they walk on
 WAY_ROUTED_M = 1.0  # a waiting worker farther than this from their anchor walks there along the router's path
 CONTACT_MARGIN_M = 0.01  # a worker's own step keeps at least this much clear of the robot
 MAKE_WAY_MAX_HOLD_S = 300.0  # a worker who made way goes back after this even if the robot has not passed
 OFF_PATH_M = 1.0  # a robot this far from the path it asked for has left it (replanned, gave up)
 MAKE_WAY_RINGS_M = tuple(0.5 * k for k in range(1, 13))  # where a worker looks for a spot to make way
+
+
+def _stretch(pts: FloatArray, length_m: float, step_m: float = 0.25) -> FloatArray:
+    """The first ``length_m`` of a polyline, sampled every ``step_m`` (n, 2)."""
+    out = [pts[0]]
+    walked = 0.0
+    for p, q in itertools.pairwise(pts):
+        seg = float(np.hypot(*(q - p)))
+        n = max(1, math.ceil(seg / step_m))
+        for k in range(1, n + 1):
+            if walked + seg * k / n > length_m:
+                return np.array(out)
+            out.append(p + (q - p) * k / n)
+        walked += seg
+    return np.array(out)
 
 
 @dataclass
@@ -58,7 +75,7 @@ class _Yield:
 
     path: FloatArray  # the robot's remaining path (base centre, n x 2) when it asked
     clear_m: float  # from the base centre: footprint reach + S_p + the worker's radius
-    home: FloatArray  # where the worker goes back to: their stop, or the next stop of a walking worker
+    home: FloatArray  # (n, 2): their stop, or the next HOME_STRETCH_M of a walking worker's route
     walking: bool  # walk on to the next stop when released (else: back to the stop)
     deadline: float  # released at this time at the latest
     progress: int = 0  # index of the path point the robot has reached
@@ -162,8 +179,9 @@ class Crowd:
 
     def _way_target(self, i: int, a: _Agent, p: FloatArray) -> FloatArray:
         """Where a waiting worker heads for: their anchor, along a walking path (the router's) when it is
-        more than ``WAY_ROUTED_M`` away; the path is planned again from where they are when they make
-        little headway for ``STUCK_S`` (pushed aside by the robot, sliding along a wall)."""
+        more than ``WAY_ROUTED_M`` away; the path is planned again from where they are when they have
+        made little headway for ``STUCK_S`` (pushed aside by the robot, sliding along a wall), and from
+        then on, making way, they walk it regardless of the robot's push (:meth:`step`)."""
         anchor = np.array(a.anchor)
         if float(np.hypot(*(anchor - p))) <= WAY_ROUTED_M:
             a.way, a.way_slow_s = None, 0.0
@@ -172,14 +190,14 @@ class Crowd:
             a.way_slow_s += self.dt
         else:
             a.way_slow_s = 0.0
-        if a.way is None or a.way_to != a.anchor or a.way_slow_s >= STUCK_S:
+        if a.way is None or a.way_to != a.anchor or STUCK_S <= a.way_slow_s < STUCK_S + self.dt:
             step = self.router.grid.resolution / 2 if self.router.grid is not None else 0.05
             f = np.linspace(0.0, 1.0, max(2, int(float(np.hypot(*(anchor - p))) / step) + 1))[:, None]
             if self._walkable_along(p[None, :] + f * (anchor - p)[None, :]):
                 a.way = np.array([p, anchor])  # straight there
             else:
                 a.way = self.router.path((float(p[0]), float(p[1])), a.anchor)
-            a.way_i, a.way_to, a.way_slow_s = 1, a.anchor, 0.0
+            a.way_i, a.way_to = 1, a.anchor
         while a.way_i < len(a.way) - 1 and float(np.hypot(*(a.way[a.way_i] - p))) < WAYPOINT_REACHED_M:
             a.way_i += 1
         return np.asarray(a.way[min(a.way_i, len(a.way) - 1)], dtype=np.float64)
@@ -206,8 +224,9 @@ class Crowd:
         new = self.pos + vel * self.dt
         for i, a in enumerate(self.agents):
             new[i], vel[i] = self._constrain(self.pos[i], new[i], vel[i], robot)
-            if a.making_way and not vel[i].any() and desired[i].any():
-                # pinned (the robot's push against a wall): making way, the worker walks the way they want
+            if a.making_way and desired[i].any() and (not vel[i].any() or a.way_slow_s >= STUCK_S):
+                # pinned (the robot's push against a wall) or held in place by its push for STUCK_S: making
+                # way, the worker walks the way they want (still never into the robot or a wall)
                 new[i], vel[i] = self._constrain(self.pos[i], self.pos[i] + desired[i] * self.dt, desired[i],
                                                  robot)
         moving = np.hypot(vel[:, 0], vel[:, 1]) > 0.05
@@ -254,8 +273,8 @@ class Crowd:
         """Worker ``i`` makes way for the robot, whose remaining ``path`` (n, 2, base centre) must pass
         them by ``clear_m`` (footprint reach + S_p + the worker's radius). The spot: on rings of 0.5 m,
         16 bearings, nearest first, walkable in a straight line from where the worker stands and never
-        closer to the robot's footprint than now or than ``LEG_CLEAR_M`` (not through the robot); the
-        first at
+        closer to the robot's footprint than now or than ``LEG_CLEAR_M`` (not through the robot),
+        preferring a walk that never comes closer to it than now (away from the robot); the first at
         ``clear_m`` plus the worker's comfort distance from every path point, else the first at
         ``clear_m``, else the walkable spot farthest from the path if it gains 0.5 m. The worker stays
         there until the robot has passed (:meth:`_release`). Returns the spot, or None (nowhere
@@ -270,8 +289,8 @@ class Crowd:
             return float(np.min(np.hypot(path[:, 0] - q[0], path[:, 1] - q[1])))
 
         comfort = clear_m + a.params.comfort_distance_m
-        first_comfort: FloatArray | None = None
-        first_clear: FloatArray | None = None
+        # tiers, best first: (away from the robot, comfort), (away, clear), (by it, comfort), (by it, clear)
+        firsts: dict[tuple[bool, bool], FloatArray] = {}
         farthest: tuple[float, FloatArray] | None = None
         step = self.router.grid.resolution / 2 if self.router.grid is not None else 0.05
         for r in MAKE_WAY_RINGS_M:
@@ -279,21 +298,20 @@ class Crowd:
                      for j in range(16)]
             f = np.linspace(0.0, 1.0, max(2, int(r / step) + 1))[:, None]  # no wall skipped
             legs = [p[None, :] + f * (q - p)[None, :] for q in cands]
-            away = self._legs_clear_of(legs, robot, LEG_CLEAR_M)
-            for q, leg, ok in zip(cands, legs, away, strict=True):
+            by_it = self._legs_clear_of(legs, robot, LEG_CLEAR_M)
+            away = self._legs_clear_of(legs, robot, math.inf)  # never closer to the robot than now
+            for q, leg, ok, aw in zip(cands, legs, by_it, away, strict=True):
                 if not ok or not self._free_at(q) or not self._walkable_along(leg):
                     continue
                 c = clearance(q)
-                if c >= comfort:
-                    first_comfort = q
-                    break
-                if c >= clear_m and first_clear is None:
-                    first_clear = q
+                if c >= clear_m:
+                    firsts.setdefault((aw, c >= comfort), q)
                 if farthest is None or c > farthest[0]:
                     farthest = (c, q)
-            if first_comfort is not None:
+            if (True, True) in firsts:
                 break
-        best = first_comfort if first_comfort is not None else first_clear
+        best = next((firsts[k] for k in ((True, True), (True, False), (False, True), (False, False))
+                     if k in firsts), None)
         if best is None:
             if farthest is None or farthest[0] < clearance(p) + 0.5:
                 return None
@@ -301,12 +319,11 @@ class Crowd:
         spot = (float(best[0]), float(best[1]))
         if a.yielding is not None:
             home, walking = a.yielding.home, a.yielding.walking
-        elif a.walking:  # they will walk on to their next stop: the robot must have passed it
-            nxt = a.spec.stops[(a.k + 1) % len(a.spec.stops)]
-            home, walking = np.array([nxt.x, nxt.y]), True
+        elif a.walking:  # they will walk on along their route: the robot must have passed its next stretch
+            home, walking = _stretch(np.vstack([p[None, :], a.path[a.wp :]]), HOME_STRETCH_M), True
         else:
             stop = a.spec.stops[a.k]
-            home, walking = np.array([stop.x, stop.y]), False
+            home, walking = np.array([[stop.x, stop.y]]), False
         a.yielding = _Yield(np.array(path, dtype=np.float64), clear_m, home, walking,
                             self.t + MAKE_WAY_MAX_HOLD_S)
         a.making_way = True
@@ -346,10 +363,11 @@ class Crowd:
                 d = np.hypot(rest[:, 0] - rx, rest[:, 1] - ry)
                 k = int(np.argmin(d))
                 y.progress += k
-                far = math.hypot(float(y.home[0]) - rx, float(y.home[1]) - ry) >= y.clear_m
+                hx, hy = y.home[:, 0], y.home[:, 1]
+                far = float(np.min(np.hypot(hx - rx, hy - ry))) >= y.clear_m
                 ahead = y.path[y.progress + 1 :]
                 clear_ahead = len(ahead) == 0 or float(
-                    np.min(np.hypot(ahead[:, 0] - y.home[0], ahead[:, 1] - y.home[1]))
+                    np.min(np.hypot(ahead[:, 0, None] - hx[None, :], ahead[:, 1, None] - hy[None, :]))
                 ) >= y.clear_m
                 passed = far and (clear_ahead or float(d[k]) > OFF_PATH_M)
             if not passed:
