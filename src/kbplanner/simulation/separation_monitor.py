@@ -30,7 +30,10 @@ S_p(v) fits the measured separation:
   them): a person standing at the stop distance, swaying by centimetres, no longer makes the robot stop
   and go every control period (docs/safety.md). Until then it stays in the protective stop, in which
   it may make a step (at ``minSpeed``) away from everyone it sees (the decision says stopped, with
-  that fraction).
+  that fraction). A robot held so for ``HYSTERESIS_MAX_S`` since the separation was last at the stop
+  distance (the navigation has replanned and asked the person to make way meanwhile) goes on at the
+  speed S_p allows, as without hysteresis: a person standing still just beyond the stop distance
+  does not block it for good.
 
 The parameters are the step's effective skill parameters (knowledge base defaults, jobsite
 overrides): ``maxSpeed``, ``minSpeed``, ``safetyStopDistance``, ``humanApproachSpeed``,
@@ -55,6 +58,7 @@ Pose2D = tuple[float, float, float]
 TRACKED_SPEED_FLOOR_MPS = 0.3  # fallback of kbp:trackedApproachSpeed (ontology/kb/skills.ttl, NV-1/NV-2)
 RESUME_MARGIN_M = 0.2  # fallback of kbp:resumeMargin (ontology/kb/skills.ttl, NV-1/NV-2)
 RESUME_HOLD_S = 1.0  # fallback of kbp:resumeHoldTime (ontology/kb/skills.ttl, NV-1/NV-2)
+HYSTERESIS_MAX_S = 15.0  # held beyond the stop distance this long (past replan and make-way), it goes on
 
 
 def _non_negative(value: object, default: float) -> float:
@@ -121,6 +125,7 @@ class SeparationMonitor:
         self._clear_since: float | None = None  # since when everyone seen is beyond stop + margin
         self._last_t: float | None = None
         self._stopped_by: Sensed | None = None  # who caused the protective stop
+        self._stopped_at: float | None = None  # when the separation was last at or under the stop distance
 
     def sense(self, rects: Sequence[Rect], *, horizon_m: float) -> list[Sensed]:
         """The people the lidar sees, with separation and approach speed (none beyond ``horizon_m``)."""
@@ -188,7 +193,7 @@ class SeparationMonitor:
             return replace(held, fraction=away)
         # protective stop, unless the step takes the footprint away from every sensed point
         self._stopped, self._clear_since, self._stopped_by = True, None, sensed
-        self._last_t = self.env.t
+        self._last_t = self._stopped_at = self.env.t
         f = self._away(rects, here, nxt, sensed.points, v_nom)
         if f > 0:
             return Decision(f, sensed, protective, False)
@@ -219,6 +224,11 @@ class SeparationMonitor:
         elif self._clear_since is None or last is None or t - last > 1.5 * self.env.dt + 1e-9:
             self._clear_since = t  # clear from now (or again after a pause in monitoring)
         if self._clear_since is not None and t - self._clear_since >= self.resume_hold_s - 1e-9:
+            self._stopped, self._clear_since = False, None
+            return d
+        if self._stopped_at is not None and t - self._stopped_at >= HYSTERESIS_MAX_S - 1e-9:
+            # held this long beyond the stop distance (asked to make way meanwhile): go on as without
+            # hysteresis, at the speed S_p allows, rather than wait for a person standing still
             self._stopped, self._clear_since = False, None
             return d
         return Decision(0.0, d.sensed or self._stopped_by, d.protective_m, True)
