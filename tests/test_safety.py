@@ -246,7 +246,7 @@ def test_a_worker_standing_in_the_robot_s_way_costs_a_bounded_wait_and_no_stop_a
     resumes = [e for e in r.events if e["kind"] == "resume"]
     assert stops and len(stops) <= 4
     # hysteresis: no resume before the hold time, none with the person within stop distance + margin
-    margin, hold = 0.2, 1.0  # kbp:resumeMargin, kbp:resumeHoldTime of NV-2 (ontology/kb/skills.ttl)
+    margin, hold = 0.0, 0.0  # kbp:resumeMargin, kbp:resumeHoldTime defaults of NV-2 (ontology/kb/skills.ttl)
     limit = max(e["details"]["stop_distance_m"] for e in stops) + margin
     for e in resumes:
         assert e["details"]["waited_s"] >= hold - 1e-6

@@ -26,14 +26,13 @@ S_p(v) fits the measured separation:
   the footprint farther from every sensed point, never closer.
 - **Resume with hysteresis.** After a protective stop the robot resumes only once every person it sees
   is farther than the stop distance plus ``resumeMargin`` and has stayed so for ``resumeHoldTime``
-  (knowledge base defaults 0.2 m and 1.0 s; ``RESUME_MARGIN_M``, ``RESUME_HOLD_S`` when a skill lacks
-  them): a person standing at the stop distance, swaying by centimetres, no longer makes the robot stop
-  and go every control period (docs/safety.md). Until then it stays in the protective stop, in which
-  it may make a step (at ``minSpeed``) away from everyone it sees (the decision says stopped, with
-  that fraction). A robot held so for ``HYSTERESIS_MAX_S`` since the separation was last at the stop
-  distance (the navigation has replanned and asked the person to make way meanwhile) goes on at the
-  speed S_p allows, as without hysteresis: a person standing still just beyond the stop distance
-  does not block it for good.
+  (knowledge base defaults 0 and 0, i.e. off, see docs/safety.md; ``RESUME_MARGIN_M``,
+  ``RESUME_HOLD_S`` when a skill lacks them). With a margin and a hold time, a person standing at the
+  stop distance, swaying by centimetres, no longer makes the robot stop and go every control period.
+  Until then it stays in the protective stop, in which it may make a step (at ``minSpeed``) away
+  from everyone it sees (the decision says stopped, with that fraction). Held so for
+  ``HYSTERESIS_MAX_S`` since the separation was last at the stop distance (the navigation has
+  replanned and asked the person to make way meanwhile), it goes on at the speed S_p allows.
 
 The parameters are the step's effective skill parameters (knowledge base defaults, jobsite
 overrides): ``maxSpeed``, ``minSpeed``, ``safetyStopDistance``, ``humanApproachSpeed``,
@@ -56,8 +55,8 @@ from kbplanner.world.footprint import Rect
 
 Pose2D = tuple[float, float, float]
 TRACKED_SPEED_FLOOR_MPS = 0.3  # fallback of kbp:trackedApproachSpeed (ontology/kb/skills.ttl, NV-1/NV-2)
-RESUME_MARGIN_M = 0.2  # fallback of kbp:resumeMargin (ontology/kb/skills.ttl, NV-1/NV-2)
-RESUME_HOLD_S = 1.0  # fallback of kbp:resumeHoldTime (ontology/kb/skills.ttl, NV-1/NV-2)
+RESUME_MARGIN_M = 0.0  # fallback of kbp:resumeMargin (ontology/kb/skills.ttl, NV-1/NV-2)
+RESUME_HOLD_S = 0.0  # fallback of kbp:resumeHoldTime (ontology/kb/skills.ttl, NV-1/NV-2)
 HYSTERESIS_MAX_S = 15.0  # held beyond the stop distance this long (past replan and make-way), it goes on
 
 
