@@ -11,8 +11,9 @@ slow-downs, time lost to them, collisions and duration: ``seeds.csv``, ``seed_su
 ``seed_summary.json``, ``figures/seeds.png`` and ``summary.html`` / ``summary.md`` (does each scenario
 still pay against the first?). ``--monitoring-cost [SEEDS]`` runs those seeds (default: all) again with
 monitoring off, into ``DIR/<scenario>/seed-<N>-monitoring-off/``, and reports the time monitoring costs.
-``--jobs N`` runs N simulations at a time (one process each; on 2 cores a 20-seed study takes about half
-the time with ``--jobs 2``); every run is seeded on its own, so the outputs do not depend on N.
+``--jobs N`` runs N simulations at a time (one process each; on 2 cores shared with other work
+``--jobs 2`` took 0.69 of the serial time, docs/safety.md); every run is seeded on its own, so the
+outputs do not depend on N.
 
 Exit 0 when every element was installed in every run and no run had a collision; 1 otherwise (a
 collision is listed with scenario, seed, time and worker; the runs with monitoring off for its cost do

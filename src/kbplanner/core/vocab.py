@@ -214,6 +214,8 @@ class KBP(DefinedNamespace):
     relaxationTime: URIRef
     requirementText: URIRef
     requiresCapability: URIRef
+    resumeHoldTime: URIRef
+    resumeMargin: URIRef
     robotArrival: URIRef
     robotStart: URIRef
     robotized: URIRef

@@ -10,10 +10,14 @@ draws the same things (speed x0.9-1.1, dwell x0.8-1.2, where on the route a work
 the scripted model, the motion is not precomputed: the walking direction is the route's next
 waypoint and the velocity follows the social-force model (:mod:`kbplanner.simulation.social_force`),
 so workers slow down, step aside and wait for the robot and each other. A waiting worker stands at
-their stop and also steps aside when the robot comes close, then returns. A waiting worker for whom the
+their stop and also steps aside when the robot comes close, then returns. A worker for whom the
 stopped robot has waited (the navigation asks, :meth:`Crowd.make_way`) walks to the nearest walkable
-spot clear of the robot's remaining path, as people on a site let a machine pass, and goes back to
-their stop after ``MAKE_WAY_HOLD_S`` (a walking worker waits there as long, then walks on).
+spot clear of the robot's remaining path by the protective separation distance plus their comfort
+distance (reached without passing the robot), as people on a site let a machine pass, and stays there
+until the robot has passed: until the rest of its path and the robot itself are that far from where
+the worker will go back to (their stop, or a walking worker's next stop); then a waiting
+worker goes back to their stop and a walking worker walks on. ``MAKE_WAY_MAX_HOLD_S`` bounds the wait
+(a robot that gave up or went another way).
 
 Deterministic: per-worker random generators seeded by the run seed and the worker's IRI, numpy in
 a fixed order; the same inputs and seed give the same motion.
@@ -21,6 +25,7 @@ a fixed order; the same inputs and seed give the same motion.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections import deque
 from collections.abc import Sequence
@@ -40,9 +45,40 @@ STUCK_SPEED_MPS = 0.2  # a walking worker slower than this for STUCK_S looks for
 STUCK_S = 2.0
 WAYPOINT_REACHED_M = 0.35
 ARRIVED_M = 0.2
+LEG_CLEAR_M = WORKER_RADIUS_M + 0.3  # the walk to a make-way spot keeps this clear of the robot's footprint
+HOME_STRETCH_M = 10.0  # how much of a walking worker's route the robot must have passed before they walk on
+WAY_ROUTED_M = 1.0  # a waiting worker farther than this from their anchor walks there along the router's path
 CONTACT_MARGIN_M = 0.01  # a worker's own step keeps at least this much clear of the robot
-MAKE_WAY_HOLD_S = 60.0  # a worker who made way for the robot goes back to their stop after this
+MAKE_WAY_MAX_HOLD_S = 300.0  # a worker who made way goes back after this even if the robot has not passed
+OFF_PATH_M = 1.0  # a robot this far from the path it asked for has left it (replanned, gave up)
 MAKE_WAY_RINGS_M = tuple(0.5 * k for k in range(1, 13))  # where a worker looks for a spot to make way
+
+
+def _stretch(pts: FloatArray, length_m: float, step_m: float = 0.25) -> FloatArray:
+    """The first ``length_m`` of a polyline, sampled every ``step_m`` (n, 2)."""
+    out = [pts[0]]
+    walked = 0.0
+    for p, q in itertools.pairwise(pts):
+        seg = float(np.hypot(*(q - p)))
+        n = max(1, math.ceil(seg / step_m))
+        for k in range(1, n + 1):
+            if walked + seg * k / n > length_m:
+                return np.array(out)
+            out.append(p + (q - p) * k / n)
+        walked += seg
+    return np.array(out)
+
+
+@dataclass
+class _Yield:
+    """A worker who made way: the robot's path they wait for, how far it passes, where they go back to."""
+
+    path: FloatArray  # the robot's remaining path (base centre, n x 2) when it asked
+    clear_m: float  # from the base centre: footprint reach + S_p + the worker's radius
+    home: FloatArray  # (n, 2): their stop, or the next HOME_STRETCH_M of a walking worker's route
+    walking: bool  # walk on to the next stop when released (else: back to the stop)
+    deadline: float  # released at this time at the latest
+    progress: int = 0  # index of the path point the robot has reached
 
 
 @dataclass
@@ -58,8 +94,12 @@ class _Agent:
     wp: int = 0
     anchor: tuple[float, float] = (0.0, 0.0)
     slow_s: float = 0.0  # how long the worker has made little headway on their walk
-    aside_until: float | None = None  # made way for the robot: back to the stop at this time
     making_way: bool = False  # on the way to (or at) a spot where the worker lets the robot pass
+    yielding: _Yield | None = None  # made way: waits there until the robot has passed
+    way: FloatArray | None = None  # a waiting worker's walking path to their anchor (far from it)
+    way_i: int = 0
+    way_to: tuple[float, float] = (math.nan, math.nan)  # the anchor ``way`` leads to
+    way_slow_s: float = 0.0  # how long they have made little headway on it
 
 
 class Crowd:
@@ -109,7 +149,7 @@ class Crowd:
         out = np.zeros_like(self.pos)
         for i, a in enumerate(self.agents):
             p = self.pos[i]
-            if not a.walking and self.t >= a.until:
+            if not a.walking and self.t >= a.until and a.yielding is None:
                 a.making_way = False
                 here, there = a.spec.stops[a.k], a.spec.stops[(a.k + 1) % len(a.spec.stops)]
                 a.path = self.router.path((float(p[0]), float(p[1])), (there.x, there.y))
@@ -121,7 +161,7 @@ class Crowd:
                 goal = a.path[a.wp]
                 d = math.hypot(*(goal - p))
                 if a.wp == len(a.path) - 1 and d < ARRIVED_M:
-                    a.walking, a.aside_until = False, None
+                    a.walking = False
                     a.k = (a.k + 1) % len(a.spec.stops)
                     stop = a.spec.stops[a.k]
                     a.anchor = (stop.x, stop.y)
@@ -129,20 +169,44 @@ class Crowd:
                 else:
                     out[i] = (goal - p) / max(d, 1e-9) * a.v0
                     continue
-            if a.aside_until is not None and self.t >= a.aside_until:
-                stop = a.spec.stops[a.k]
-                a.anchor, a.aside_until, a.making_way = (stop.x, stop.y), None, False
             # waiting: back to the stop (or the spot where they make way), at walking pace at most
-            d_vec = np.array(a.anchor) - p
+            target = self._way_target(i, a, p)
+            d_vec = target - p
             d = float(np.hypot(*d_vec))
             if d > 0.05:
                 out[i] = d_vec / d * min(a.v0, d / a.params.relaxation_time_s)
         return out
 
+    def _way_target(self, i: int, a: _Agent, p: FloatArray) -> FloatArray:
+        """Where a waiting worker heads for: their anchor, along a walking path (the router's) when it is
+        more than ``WAY_ROUTED_M`` away; the path is planned again from where they are when they have
+        made little headway for ``STUCK_S`` (pushed aside by the robot, sliding along a wall), and from
+        then on, making way, they walk it regardless of the robot's push (:meth:`step`)."""
+        anchor = np.array(a.anchor)
+        if float(np.hypot(*(anchor - p))) <= WAY_ROUTED_M:
+            a.way, a.way_slow_s = None, 0.0
+            return anchor
+        if float(np.hypot(*self.vel[i])) < STUCK_SPEED_MPS:
+            a.way_slow_s += self.dt
+        else:
+            a.way_slow_s = 0.0
+        if a.way is None or a.way_to != a.anchor or STUCK_S <= a.way_slow_s < STUCK_S + self.dt:
+            step = self.router.grid.resolution / 2 if self.router.grid is not None else 0.05
+            f = np.linspace(0.0, 1.0, max(2, int(float(np.hypot(*(anchor - p))) / step) + 1))[:, None]
+            if self._walkable_along(p[None, :] + f * (anchor - p)[None, :]):
+                a.way = np.array([p, anchor])  # straight there
+            else:
+                a.way = self.router.path((float(p[0]), float(p[1])), a.anchor)
+            a.way_i, a.way_to = 1, a.anchor
+        while a.way_i < len(a.way) - 1 and float(np.hypot(*(a.way[a.way_i] - p))) < WAYPOINT_REACHED_M:
+            a.way_i += 1
+        return np.asarray(a.way[min(a.way_i, len(a.way) - 1)], dtype=np.float64)
+
     # ---- stepping ----------------------------------------------------------------------------------
     def step(self, robot: Obstacle | None) -> None:
         """Advance one control period with the robot where it is now (workers see it with a delay)."""
         self._history.append(robot)
+        self._release(robot)
         if robot is not None:
             self._detours(robot)
         desired = self._desired()
@@ -160,8 +224,9 @@ class Crowd:
         new = self.pos + vel * self.dt
         for i, a in enumerate(self.agents):
             new[i], vel[i] = self._constrain(self.pos[i], new[i], vel[i], robot)
-            if a.making_way and not vel[i].any() and desired[i].any():
-                # pinned (the robot's push against a wall): making way, the worker walks the way they want
+            if a.making_way and desired[i].any() and (not vel[i].any() or a.way_slow_s >= STUCK_S):
+                # pinned (the robot's push against a wall) or held in place by its push for STUCK_S: making
+                # way, the worker walks the way they want (still never into the robot or a wall)
                 new[i], vel[i] = self._constrain(self.pos[i], self.pos[i] + desired[i] * self.dt, desired[i],
                                                  robot)
         moving = np.hypot(vel[:, 0], vel[:, 1]) > 0.05
@@ -205,46 +270,114 @@ class Crowd:
                 a.path = np.vstack([a.path[: a.wp], best[1][None, :], a.path[a.wp :]])
 
     def make_way(self, i: int, path: FloatArray, clear_m: float) -> tuple[float, float] | None:
-        """Worker ``i`` makes way for the robot: the nearest spot (rings of 0.5 m,
-        16 bearings, in that order) that is walkable in a straight line from where the worker stands
-        and at least ``clear_m`` from every point of the robot's remaining ``path`` (n, 2); else the
-        walkable spot farthest from the path if it gains 0.5 m. A waiting worker stands there until
-        ``MAKE_WAY_HOLD_S`` has passed, then goes back to their stop; a walking worker waits there as
-        long, then walks on to their next stop. Returns the spot, or None (nowhere better to stand)."""
+        """Worker ``i`` makes way for the robot, whose remaining ``path`` (n, 2, base centre) must pass
+        them by ``clear_m`` (footprint reach + S_p + the worker's radius). The spot: on rings of 0.5 m,
+        16 bearings, nearest first, walkable in a straight line from where the worker stands and never
+        closer to the robot's footprint than now or than ``LEG_CLEAR_M`` (not through the robot),
+        preferring a walk that never comes closer to it than now (away from the robot); the first at
+        ``clear_m`` plus the worker's comfort distance from every path point, else the first at
+        ``clear_m``, else the walkable spot farthest from the path if it gains 0.5 m. The worker stays
+        there until the robot has passed (:meth:`_release`). Returns the spot, or None (nowhere
+        better to stand)."""
         a = self.agents[i]
         if len(path) == 0:
             return None
         p = self.pos[i]
+        robot = self._history[-1] if self._history else None
 
         def clearance(q: FloatArray) -> float:
             return float(np.min(np.hypot(path[:, 0] - q[0], path[:, 1] - q[1])))
 
-        best: tuple[float, FloatArray] | None = None
+        comfort = clear_m + a.params.comfort_distance_m
+        # tiers, best first: (away from the robot, comfort), (away, clear), (by it, comfort), (by it, clear)
+        firsts: dict[tuple[bool, bool], FloatArray] = {}
+        farthest: tuple[float, FloatArray] | None = None
         step = self.router.grid.resolution / 2 if self.router.grid is not None else 0.05
         for r in MAKE_WAY_RINGS_M:
-            for j in range(16):
-                q = p + r * np.array([math.cos(j * math.pi / 8), math.sin(j * math.pi / 8)])
-                f = np.linspace(0.0, 1.0, max(2, int(r / step) + 1))[:, None]  # no wall skipped
-                if not self._free_at(q) or not self._walkable_along(p[None, :] + f * (q - p)[None, :]):
+            cands = [p + r * np.array([math.cos(j * math.pi / 8), math.sin(j * math.pi / 8)])
+                     for j in range(16)]
+            f = np.linspace(0.0, 1.0, max(2, int(r / step) + 1))[:, None]  # no wall skipped
+            legs = [p[None, :] + f * (q - p)[None, :] for q in cands]
+            by_it = self._legs_clear_of(legs, robot, LEG_CLEAR_M)
+            away = self._legs_clear_of(legs, robot, math.inf)  # never closer to the robot than now
+            for q, leg, ok, aw in zip(cands, legs, by_it, away, strict=True):
+                if not ok or not self._free_at(q) or not self._walkable_along(leg):
                     continue
                 c = clearance(q)
                 if c >= clear_m:
-                    best = (math.inf, q)
-                    break
-                if best is None or c > best[0]:
-                    best = (c, q)
-            if best is not None and best[0] == math.inf:
+                    firsts.setdefault((aw, c >= comfort), q)
+                if farthest is None or c > farthest[0]:
+                    farthest = (c, q)
+            if (True, True) in firsts:
                 break
-        if best is None or (best[0] != math.inf and best[0] < clearance(p) + 0.5):
-            return None
-        spot = (float(best[1][0]), float(best[1][1]))
+        best = next((firsts[k] for k in ((True, True), (True, False), (False, True), (False, False))
+                     if k in firsts), None)
+        if best is None:
+            if farthest is None or farthest[0] < clearance(p) + 0.5:
+                return None
+            best = farthest[1]
+        spot = (float(best[0]), float(best[1]))
+        if a.yielding is not None:
+            home, walking = a.yielding.home, a.yielding.walking
+        elif a.walking:  # they will walk on along their route: the robot must have passed its next stretch
+            home, walking = _stretch(np.vstack([p[None, :], a.path[a.wp :]]), HOME_STRETCH_M), True
+        else:
+            stop = a.spec.stops[a.k]
+            home, walking = np.array([[stop.x, stop.y]]), False
+        a.yielding = _Yield(np.array(path, dtype=np.float64), clear_m, home, walking,
+                            self.t + MAKE_WAY_MAX_HOLD_S)
         a.making_way = True
         if a.walking:  # wait there, then walk on to the next stop
-            a.walking, a.slow_s = False, 0.0
-            a.anchor, a.until, a.aside_until = spot, self.t + MAKE_WAY_HOLD_S, None
-        else:
-            a.anchor, a.aside_until = spot, self.t + MAKE_WAY_HOLD_S
+            a.walking, a.slow_s, a.until = False, 0.0, math.inf
+        a.anchor = spot
         return spot
+
+    def _legs_clear_of(self, legs: Sequence[FloatArray], robot: Obstacle | None, clear_m: float
+                       ) -> list[bool]:
+        """Per leg (sampled points): whether it keeps ``clear_m`` from the robot's footprint, or never
+        comes closer to it than where it starts (one distance query for all legs)."""
+        if robot is None or not legs:
+            return [True] * len(legs)
+        pts = np.concatenate(legs)
+        d_all, _, _ = rects_distance(pts[:, 0], pts[:, 1], robot.pose, robot.rects)
+        out = []
+        start = 0
+        for leg in legs:
+            d = d_all[start : start + len(leg)]
+            start += len(leg)
+            out.append(bool(d.min() >= min(clear_m, float(d[0])) - 1e-9))
+        return out
+
+    def _release(self, robot: Obstacle | None) -> None:
+        """Workers who made way go back once the robot has passed: the robot's centre is ``clear_m``
+        from where they go back to, and so is the rest of its path (from the point it has reached), or
+        it reached the path's end or left the path; at the yield's deadline at the latest."""
+        for a in self.agents:
+            y = a.yielding
+            if y is None:
+                continue
+            passed = self.t >= y.deadline
+            if not passed and robot is not None:
+                rx, ry = robot.pose[0], robot.pose[1]
+                rest = y.path[y.progress :]
+                d = np.hypot(rest[:, 0] - rx, rest[:, 1] - ry)
+                k = int(np.argmin(d))
+                y.progress += k
+                hx, hy = y.home[:, 0], y.home[:, 1]
+                far = float(np.min(np.hypot(hx - rx, hy - ry))) >= y.clear_m
+                ahead = y.path[y.progress + 1 :]
+                clear_ahead = len(ahead) == 0 or float(
+                    np.min(np.hypot(ahead[:, 0, None] - hx[None, :], ahead[:, 1, None] - hy[None, :]))
+                ) >= y.clear_m
+                passed = far and (clear_ahead or float(d[k]) > OFF_PATH_M)
+            if not passed:
+                continue
+            a.yielding, a.making_way = None, False
+            if y.walking:
+                a.until = self.t  # walks on to the next stop (from the spot)
+            else:
+                stop = a.spec.stops[a.k]
+                a.anchor = (stop.x, stop.y)
 
     def _clear_many(self, legs: Sequence[tuple[FloatArray, FloatArray]], robot: Obstacle) -> list[bool]:
         """Per leg (p, q): sampled every 0.1 m, clear of the footprint and walkable. One distance query

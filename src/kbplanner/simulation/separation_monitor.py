@@ -24,11 +24,20 @@ S_p(v) fits the measured separation:
   (protective stop).
 - **Moving away is allowed.** Stopped, the robot may still make a step (at ``minSpeed``) that takes
   the footprint farther from every sensed point, never closer.
+- **Resume with hysteresis.** After a protective stop the robot resumes only once every person it sees
+  is farther than the stop distance plus ``resumeMargin`` and has stayed so for ``resumeHoldTime``
+  (knowledge base defaults 0 and 0, i.e. off, see docs/safety.md; ``RESUME_MARGIN_M``,
+  ``RESUME_HOLD_S`` when a skill lacks them). With a margin and a hold time, a person standing at the
+  stop distance, swaying by centimetres, no longer makes the robot stop and go every control period.
+  Until then it stays in the protective stop, in which it may make a step (at ``minSpeed``) away
+  from everyone it sees (the decision says stopped, with that fraction). Held so for
+  ``HYSTERESIS_MAX_S`` since the separation was last at the stop distance (the navigation has
+  replanned and asked the person to make way meanwhile), it goes on at the speed S_p allows.
 
 The parameters are the step's effective skill parameters (knowledge base defaults, jobsite
 overrides): ``maxSpeed``, ``minSpeed``, ``safetyStopDistance``, ``humanApproachSpeed``,
 ``reactionTime``, ``brakingDeceleration``, ``intrusionDistance``, ``positionUncertainty``,
-``trackedApproachSpeed``.
+``trackedApproachSpeed``, ``resumeMargin``, ``resumeHoldTime``.
 """
 
 from __future__ import annotations
@@ -46,6 +55,16 @@ from kbplanner.world.footprint import Rect
 
 Pose2D = tuple[float, float, float]
 TRACKED_SPEED_FLOOR_MPS = 0.3  # fallback of kbp:trackedApproachSpeed (ontology/kb/skills.ttl, NV-1/NV-2)
+RESUME_MARGIN_M = 0.0  # fallback of kbp:resumeMargin (ontology/kb/skills.ttl, NV-1/NV-2)
+RESUME_HOLD_S = 0.0  # fallback of kbp:resumeHoldTime (ontology/kb/skills.ttl, NV-1/NV-2)
+HYSTERESIS_MAX_S = 15.0  # held beyond the stop distance this long (past replan and make-way), it goes on
+
+
+def _non_negative(value: object, default: float) -> float:
+    """A finite non-negative number from a skill parameter, else ``default``."""
+    if isinstance(value, (int, float)) and math.isfinite(float(value)) and float(value) >= 0:
+        return float(value)
+    return default
 
 
 @dataclass(frozen=True)
@@ -98,7 +117,14 @@ class SeparationMonitor:
             float(replace(self.ssm, human_speed_mps=self.tracked_floor).separation_m(0.0)),
         )
         self.min_speed = float(lo) if isinstance(lo, (int, float)) else 0.05
+        self.resume_margin_m = _non_negative(params.get("resumeMargin"), RESUME_MARGIN_M)
+        self.resume_hold_s = _non_negative(params.get("resumeHoldTime"), RESUME_HOLD_S)
         self._tracks: dict[str, tuple[float, np.ndarray]] = {}
+        self._stopped = False  # in a protective stop (until the hysteresis lets the robot resume)
+        self._clear_since: float | None = None  # since when everyone seen is beyond stop + margin
+        self._last_t: float | None = None
+        self._stopped_by: Sensed | None = None  # who caused the protective stop
+        self._stopped_at: float | None = None  # when the separation was last at or under the stop distance
 
     def sense(self, rects: Sequence[Rect], *, horizon_m: float) -> list[Sensed]:
         """The people the lidar sees, with separation and approach speed (none beyond ``horizon_m``)."""
@@ -147,7 +173,7 @@ class SeparationMonitor:
         horizon = float(self.ssm.separation_m(max(v_nom, self.max_speed))) + 0.5
         seen = self.sense(rects, horizon_m=horizon)
         if not seen:
-            return Decision(1.0, None, protective, False)
+            return self._hysteresis(Decision(1.0, None, protective, False), math.inf)  # nobody: no step back
         allowed, sensed = min(
             (
                 (replace(self.ssm, human_speed_mps=s.approach_mps).allowed_speed(s.separation_m), s)
@@ -156,20 +182,53 @@ class SeparationMonitor:
             key=lambda a: (a[0], a[1].separation_m),
         )
         protective = float(replace(self.ssm, human_speed_mps=sensed.approach_mps).separation_m(v_nom))
-        if allowed >= v_nom:
-            return Decision(1.0, sensed, protective, False)
-        if sensed.separation_m > self.stop_m and allowed >= min(self.min_speed, v_nom):
-            return Decision(min(1.0, allowed / v_nom), sensed, protective, False)
+        nearest = min(s.separation_m for s in seen)
+        if allowed >= v_nom or (sensed.separation_m > self.stop_m and allowed >= min(self.min_speed, v_nom)):
+            go = Decision(min(1.0, allowed / v_nom), sensed, protective, False)
+            held = self._hysteresis(go, nearest)
+            if held is go:
+                return go
+            # held after a stop: only a step away from everyone seen (a stop all the same)
+            away = self._away(rects, here, nxt, np.concatenate([s.points for s in seen]), v_nom)
+            return replace(held, fraction=away)
         # protective stop, unless the step takes the footprint away from every sensed point
+        self._stopped, self._clear_since, self._stopped_by = True, None, sensed
+        self._last_t = self._stopped_at = self.env.t
+        f = self._away(rects, here, nxt, sensed.points, v_nom)
+        if f > 0:
+            return Decision(f, sensed, protective, False)
+        return Decision(0.0, sensed, protective, True)
+
+    def _away(self, rects: Sequence[Rect], here: Pose2D, nxt: Pose2D, pts: np.ndarray, v_nom: float) -> float:
+        """The fraction of the step (at ``minSpeed``) if it takes the footprint farther from every point
+        of ``pts``, else 0."""
         f = min(1.0, self.min_speed / v_nom)
         step = (
             here[0] + f * (nxt[0] - here[0]),
             here[1] + f * (nxt[1] - here[1]),
             here[2] + f * math.atan2(math.sin(nxt[2] - here[2]), math.cos(nxt[2] - here[2])),
         )
-        pts = sensed.points
         d0, _, _ = rects_distance(pts[:, 0], pts[:, 1], here, rects)
         d1, _, _ = rects_distance(pts[:, 0], pts[:, 1], step, rects)
-        if bool(np.all(d1 > d0 + 1e-6)):
-            return Decision(f, sensed, protective, False)
-        return Decision(0.0, sensed, protective, True)
+        return f if bool(np.all(d1 > d0 + 1e-6)) else 0.0
+
+    def _hysteresis(self, d: Decision, nearest_m: float) -> Decision:
+        """After a protective stop, ``d`` (a go) holds until everyone seen has been beyond the stop
+        distance plus ``resume_margin_m`` for ``resume_hold_s`` (nobody seen counts as beyond)."""
+        t = self.env.t
+        last, self._last_t = self._last_t, t
+        if not self._stopped:
+            return d
+        if nearest_m <= self.stop_m + self.resume_margin_m:
+            self._clear_since = None
+        elif self._clear_since is None or last is None or t - last > 1.5 * self.env.dt + 1e-9:
+            self._clear_since = t  # clear from now (or again after a pause in monitoring)
+        if self._clear_since is not None and t - self._clear_since >= self.resume_hold_s - 1e-9:
+            self._stopped, self._clear_since = False, None
+            return d
+        if self._stopped_at is not None and t - self._stopped_at >= HYSTERESIS_MAX_S - 1e-9:
+            # held this long beyond the stop distance (asked to make way meanwhile): go on as without
+            # hysteresis, at the speed S_p allows, rather than wait for a person standing still
+            self._stopped, self._clear_since = False, None
+            return d
+        return Decision(0.0, d.sensed or self._stopped_by, d.protective_m, True)

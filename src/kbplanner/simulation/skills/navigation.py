@@ -442,7 +442,7 @@ class NavigationSkill(Skill):
                 self._replan(d.sensed.worker, d.sensed.separation_m)
                 pts = [(p[0], p[1]) for q in self.queue if isinstance(q, Drive) for p in q.t[int(q.s)::5]]
                 ask_way(env, d.sensed.worker, pts, reach_m(self._rects()) + d.protective_m, self.c.emit)
-            return 0.0
+            return 0.0 if self.replanned_at == env.t else f  # f > 0: a step away from everyone seen
         if self.stopped_since is not None:
             self.c.emit("resume", waited_s=round(env.t - self.stopped_since, 3),
                         separation_m=round(d.sensed.separation_m, 3) if d.sensed else None)

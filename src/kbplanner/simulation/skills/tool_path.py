@@ -170,7 +170,7 @@ class ToolPathSkill(Skill):
                 self.c.emit("stop", worker=dec.sensed.worker if dec.sensed else None,
                             separation_m=round(dec.sensed.separation_m, 3) if dec.sensed else None)
             self.details["stop_time_s"] = round(self.details["stop_time_s"] + env.dt, 3)
-            return 0.0
+            return dec.fraction  # 0, or a step away from everyone seen
         if self.stopped_since is not None:
             self.c.emit("resume", waited_s=round(env.t - self.stopped_since, 3))
             self.stopped_since = None
