@@ -105,7 +105,8 @@ def measure_run(project: Path, tmp: Path) -> dict[str, Any]:
             "scenarios": scenarios, "message": last if code == 2 or not scenarios else ""}
 
 
-def measure(ifc: Path, *, run: bool = False, label: str | None = None) -> dict[str, Any]:
+def measure(ifc: Path, *, run: bool = False, label: str | None = None, run_max_frames: int = 40
+            ) -> dict[str, Any]:
     """import-ifc, init (and ``run``) on ``ifc`` in a temporary folder; returns the figures."""
     from kbplanner.scale.project_init import init_project
 
@@ -123,8 +124,10 @@ def measure(ifc: Path, *, run: bool = False, label: str | None = None) -> dict[s
             "not_chosen": dict(sorted(Counter(_kind(w.reason) for w in r.walls if not w.chosen).items())),
             "scenarios": r.scenarios, "notes": r.notes, "seconds": round(t.seconds, 2),
         }
-        if run and r.written:
+        if run and r.written and len(r.frames) <= run_max_frames:
             row["run"] = measure_run(tmp / "project", tmp)
+        elif run and r.written:
+            row["run_skipped"] = f"{len(r.frames)} frames > --run-max-frames {run_max_frames}"
     return row
 
 
@@ -143,8 +146,12 @@ def fixtures(folder: Path) -> list[tuple[str, Path]]:
     from ifc_wild import write_geometry_kinds, write_placed, write_without_storeys
 
     writers: list[tuple[str, Callable[[Path], Any]]] = [
-        ("office IFC4 (tests/ifc_office.py)", lambda p: write_office(p, schema="IFC4")),
-        ("office IFC2X3, unnamed psets (tests/ifc_office.py)", lambda p: write_office(p, schema="IFC2X3")),
+        ("small office, IFC2X3 as ArchiCAD writes it (tests/ifc_office.py, 2 x 2 offices, 2 storeys)",
+         lambda p: write_office(p, schema="IFC2X3", rooms_per_side=2)),
+        ("small office (2 x 2 offices, 2 storeys)",
+         lambda p: write_office(p, schema="IFC4", rooms_per_side=2)),
+        ("office (2 x 6 offices, 2 storeys)", lambda p: write_office(p, schema="IFC4")),
+        ("office, IFC2X3 as ArchiCAD writes it (2 x 6 offices)", lambda p: write_office(p, schema="IFC2X3")),
         ("test building IFC4 (tests/ifc_factory.py)", lambda p: write_test_building(p, schema="IFC4")),
         ("test building IFC2X3, mm", lambda p: write_test_building(p, schema="IFC2X3", unit_mm=True)),
         ("unnamed psets IFC2X3 (tests/ifc_traits.py)", write_unnamed_sets),
@@ -169,7 +176,7 @@ def fixtures(folder: Path) -> list[tuple[str, Path]]:
 def _cell_run(row: dict[str, Any]) -> str:
     run = row.get("run")
     if run is None:
-        return "-"
+        return f"not run: {row['run_skipped']}" if "run_skipped" in row else "-"
     parts = []
     for name, s in run["scenarios"].items():
         text = f"{name.removeprefix('storage-')}: {s['installed']}/{s['elements']}"
@@ -220,6 +227,8 @@ def main() -> int:
     parser.add_argument("--fixtures", action="store_true", help="also the ifcopenshell fixtures of tests/")
     parser.add_argument("--no-public", action="store_true", help="not the Duplex and the public models")
     parser.add_argument("--run", action="store_true", help="also `kbplanner run` on each project (slow)")
+    parser.add_argument("--run-max-frames", type=int, default=40,
+                        help="run only projects with at most this many frames (default 40)")
     parser.add_argument("--doc", type=Path, help="render the table into this document (section 7)")
     parser.add_argument("--render-only", action="store_true", help="only render --doc from the JSON")
     args = parser.parse_args()
@@ -231,15 +240,15 @@ def main() -> int:
     rows: list[dict[str, Any]] = []
     with tempfile.TemporaryDirectory() as fixture_dir:
         files: list[tuple[str | None, Path]] = [(None, p) for p in args.ifc]
-        if not args.ifc and not args.no_public:
-            files += [(None, DUPLEX), *((None, p) for p in sorted(PUBLIC.glob("*.ifc")))]
         if args.fixtures:
             files += list(fixtures(Path(fixture_dir)))
+        if not args.ifc and not args.no_public:
+            files += [*((None, p) for p in sorted(PUBLIC.glob("*.ifc"))), (None, DUPLEX)]
         for label, ifc in files:
             if not ifc.is_file():
                 print(f"{ifc}: not present, skipped", file=sys.stderr)
                 continue
-            row = measure(ifc, run=args.run, label=label)
+            row = measure(ifc, run=args.run, label=label, run_max_frames=args.run_max_frames)
             rows.append(row)
             print(f"{row['file']}: {'written' if row['written'] else 'nothing written (exit 1)'}, storey "
                   f"{row['storey']}, {row['walls_chosen']}/{row['walls']} walls, {row['frames']} frames, "
