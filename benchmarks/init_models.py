@@ -105,8 +105,8 @@ def measure_run(project: Path, tmp: Path) -> dict[str, Any]:
             "scenarios": scenarios, "message": last if code == 2 or not scenarios else ""}
 
 
-def measure(ifc: Path, *, run: bool = False, label: str | None = None, run_max_frames: int = 40
-            ) -> dict[str, Any]:
+def measure(ifc: Path, *, run: bool = False, label: str | None = None, run_max_frames: int = 40,
+            max_walls: int = 8) -> dict[str, Any]:
     """import-ifc, init (and ``run``) on ``ifc`` in a temporary folder; returns the figures."""
     from kbplanner.scale.project_init import init_project
 
@@ -114,10 +114,10 @@ def measure(ifc: Path, *, run: bool = False, label: str | None = None, run_max_f
         tmp = Path(tmp_name)
         imported = measure_import(ifc, tmp)
         with Timer() as t:
-            r = init_project(ifc, tmp / "project")
+            r = init_project(ifc, tmp / "project", max_walls=max_walls)
         masses = [f.mass_kg for f in r.frames]
         row: dict[str, Any] = {
-            "file": label or ifc.name, "schema": _schema(ifc), "import": imported,
+            "file": label or ifc.name, "schema": _schema(ifc), "import": imported, "max_walls": max_walls,
             "written": r.written, "storey": r.storey, "entrance": r.entrance,
             "walls": len(r.walls), "walls_chosen": len(r.chosen), "frames": len(r.frames),
             "frame_mass_kg": [round(min(masses), 1), round(max(masses), 1)] if masses else None,
@@ -137,39 +137,38 @@ def _schema(ifc: Path) -> str:
     return str(ifcopenshell.open(str(ifc)).schema)
 
 
-def fixtures(folder: Path) -> list[tuple[str, Path]]:
-    """Write the ifcopenshell fixtures of tests/ into ``folder``; (label, path) each."""
+def fixtures(folder: Path) -> list[tuple[str, Path, int]]:
+    """Write the ifcopenshell fixtures of tests/ into ``folder``; (label, path, init's --max-walls) each."""
     sys.path.insert(0, str(REPO / "tests"))
     from ifc_factory import write_test_building
     from ifc_office import write_office
     from ifc_traits import write_length_unit, write_mass_unit, write_traits, write_unnamed_sets
     from ifc_wild import write_geometry_kinds, write_placed, write_without_storeys
 
-    writers: list[tuple[str, Callable[[Path], Any]]] = [
-        ("small office, IFC2X3 as ArchiCAD writes it (tests/ifc_office.py, 2 x 2 offices, 2 storeys)",
-         lambda p: write_office(p, schema="IFC2X3", rooms_per_side=2)),
-        ("small office (2 x 2 offices, 2 storeys)",
-         lambda p: write_office(p, schema="IFC4", rooms_per_side=2)),
-        ("office (2 x 6 offices, 2 storeys)", lambda p: write_office(p, schema="IFC4")),
-        ("office, IFC2X3 as ArchiCAD writes it (2 x 6 offices)", lambda p: write_office(p, schema="IFC2X3")),
-        ("test building IFC4 (tests/ifc_factory.py)", lambda p: write_test_building(p, schema="IFC4")),
-        ("test building IFC2X3, mm", lambda p: write_test_building(p, schema="IFC2X3", unit_mm=True)),
-        ("unnamed psets IFC2X3 (tests/ifc_traits.py)", write_unnamed_sets),
-        ("gram mass unit", lambda p: write_mass_unit(p, "gram", 13630.0)),
-        ("split level, door without host, storey without spaces", write_traits),
-        ("foot length unit", lambda p: write_length_unit(p, "FOOT")),
-        ("rotated 30 degrees (tests/ifc_wild.py)", lambda p: write_placed(p, "rotated")),
-        ("georeferenced, IfcMapConversion", lambda p: write_placed(p, "georeferenced")),
-        ("site at survey coordinates, IFC2X3 mm", lambda p: write_placed(p, "site-far")),
-        ("storeys at survey coordinates", lambda p: write_placed(p, "storeys-far")),
-        ("geometry kinds", write_geometry_kinds),
-        ("no storeys", write_without_storeys),
+    writers: list[tuple[str, Callable[[Path], Any], int]] = [
+        ("small office, IFC2X3 as ArchiCAD writes it (tests/ifc_office.py: 2 x 2 offices, 2 storeys)",
+         lambda p: write_office(p, schema="IFC2X3", rooms_per_side=2), 2),
+        ("test building (tests/ifc_factory.py)", lambda p: write_test_building(p, schema="IFC4"), 8),
+        ("test building, mm", lambda p: write_test_building(p, schema="IFC2X3", unit_mm=True), 8),
+        ("unnamed psets (tests/ifc_traits.py)", write_unnamed_sets, 8),
+        ("split level, door without host, storey without spaces", write_traits, 8),
+        ("no storeys (tests/ifc_wild.py)", write_without_storeys, 8),
+        ("rotated 30 degrees", lambda p: write_placed(p, "rotated"), 8),
+        ("geometry kinds", write_geometry_kinds, 8),
+        ("office (2 x 6 offices, 2 storeys)", lambda p: write_office(p, schema="IFC4"), 8),
+        ("office, IFC2X3 as ArchiCAD writes it (2 x 6 offices)",
+         lambda p: write_office(p, schema="IFC2X3"), 8),
+        ("gram mass unit", lambda p: write_mass_unit(p, "gram", 13630.0), 8),
+        ("foot length unit", lambda p: write_length_unit(p, "FOOT"), 8),
+        ("georeferenced, IfcMapConversion", lambda p: write_placed(p, "georeferenced"), 8),
+        ("site at survey coordinates, mm", lambda p: write_placed(p, "site-far"), 8),
+        ("storeys at survey coordinates", lambda p: write_placed(p, "storeys-far"), 8),
     ]
     out = []
-    for n, (label, write) in enumerate(writers):
+    for n, (label, write, max_walls) in enumerate(writers):
         path = folder / f"fixture_{n:02d}.ifc"
         write(path)
-        out.append((label, path))
+        out.append((label if max_walls == 8 else f"{label}, --max-walls {max_walls}", path, max_walls))
     return out
 
 
@@ -239,16 +238,17 @@ def main() -> int:
         return 0
     rows: list[dict[str, Any]] = []
     with tempfile.TemporaryDirectory() as fixture_dir:
-        files: list[tuple[str | None, Path]] = [(None, p) for p in args.ifc]
+        files: list[tuple[str | None, Path, int]] = [(None, p, 8) for p in args.ifc]
         if args.fixtures:
             files += list(fixtures(Path(fixture_dir)))
         if not args.ifc and not args.no_public:
-            files += [*((None, p) for p in sorted(PUBLIC.glob("*.ifc"))), (None, DUPLEX)]
-        for label, ifc in files:
+            files += [*((None, p, 8) for p in sorted(PUBLIC.glob("*.ifc"))), (None, DUPLEX, 8)]
+        for label, ifc, max_walls in files:
             if not ifc.is_file():
                 print(f"{ifc}: not present, skipped", file=sys.stderr)
                 continue
-            row = measure(ifc, run=args.run, label=label, run_max_frames=args.run_max_frames)
+            row = measure(ifc, run=args.run, label=label, run_max_frames=args.run_max_frames,
+                          max_walls=max_walls)
             rows.append(row)
             print(f"{row['file']}: {'written' if row['written'] else 'nothing written (exit 1)'}, storey "
                   f"{row['storey']}, {row['walls_chosen']}/{row['walls']} walls, {row['frames']} frames, "
