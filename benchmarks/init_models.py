@@ -17,7 +17,7 @@ Prints a line per model and writes ``benchmarks/results/init_models.json`` after
 ``<!-- init-models:end -->``) is rendered from the JSON (``--doc`` alone, without models, only
 re-renders it from the existing JSON).
 
-    .venv/bin/python benchmarks/init_models.py [IFC ...] [--fixtures] [--no-public] [--run]
+    .venv/bin/python benchmarks/init_models.py [IFC ...] [--fixtures] [--no-public] [--run] [--append]
     .venv/bin/python benchmarks/init_models.py --render-only --doc docs/own_building.md
 """
 
@@ -228,6 +228,8 @@ def main() -> int:
     parser.add_argument("--run", action="store_true", help="also `kbplanner run` on each project (slow)")
     parser.add_argument("--run-max-frames", type=int, default=40,
                         help="run only projects with at most this many frames (default 40)")
+    parser.add_argument("--append", action="store_true",
+                        help="keep the other models' rows of the JSON (a model measured again is replaced)")
     parser.add_argument("--doc", type=Path, help="render the table into this document (section 7)")
     parser.add_argument("--render-only", action="store_true", help="only render --doc from the JSON")
     args = parser.parse_args()
@@ -237,6 +239,8 @@ def main() -> int:
         update_doc(args.doc, json.loads(RESULTS.read_text(encoding="utf-8"))["models"])
         return 0
     rows: list[dict[str, Any]] = []
+    if args.append and RESULTS.is_file():
+        rows = json.loads(RESULTS.read_text(encoding="utf-8"))["models"]
     with tempfile.TemporaryDirectory() as fixture_dir:
         files: list[tuple[str | None, Path, int]] = [(None, p, 8) for p in args.ifc]
         if args.fixtures:
@@ -249,7 +253,7 @@ def main() -> int:
                 continue
             row = measure(ifc, run=args.run, label=label, run_max_frames=args.run_max_frames,
                           max_walls=max_walls)
-            rows.append(row)
+            rows = [r for r in rows if r["file"] != row["file"]] + [row]
             print(f"{row['file']}: {'written' if row['written'] else 'nothing written (exit 1)'}, storey "
                   f"{row['storey']}, {row['walls_chosen']}/{row['walls']} walls, {row['frames']} frames, "
                   f"scenarios {row['scenarios']}, {row['seconds']} s; import {row['import']}", flush=True)
