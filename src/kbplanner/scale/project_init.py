@@ -448,7 +448,8 @@ def _write(
         for key, (label, inside, near) in proposals.items():
             say(f"placing the frame storages of {key}")
             spots_ = place_storages(
-                grid, stacks, start=start_xy, panels=panels_xy, footprint=hull, inside=inside, near=near
+                grid, stacks, start=start_xy, panels=panels_xy, footprint=hull, inside=inside, near=near,
+                entrance=None if inside or not entrance else door_xy,
             )
             if len(spots_) < stacks:
                 result.notes.append(
