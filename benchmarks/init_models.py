@@ -232,15 +232,23 @@ def main() -> int:
                         help="keep the other models' rows of the JSON (a model measured again is replaced)")
     parser.add_argument("--doc", type=Path, help="render the table into this document (section 7)")
     parser.add_argument("--render-only", action="store_true", help="only render --doc from the JSON")
+    parser.add_argument("--results", type=Path, default=RESULTS, help=f"the JSON (default {RESULTS})")
+    parser.add_argument("--merge", type=Path, action="append", default=[],
+                        help="with --render-only: rows of another results JSON (a row with a run wins)")
     args = parser.parse_args()
     if args.render_only:
         if args.doc is None:
             parser.error("--render-only needs --doc")
-        update_doc(args.doc, json.loads(RESULTS.read_text(encoding="utf-8"))["models"])
+        merged: dict[str, dict[str, Any]] = {}
+        for results in (args.results, *args.merge):
+            for row in json.loads(results.read_text(encoding="utf-8"))["models"]:
+                if row["file"] not in merged or "run" in row:
+                    merged[row["file"]] = row
+        update_doc(args.doc, list(merged.values()))
         return 0
     rows: list[dict[str, Any]] = []
-    if args.append and RESULTS.is_file():
-        rows = json.loads(RESULTS.read_text(encoding="utf-8"))["models"]
+    if args.append and args.results.is_file():
+        rows = json.loads(args.results.read_text(encoding="utf-8"))["models"]
     with tempfile.TemporaryDirectory() as fixture_dir:
         files: list[tuple[str | None, Path, int]] = [(None, p, 8) for p in args.ifc]
         if args.fixtures:
@@ -261,7 +269,7 @@ def main() -> int:
                 print(f"  {n:>4} not chosen: {kind}")
             if "run" in row:
                 print(f"  run: {_cell_run(row)}", flush=True)
-            write_json(RESULTS, {"models": rows})
+            write_json(args.results, {"models": rows})
     if args.doc is not None:
         update_doc(args.doc, rows)
     return 0
