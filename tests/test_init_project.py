@@ -17,7 +17,7 @@ import ifcopenshell.util.element
 import pytest
 from rdflib import Literal
 
-from ifc_factory import write_test_building
+from ifc_factory import _gid, write_test_building
 from ifc_traits import write_mass_unit, write_traits, write_unnamed_sets
 from kbplanner.cli import main
 from kbplanner.core.vocab import KBP
@@ -136,6 +136,17 @@ def test_no_qualifying_wall_exits_1_with_reasons_and_writes_nothing(
     out = capsys.readouterr().out
     assert out.count("external wall (Pset_WallCommon.IsExternal = true)") == 4
     assert "Negative result" in out and not (tmp_path / "p").exists()
+    assert "--walls GlobalId" in out  # the way in: name the walls
+
+
+def test_walls_named_in_walls_are_framed_although_pset_says_external(tmp_path: Path) -> None:
+    """A model whose walls are all IsExternal (Revit's exterior wall types, the public models): --walls."""
+    ifc = tmp_path / "one_bay.ifc"
+    write_test_building(ifc, bays=1, storeys=1)
+    west = _gid("wall-0-west")
+    r = init_project(ifc, tmp_path / "p", walls=[west])
+    assert r.written and [c.global_id for c in r.chosen] == [west] and r.frames
+    assert any(west in n and "named in --walls although external wall" in n for n in r.notes)
 
 
 @pytest.mark.parametrize(

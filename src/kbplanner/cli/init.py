@@ -116,7 +116,9 @@ def run(args: argparse.Namespace) -> int:
     if not r.written:
         lines.append(
             f"Negative result: no wall of {r.source.name} qualifies for {r.task}; nothing written "
-            "(the reasons are above; choose walls with --walls or another --storey)"
+            "(the reasons are above). Fix: choose another --storey, or name the walls to frame with "
+            "--walls GlobalId,... (a wall named there is framed even when its Pset_WallCommon says "
+            "IsExternal or LoadBearing; the geometric rules still apply)"
         )
         sys.stdout.write("\n".join(lines) + "\n")
         return 1

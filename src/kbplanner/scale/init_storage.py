@@ -6,8 +6,11 @@ margin around them are free, away from the panels' install locations; its pickup
 :data:`PICKUP_STANDOFF` beside the stack's centre line, facing it, on a cell with room for the robot
 and in the free region of the robot start (4-connected, as :mod:`kbplanner.world.site_checks` checks).
 ``inside`` takes the candidate inside the building's footprint nearest the panels (short carries),
-``outside`` the one outside it nearest the entrance. Each placed storage is marked occupied before the
-next is placed. Deterministic: candidates are scanned in a fixed order and ties broken by position.
+``outside`` the one outside it nearest the entrance, but not in the entrance's approach: the stack (with
+its margin) stays :data:`ENTRANCE_KEEP` from the entrance and off the straight line from its pickup to
+the entrance, so that the robot turning in with a frame does not meet it. Each placed storage is marked
+occupied before the next is placed. Deterministic: candidates are scanned in a fixed order and ties
+broken by position.
 """
 
 from __future__ import annotations
@@ -19,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 from shapely import contains_xy
-from shapely.geometry import Polygon
+from shapely.geometry import LineString, Point, Polygon, box
 
 from kbplanner.world.occupancy import OccupancyGrid
 
@@ -30,6 +33,7 @@ ROBOT_ROOM = 0.5  # clearance of the pickup cell (the robot's half width + margi
 PANEL_KEEP = 0.9  # a storage at least this far from an install location
 PICKUP_KEEP = 0.9  # a pickup at least this far from an install location (the last tier)
 STEP = 0.2
+ENTRANCE_KEEP = 2.0  # m from the entrance door to an outside stack: room to turn in with a 2.4 m frame
 # (pickup clearance, pickup distance to install locations): first room for the robot to turn with a
 # 2.4 m frame (its half length + margin), else the least that still fits the robot
 TIERS = ((1.3, 1.6), (ROBOT_ROOM, PICKUP_KEEP))
@@ -61,8 +65,12 @@ def place_storages(
     footprint: Polygon,
     inside: bool,
     near: tuple[float, float],
+    entrance: tuple[float, float] | None = None,
 ) -> list[Spot]:
-    """Up to ``count`` storage spots (fewer when the map has no more room; the caller reports it)."""
+    """Up to ``count`` storage spots (fewer when the map has no more room; the caller reports it).
+
+    ``entrance``: the door the robot enters by, whose approach the stacks leave free (module docstring).
+    """
     occupied = grid.occupied.copy()
     res = grid.resolution
     panel_mask = np.zeros_like(occupied)
@@ -111,6 +119,7 @@ def place_storages(
                         yaw,
                         room,
                         keep,
+                        entrance,
                     )
                     if best is not None:
                         break
@@ -146,10 +155,14 @@ def _try(
     yaw: float,
     room: float = ROBOT_ROOM,
     keep: float = PICKUP_KEEP,
+    entrance: tuple[float, float] | None = None,
 ) -> Spot | None:
     hx, hy = (STORAGE[0] / 2, STORAGE[1] / 2) if yaw == 0.0 else (STORAGE[1] / 2, STORAGE[0] / 2)
     cells = _rect_cells(grid, x, y, hx + MARGIN, hy + MARGIN)
     if cells is None or occupied[cells].any() or float(panel_dist[cells].min()) < PANEL_KEEP:
+        return None
+    stack = box(x - hx - MARGIN, y - hy - MARGIN, x + hx + MARGIN, y + hy + MARGIN)
+    if entrance is not None and stack.distance(Point(entrance)) < ENTRANCE_KEEP:
         return None
     # the pickup side: across the stack (local +y or -y)
     nxv, nyv = -math.sin(yaw), math.cos(yaw)
@@ -162,6 +175,8 @@ def _try(
             continue
         if panel_dist[iy, ix] < keep:
             continue
+        if entrance is not None and LineString([(px, py), entrance]).intersects(stack):
+            continue  # the stack stands between its pickup and the entrance
         # the storage must not cut the pickup off from the start: its box lies away from the pickup
         facing = math.atan2(y - py, x - px)
         return Spot(round(x, 4), round(y, 4), yaw, (round(px, 4), round(py, 4), round(facing, 9)))

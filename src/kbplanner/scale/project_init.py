@@ -196,6 +196,7 @@ def init_project(
     selected = _select(f, walls, path) if walls else None
     by_storey: dict[str, _Storey] = {g: _Storey(r, f.by_guid(g), [], []) for g, r in refs.items()}
     choices: dict[str, WallChoice] = {}
+    overridden: list[str] = []  # walls named in --walls that Pset_WallCommon would rule out
     for w in sorted(f.by_type("IfcWall"), key=lambda e: str(e.GlobalId)):
         st = storey_of(w)
         gid = str(w.GlobalId)
@@ -209,6 +210,9 @@ def init_project(
         by_storey[str(st.GlobalId)].walls.append(w)
         if selected is not None and gid not in selected:
             c.reason = "not named in --walls"
+        elif selected is not None:  # named by the user: Pset_WallCommon does not rule it out
+            if rule := property_reason(w):
+                overridden.append(f"{c.name or gid} ({gid}): named in --walls although {rule}")
         else:
             c.reason = property_reason(w)
     for d in f.by_type("IfcDoor"):
@@ -238,6 +242,7 @@ def init_project(
                         f"{task_st.ref.name} (choose it with --storey)"
                     )
     result = InitResult(path, Path(out), task, spec, task_st.ref.name, list(choices.values()))
+    result.notes += overridden
     say(
         f"{path.name}: {len(choices)} walls, task storey {task_st.ref.name} "
         f"({task_st.ref.elevation:.2f} m); triangulating its elements"
@@ -443,7 +448,8 @@ def _write(
         for key, (label, inside, near) in proposals.items():
             say(f"placing the frame storages of {key}")
             spots_ = place_storages(
-                grid, stacks, start=start_xy, panels=panels_xy, footprint=hull, inside=inside, near=near
+                grid, stacks, start=start_xy, panels=panels_xy, footprint=hull, inside=inside, near=near,
+                entrance=None if inside or not entrance else door_xy,
             )
             if len(spots_) < stacks:
                 result.notes.append(
