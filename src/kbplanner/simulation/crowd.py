@@ -183,8 +183,9 @@ class Crowd:
     def _way_target(self, a: _Agent, p: FloatArray) -> FloatArray:
         """Where a waiting worker heads for: their anchor, along a walking path (the router's) when it is
         more than ``WAY_ROUTED_M`` away; the path is planned again from where they are when they have
-        made little headway for ``STUCK_S`` (pushed aside by the robot, sliding along a wall), and from
-        then on, making way, they walk it regardless of the robot's push (:meth:`step`)."""
+        made little headway for ``STUCK_S`` (not ``HEADWAY_M`` nearer along it: pushed aside by the robot,
+        sliding along a wall, or to and fro at full speed), and from then on, making way, they walk it
+        regardless of the robot's push (:meth:`step`)."""
         anchor = np.array(a.anchor)
         if float(np.hypot(*(anchor - p))) <= WAY_ROUTED_M:
             a.way, a.way_slow_s, a.way_best_m = None, 0.0, math.inf
