@@ -252,3 +252,25 @@ def test_a_worker_standing_in_the_robot_s_way_costs_a_bounded_wait_and_no_stop_a
         assert e["details"]["waited_s"] >= hold - 1e-6
         sep = e["details"].get("separation_m")
         assert sep is None or sep > limit - 1e-3
+
+
+def test_a_worker_pushed_to_and_fro_against_a_wall_by_the_robot_still_walks_to_the_make_way_spot() -> None:
+    # the worker stands at a wall; the stopped robot (carrying a frame) is diagonally in front, so its push
+    # is into the wall and away from the spot: they slide to and fro along the wall, never slow, never nearer
+    from kbplanner.world.occupancy import OccupancyGrid
+
+    res, x0, y0 = 0.05, -6.0, -6.0
+    cy = y0 + (np.mgrid[0:240, 0:240][0] + 0.5) * res
+    grid = OccupancyGrid(occupied=~(cy < 0.0), origin=(x0, y0), resolution=res)  # a wall along y = 0
+    spec = WorkerSpec("urn:test:waiter", "Waiter", "carpenter", 1.2, (RouteStop("s", "S", 0.0, -0.3, 1e6),))
+    crowd = Crowd([spec], grid, seed=3)
+    robot = Obstacle((1.3, -1.8, 1.75), ROBOT)
+    crowd.step(robot)
+    path = np.array([(x, -1.8) for x in np.arange(1.3, -5.0, -0.25)])  # the robot drives on to the west
+    spot = crowd.make_way(0, path, 2.0)
+    assert spot is not None and spot[0] > 3.3  # east along the wall, past the robot's end of the path
+    for _ in range(int(30 / crowd.dt)):
+        crowd.step(robot)
+    assert math.hypot(crowd.pos[0, 0] - spot[0], crowd.pos[0, 1] - spot[1]) < 0.3
+    d, _, _ = rects_distance(crowd.pos[:1, 0], crowd.pos[:1, 1], robot.pose, robot.rects)
+    assert float(d[0]) >= WORKER_RADIUS_M

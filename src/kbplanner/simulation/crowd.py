@@ -43,6 +43,8 @@ FloatArray = npt.NDArray[np.float64]
 
 STUCK_SPEED_MPS = 0.2  # a walking worker slower than this for STUCK_S looks for a way round the robot
 STUCK_S = 2.0
+HEADWAY_M = STUCK_SPEED_MPS * STUCK_S  # a worker walking to their anchor who has not come this much
+# nearer (along their way) for STUCK_S has made little headway (pushed to and fro by the robot)
 WAYPOINT_REACHED_M = 0.35
 ARRIVED_M = 0.2
 LEG_CLEAR_M = WORKER_RADIUS_M + 0.3  # the walk to a make-way spot keeps this clear of the robot's footprint
@@ -100,6 +102,7 @@ class _Agent:
     way_i: int = 0
     way_to: tuple[float, float] = (math.nan, math.nan)  # the anchor ``way`` leads to
     way_slow_s: float = 0.0  # how long they have made little headway on it
+    way_best_m: float = math.inf  # the shortest walk left along ``way`` so far
 
 
 class Crowd:
@@ -170,26 +173,31 @@ class Crowd:
                     out[i] = (goal - p) / max(d, 1e-9) * a.v0
                     continue
             # waiting: back to the stop (or the spot where they make way), at walking pace at most
-            target = self._way_target(i, a, p)
+            target = self._way_target(a, p)
             d_vec = target - p
             d = float(np.hypot(*d_vec))
             if d > 0.05:
                 out[i] = d_vec / d * min(a.v0, d / a.params.relaxation_time_s)
         return out
 
-    def _way_target(self, i: int, a: _Agent, p: FloatArray) -> FloatArray:
+    def _way_target(self, a: _Agent, p: FloatArray) -> FloatArray:
         """Where a waiting worker heads for: their anchor, along a walking path (the router's) when it is
         more than ``WAY_ROUTED_M`` away; the path is planned again from where they are when they have
-        made little headway for ``STUCK_S`` (pushed aside by the robot, sliding along a wall), and from
-        then on, making way, they walk it regardless of the robot's push (:meth:`step`)."""
+        made little headway for ``STUCK_S`` (not ``HEADWAY_M`` nearer along it: pushed aside by the robot,
+        sliding along a wall, or to and fro at full speed), and from then on, making way, they walk it
+        regardless of the robot's push (:meth:`step`)."""
         anchor = np.array(a.anchor)
         if float(np.hypot(*(anchor - p))) <= WAY_ROUTED_M:
-            a.way, a.way_slow_s = None, 0.0
+            a.way, a.way_slow_s, a.way_best_m = None, 0.0, math.inf
             return anchor
-        if float(np.hypot(*self.vel[i])) < STUCK_SPEED_MPS:
-            a.way_slow_s += self.dt
+        if a.way is None or a.way_to != a.anchor:
+            a.way_slow_s, a.way_best_m = 0.0, math.inf
+        elif a.way_best_m - self._walk_left(a, p) >= HEADWAY_M:
+            a.way_best_m = self._walk_left(a, p)
+            if not (a.making_way and a.way_slow_s >= STUCK_S):  # making way, once stuck they walk on
+                a.way_slow_s = 0.0
         else:
-            a.way_slow_s = 0.0
+            a.way_slow_s += self.dt  # headway, not speed: pushed to and fro by the robot is no headway
         if a.way is None or a.way_to != a.anchor or STUCK_S <= a.way_slow_s < STUCK_S + self.dt:
             step = self.router.grid.resolution / 2 if self.router.grid is not None else 0.05
             f = np.linspace(0.0, 1.0, max(2, int(float(np.hypot(*(anchor - p))) / step) + 1))[:, None]
@@ -197,10 +205,19 @@ class Crowd:
                 a.way = np.array([p, anchor])  # straight there
             else:
                 a.way = self.router.path((float(p[0]), float(p[1])), a.anchor)
-            a.way_i, a.way_to = 1, a.anchor
+            a.way_i, a.way_to, a.way_best_m = 1, a.anchor, math.inf  # headway counted on the new way
         while a.way_i < len(a.way) - 1 and float(np.hypot(*(a.way[a.way_i] - p))) < WAYPOINT_REACHED_M:
             a.way_i += 1
+        if not math.isfinite(a.way_best_m):
+            a.way_best_m = self._walk_left(a, p)
         return np.asarray(a.way[min(a.way_i, len(a.way) - 1)], dtype=np.float64)
+
+    @staticmethod
+    def _walk_left(a: _Agent, p: FloatArray) -> float:
+        """How far a waiting worker at ``p`` has left to walk along their ``way`` (from its next point)."""
+        assert a.way is not None
+        rest = a.way[min(a.way_i, len(a.way) - 1):]
+        return float(np.hypot(*(rest[0] - p)) + np.sum(np.hypot(*np.diff(rest, axis=0).T)))
 
     # ---- stepping ----------------------------------------------------------------------------------
     def step(self, robot: Obstacle | None) -> None:
