@@ -35,8 +35,6 @@ from shapely.geometry import Polygon
 
 from kbplanner.core.errors import KbplannerError
 from kbplanner.core.output_dirs import check_output_dir, output_options, run_directory
-from kbplanner.core.vocab import KBP
-from kbplanner.knowledge.knowledge_base import load_kb
 from kbplanner.knowledge.robot_selection import SPACE_MARGIN_M, WALL_TOLERANCE_M
 from kbplanner.model.ifc_geometry import build_meshes, model_frame
 from kbplanner.model.ifc_open import open_ifc, unit_scales
@@ -45,7 +43,7 @@ from kbplanner.scale import init_layout as L
 from kbplanner.scale import init_site as site
 from kbplanner.scale.init_ifc import FrameRecord, write_frames
 from kbplanner.scale.init_storage import place_storages
-from kbplanner.scale.init_tasks import TASK_TYPES
+from kbplanner.scale.init_tasks import task_specification
 from kbplanner.scale.init_walls import (
     InitError,
     PanelSpot,
@@ -92,37 +90,6 @@ class InitResult:
     @property
     def chosen(self) -> list[WallChoice]:
         return [w for w in self.walls if w.chosen]
-
-
-def task_specification(task: str) -> str:
-    """The KB specification of an init task type or specification id (else :class:`InitError`)."""
-    kb = load_kb()
-    specs: dict[str, str] = {}  # spec id -> kind local name
-    for spec, sid in kb.subject_objects(KBP.specificationId):
-        kind = kb.value(spec, KBP.taskKind)
-        specs[str(sid)] = str(kind).rsplit("#", 1)[-1] if kind is not None else ""
-    supported = set(TASK_TYPES.values())
-    if task in TASK_TYPES:
-        ids = sorted(s for s, k in specs.items() if k == TASK_TYPES[task])
-        if ids:
-            return ids[0]
-    elif specs.get(task) in supported:
-        return task
-    names = [
-        f"{t} (specifications {', '.join(sorted(s for s, k in specs.items() if k == kind))})"
-        for t, kind in TASK_TYPES.items()
-    ]
-    other = sorted(s for s, k in specs.items() if k not in supported)
-    raise InitError(
-        f"unknown task type {task!r} for init",
-        element="--task",
-        fix=f"give one of: {'; '.join(names)}"
-        + (
-            f"; the knowledge base's other specifications ({', '.join(other)}) have no derivation in init yet"
-            if other
-            else ""
-        ),
-    )
 
 
 def _slug(text: str) -> str:
