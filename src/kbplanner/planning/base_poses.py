@@ -156,7 +156,7 @@ def escapes(grid: OccupancyGrid, footprint: Footprint, pose: Pose2, *, radius_m:
         >>> escapes(g, Footprint((Rect(0, 0, 0.5, 0.3),)), Pose2(2.0, 2.0, 0.0), radius_m=1.5)
         False
     """
-    from kbplanner.world.footprint import ConfigurationSpace
+    from kbplanner.world.cspace_cache import configuration_space
 
     res = grid.resolution
     ny, nx = grid.shape
@@ -166,7 +166,7 @@ def escapes(grid: OccupancyGrid, footprint: Footprint, pose: Pose2, *, radius_m:
     iy1 = min(ny, math.ceil((pose.y + radius_m - grid.origin[1]) / res))
     sub = OccupancyGrid(occupied=grid.occupied[iy0:iy1, ix0:ix1], origin=(grid.origin[0] + ix0 * res,
                         grid.origin[1] + iy0 * res), resolution=res, band=grid.band)
-    cs = ConfigurationSpace.build(sub, footprint, n_bins)
+    cs = configuration_space(sub, footprint, n_bins)
     labels = cs.components()
     root = cs.component_of(labels, pose.x, pose.y, pose.yaw)
     if root == 0:

@@ -60,6 +60,7 @@ import shapely
 from kbplanner.planning.base_poses import N_YAW_BINS, PoseChecker, mark_polygon, nearest_free_pose, window
 from kbplanner.planning.carry import NARROW, NORMAL, CarryGeometry
 from kbplanner.planning.plan_model import Pose2
+from kbplanner.world.cspace_cache import configuration_space
 from kbplanner.world.footprint import ConfigurationSpace, Footprint
 from kbplanner.world.occupancy import OccupancyGrid
 
@@ -185,7 +186,7 @@ class CarryReach:
         got = self._spaces.get((i, k))
         if got is None:
             t0 = time.perf_counter()
-            cs = ConfigurationSpace.build(self._window(i), self.footprints[k], self.n_bins)
+            cs = configuration_space(self._window(i), self.footprints[k], self.n_bins)
             got = (cs, *cs.labels_and_roots(True))
             self._spaces[(i, k)] = got
             log.debug("carry reach: footprint %d on window %d (%s cells): %.2f s", k, i, cs.grid.shape,

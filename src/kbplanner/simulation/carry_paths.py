@@ -27,6 +27,7 @@ from kbplanner.simulation.nav_path import (
     wrap,
 )
 from kbplanner.simulation.navigation import plan_path
+from kbplanner.world.cspace_cache import configuration_space
 from kbplanner.world.footprint import ConfigurationSpace, Footprint
 from kbplanner.world.occupancy import OccupancyGrid
 
@@ -165,13 +166,13 @@ def plan_with_carry_modes(
     are inserted there). If even the narrow footprint fails, the plan fails with both reasons.
     """
     settings = settings or NavSettings()
-    cs_normal = ConfigurationSpace.build(grid, normal, settings.n_yaw_bins, settings.margin_m)
+    cs_normal = configuration_space(grid, normal, settings.n_yaw_bins, settings.margin_m)  # kept per process
     checks = min(settings.max_motion_checks, settings.normal_carry_checks)
     first = plan_path(cs_normal, start, goal, settings=replace(settings, max_motion_checks=checks))
     if first.ok:
         return CarryPlan(path=first, mode="normal", normal_attempt=first, space=cs_normal,
                          normal_space=cs_normal)
-    cs_narrow = ConfigurationSpace.build(grid, narrow, settings.n_yaw_bins, settings.margin_m)
+    cs_narrow = configuration_space(grid, narrow, settings.n_yaw_bins, settings.margin_m)
     second = plan_path(cs_narrow, start, goal, settings=settings)
     if not second.ok:
         failed = failed_path(f"{second.reason} even with the narrow carry mode ({narrow.name}); "

@@ -23,7 +23,7 @@ import functools
 import logging
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
@@ -152,6 +152,14 @@ class ConfigurationSpace:
     footprint: Footprint
     free: BoolArray
     margin_m: float = 0.0
+    #: labels_and_roots per ``diagonal``, computed once (shared by the spaces of one free map,
+    #: :mod:`kbplanner.world.cspace_cache`)
+    memo: dict[bool, tuple[npt.NDArray[np.int32], npt.NDArray[np.int64]]] = field(
+        default_factory=dict, repr=False, compare=False)
+
+    def nbytes(self) -> int:
+        """Bytes of the free maps and the labels computed so far."""
+        return int(self.free.nbytes) + sum(int(a.nbytes + b.nbytes) for a, b in self.memo.values())
 
     @property
     def n_bins(self) -> int:
@@ -263,7 +271,19 @@ class ConfigurationSpace:
 
         ``roots[labels]`` is :meth:`components`; kept apart, the (bin, iy, ix) array stays int32 and
         only the cells looked up are mapped (:meth:`components_of`, the carry-leg check of B4).
+        Computed once per space (``memo``); the arrays returned are read-only.
         """
+        got = self.memo.get(diagonal)
+        if got is None:
+            got = self._labels_and_roots(diagonal)
+            for a in got:
+                a.setflags(write=False)
+            self.memo[diagonal] = got
+        return got
+
+    def _labels_and_roots(
+        self, diagonal: bool
+    ) -> tuple[npt.NDArray[np.int32], npt.NDArray[np.int64]]:
         from scipy import ndimage
 
         structure = np.ones((3, 3, 3), dtype=bool) if diagonal else ndimage.generate_binary_structure(3, 1)

@@ -54,6 +54,7 @@ from kbplanner.simulation.skills.make_way import ask_way
 from kbplanner.simulation.skills.nav_grid import nearest_free_pose, window
 from kbplanner.simulation.skills.nav_queue import Drive, Route, Turn, route_of
 from kbplanner.simulation.workers import WORKER_RADIUS_M
+from kbplanner.world.cspace_cache import configuration_space
 from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect
 from kbplanner.world.occupancy import OccupancyGrid
 
@@ -195,7 +196,7 @@ class NavigationSkill(Skill):
                 ) -> tuple[Route, ConfigurationSpace | None] | str:
         """A leg planned on ``sub`` with its configuration space, or why there is none."""
         if narrow is None:
-            cs = ConfigurationSpace.build(sub, fp, settings.n_yaw_bins, settings.margin_m)
+            cs = configuration_space(sub, fp, settings.n_yaw_bins, settings.margin_m)  # kept per process
             path = plan_path(cs, start, goal, settings=settings)  # as plan_path(sub, ..., fp) builds it
             self.details["planning_time_s"] += path.planning_time_s
             if not path.ok:

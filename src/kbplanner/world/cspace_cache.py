@@ -1,0 +1,193 @@
+"""Configuration spaces kept per process (B4 carry-leg checks, B5 navigation): each built and labelled once.
+
+B4 (the carry leg, :mod:`kbplanner.planning.carry_reach`; the escape test of
+:func:`~kbplanner.planning.base_poses.escapes`) and B5 (the navigation skill and the carry modes of
+:mod:`kbplanner.simulation.carry_paths`) build the configuration space of a footprint on windows of the
+same map states, often more than once. :func:`configuration_space` returns a
+:class:`~kbplanner.world.footprint.ConfigurationSpace` equal to ``ConfigurationSpace.build(grid,
+footprint, n_yaw_bins, margin_m)``, from an in-process LRU cache:
+
+- the same grid (occupancy content hash, shape, origin, resolution), footprint rectangles, yaw bins
+  and margin: the kept free maps, and the labels of
+  :meth:`~kbplanner.world.footprint.ConfigurationSpace.labels_and_roots` computed on them (memoised on
+  the space's ``memo``, shared by every space returned for that key);
+- a window of a grid kept (same resolution, cells aligned, the same occupancy where they overlap): the
+  kept free maps cropped, where the footprint swept over a yaw bin stays within the window (its
+  kernel's extent), else blocked - exactly what a build on the window gives, since a window's cells off
+  it count as occupied. (The labels are the window's own: connectivity is not cropped.)
+
+Memory is bounded: the least recently used spaces go once the kept free maps and labels exceed
+:data:`BUDGET_BYTES`. Returned arrays are read-only (shared).
+
+Example:
+    >>> import numpy as np
+    >>> from kbplanner.world.footprint import Footprint, Rect
+    >>> occ = np.zeros((60, 80), dtype=bool); occ[:, 50] = True
+    >>> grid = OccupancyGrid(occ, origin=(0.0, 0.0), resolution=0.05)
+    >>> fp = Footprint((Rect(0, 0, 0.5, 0.3),))
+    >>> clear()
+    >>> a = configuration_space(grid, fp)
+    >>> sub = OccupancyGrid(occ[10:50, 5:70].copy(), origin=(0.25, 0.5), resolution=0.05)
+    >>> b = configuration_space(sub, fp)
+    >>> bool((b.free == ConfigurationSpace.build(sub, fp).free).all()), stats()["cropped"]
+    (True, 1)
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from collections import OrderedDict
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect
+from kbplanner.world.occupancy import OccupancyGrid
+
+#: Bytes of free maps and labels kept at most, checked as a space is added (a 600 x 600 cell window,
+#: 72 yaw bins: 26 MB of free maps, 104 MB of labels per connectivity).
+BUDGET_BYTES = 320 * 1024 * 1024
+
+_Key = tuple[tuple[Rect, ...], int, float, float]  # footprint rectangles, yaw bins, margin, resolution
+
+
+@dataclass
+class _Entry:
+    space: ConfigurationSpace
+    digest: bytes
+    ix0: float  # cell offset of the grid's origin (origin / resolution), for windows
+    iy0: float
+
+
+class _Cache:
+    def __init__(self) -> None:
+        self.entries: OrderedDict[tuple[_Key, bytes, tuple[float, float]], _Entry] = OrderedDict()
+        self.counts = {"built": 0, "hits": 0, "cropped": 0, "evicted": 0}
+
+    def bytes(self) -> int:
+        return sum(e.space.nbytes() for e in self.entries.values())
+
+    def trim(self) -> None:
+        """Over the budget: the labels of the least recently used spaces go first (4 bytes a cell and
+        yaw bin, and only asked again of the same window), then the least recently used spaces."""
+        total = self.bytes()
+        for e in list(self.entries.values())[:-1]:
+            if total <= BUDGET_BYTES:
+                return
+            if e.space.memo:
+                total -= e.space.nbytes() - int(e.space.free.nbytes)
+                e.space.memo.clear()
+        while len(self.entries) > 1 and total > BUDGET_BYTES:
+            _, e = self.entries.popitem(last=False)
+            total -= e.space.nbytes()
+            self.counts["evicted"] += 1
+
+
+_CACHE = _Cache()
+
+
+def _digest(grid: OccupancyGrid) -> bytes:
+    h = hashlib.sha1(np.ascontiguousarray(grid.occupied).tobytes())
+    h.update(repr(grid.shape).encode())
+    return h.digest()
+
+
+def configuration_space(grid: OccupancyGrid, footprint: Footprint, n_yaw_bins: int = 72,
+                        margin_m: float = 0.0) -> ConfigurationSpace:
+    """``ConfigurationSpace.build(grid, footprint, n_yaw_bins, margin_m)``, kept (module docstring)."""
+    key: _Key = (footprint.rects, int(n_yaw_bins), float(margin_m), float(grid.resolution))
+    digest = _digest(grid)
+    full = (key, digest, (float(grid.origin[0]), float(grid.origin[1])))
+    entry = _CACHE.entries.get(full)
+    if entry is not None:
+        _CACHE.entries.move_to_end(full)
+        _CACHE.counts["hits"] += 1
+        _CACHE.trim()
+        return _view(entry.space, grid, footprint)
+    cs = _cropped(key, grid, footprint)
+    if cs is None:
+        cs = ConfigurationSpace.build(grid, footprint, n_yaw_bins, margin_m)
+        _CACHE.counts["built"] += 1
+    else:
+        _CACHE.counts["cropped"] += 1
+    cs.free.setflags(write=False)
+    res = grid.resolution
+    _CACHE.entries[full] = _Entry(cs, digest, grid.origin[0] / res, grid.origin[1] / res)
+    _CACHE.trim()
+    return cs
+
+
+def _view(kept: ConfigurationSpace, grid: OccupancyGrid, footprint: Footprint) -> ConfigurationSpace:
+    """The kept space for the caller's grid and footprint objects (same free maps and labels memo)."""
+    if kept.grid is grid and kept.footprint is footprint:
+        return kept
+    return ConfigurationSpace(grid=grid, footprint=footprint, free=kept.free, margin_m=kept.margin_m,
+                              memo=kept.memo)
+
+
+def _cropped(key: _Key, grid: OccupancyGrid, footprint: Footprint) -> ConfigurationSpace | None:
+    """The space of ``grid`` from a kept space of a larger grid it is a window of, or None."""
+    res = grid.resolution
+    ox, oy = grid.origin[0] / res, grid.origin[1] / res
+    sy, sx = grid.shape
+    best: tuple[int, _Entry, int, int] | None = None
+    for (k, _d, _o), e in _CACHE.entries.items():
+        if k != key:
+            continue
+        big = e.space.grid
+        ny, nx = big.shape
+        if ny * nx <= sy * sx or (best is not None and ny * nx >= best[0]):
+            continue
+        fx, fy = ox - e.ix0, oy - e.iy0
+        ix, iy = round(fx), round(fy)
+        if abs(fx - ix) > 1e-6 or abs(fy - iy) > 1e-6:
+            continue
+        if ix < 0 or iy < 0 or ix + sx > nx or iy + sy > ny:
+            continue
+        if not np.array_equal(big.occupied[iy:iy + sy, ix:ix + sx], grid.occupied):
+            continue
+        best = (ny * nx, e, ix, iy)
+    if best is None:
+        return None
+    _, e, ix, iy = best
+    n_bins, margin = key[1], key[2]
+    free = e.space.free[:, iy:iy + sy, ix:ix + sx] & _inside(footprint, res, n_bins, margin, (sy, sx))
+    return ConfigurationSpace(grid=grid, footprint=footprint, free=np.ascontiguousarray(free),
+                              margin_m=margin)
+
+
+def _inside(footprint: Footprint, res: float, n_bins: int, margin_m: float,
+            shape: tuple[int, int]) -> npt.NDArray[np.bool_]:
+    """Per yaw bin, the cells of a ``shape`` grid whose swept footprint (the bin's kernel, as
+    :meth:`ConfigurationSpace.build` uses it) lies wholly on the grid: (n_bins, ny, nx)."""
+    ny, nx = shape
+    width = 2 * math.pi / n_bins
+    out = np.zeros((n_bins, ny, nx), dtype=bool)
+    for k in range(n_bins):
+        kern = footprint.kernel(res, k * width - width / 2, k * width + width / 2, margin_m)
+        h = kern.shape[0] // 2
+        rows, cols = np.nonzero(kern)
+        if not len(rows):
+            out[k] = True
+            continue
+        dy0, dy1 = int(rows.min()) - h, int(rows.max()) - h
+        dx0, dx1 = int(cols.min()) - h, int(cols.max()) - h
+        y0, y1 = max(0, -dy0), min(ny, ny - dy1)
+        x0, x1 = max(0, -dx0), min(nx, nx - dx1)
+        if y0 < y1 and x0 < x1:
+            out[k, y0:y1, x0:x1] = True
+    return out
+
+
+def clear() -> None:
+    """Forget every kept space and reset the counts."""
+    _CACHE.entries.clear()
+    _CACHE.counts = dict.fromkeys(_CACHE.counts, 0)
+
+
+def stats() -> dict[str, int]:
+    """Counts since the last :func:`clear`: built, hits (same grid), cropped (a window of a kept grid),
+    evicted; and the spaces and bytes kept now."""
+    return {**_CACHE.counts, "kept": len(_CACHE.entries), "bytes": _CACHE.bytes()}

@@ -1,0 +1,96 @@
+"""The per-process configuration-space cache (B4/B5): the same free maps and labels as a build."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from kbplanner.world import cspace_cache
+from kbplanner.world.cspace_cache import configuration_space
+from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect
+from kbplanner.world.occupancy import OccupancyGrid
+
+RES = 0.05
+
+
+def _map(seed: int, shape: tuple[int, int] = (90, 120)) -> OccupancyGrid:
+    rng = np.random.default_rng(seed)
+    occ = np.zeros(shape, dtype=bool)
+    for _ in range(12):  # walls and blocks
+        y, x = rng.integers(0, shape[0]), rng.integers(0, shape[1])
+        h, w = rng.integers(1, 25), rng.integers(1, 25)
+        occ[y:y + h, x:x + w] = True
+    occ |= rng.random(shape) < 0.01
+    return OccupancyGrid(occ, origin=(1.3, -2.1), resolution=RES)
+
+
+def _window(g: OccupancyGrid, iy: int, ix: int, ny: int, nx: int) -> OccupancyGrid:
+    return OccupancyGrid(g.occupied[iy:iy + ny, ix:ix + nx].copy(),
+                         origin=(g.origin[0] + ix * RES, g.origin[1] + iy * RES), resolution=RES)
+
+
+FOOTPRINTS = [Footprint((Rect(0, 0, 0.5, 0.3),), "base"),
+              Footprint((Rect(0, 0, 0.5, 0.3), Rect(0.4, 0.1, 0.2, 0.9, 0.3)), "carry")]
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.parametrize("fp", FOOTPRINTS, ids=lambda f: f.name)
+def test_windows_of_a_kept_grid_are_cropped_exactly(seed: int, fp: Footprint) -> None:
+    cspace_cache.clear()
+    g = _map(seed)
+    whole = configuration_space(g, fp, 24)
+    assert np.array_equal(whole.free, ConfigurationSpace.build(g, fp, 24).free)
+    rng = np.random.default_rng(seed + 10)
+    for _ in range(6):
+        ny, nx = int(rng.integers(10, 80)), int(rng.integers(10, 110))
+        iy, ix = int(rng.integers(0, 90 - ny + 1)), int(rng.integers(0, 120 - nx + 1))
+        sub = _window(g, iy, ix, ny, nx)
+        got = configuration_space(sub, fp, 24)
+        assert got.grid is sub and got.footprint is fp
+        assert np.array_equal(got.free, ConfigurationSpace.build(sub, fp, 24).free), (iy, ix, ny, nx)
+    assert cspace_cache.stats()["cropped"] >= 1
+    assert cspace_cache.stats()["built"] == 1 + 6 - cspace_cache.stats()["cropped"]
+
+
+def test_a_window_with_other_cells_is_built() -> None:
+    cspace_cache.clear()
+    g = _map(3)
+    configuration_space(g, FOOTPRINTS[0], 24)
+    sub = _window(g, 10, 10, 50, 60)
+    occ = sub.occupied.copy()
+    occ[25, 30] = not occ[25, 30]
+    changed = OccupancyGrid(occ, origin=sub.origin, resolution=RES)
+    got = configuration_space(changed, FOOTPRINTS[0], 24)
+    assert np.array_equal(got.free, ConfigurationSpace.build(changed, FOOTPRINTS[0], 24).free)
+    assert cspace_cache.stats()["built"] == 2 and cspace_cache.stats()["cropped"] == 0
+
+
+def test_same_grid_shares_free_maps_and_labels() -> None:
+    cspace_cache.clear()
+    g = _map(4)
+    a = configuration_space(g, FOOTPRINTS[1], 24)
+    labels, roots = a.labels_and_roots(True)
+    again = OccupancyGrid(g.occupied.copy(), origin=g.origin, resolution=RES)
+    b = configuration_space(again, FOOTPRINTS[1], 24)
+    assert b.grid is again and b.free is a.free
+    assert b.labels_and_roots(True)[0] is labels
+    assert not b.free.flags.writeable and not labels.flags.writeable
+    fresh = ConfigurationSpace.build(g, FOOTPRINTS[1], 24)
+    assert np.array_equal(fresh.components(diagonal=True), roots[labels])
+    assert cspace_cache.stats()["hits"] == 1
+    # another margin or yaw binning is another space
+    configuration_space(g, FOOTPRINTS[1], 24, 0.05)
+    configuration_space(g, FOOTPRINTS[1], 36)
+    assert cspace_cache.stats()["built"] == 3
+
+
+def test_memory_is_bounded(monkeypatch: pytest.MonkeyPatch) -> None:
+    cspace_cache.clear()
+    one = 24 * 90 * 120  # bytes of one free map set
+    monkeypatch.setattr(cspace_cache, "BUDGET_BYTES", 3 * one)
+    for seed in range(6):
+        cs = configuration_space(_map(seed), FOOTPRINTS[0], 24)
+        cs.labels_and_roots(False)
+    st = cspace_cache.stats()
+    assert st["evicted"] >= 2 and st["kept"] <= 3
+    assert st["bytes"] <= 3 * one + cs.nbytes()
