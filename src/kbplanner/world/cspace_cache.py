@@ -14,7 +14,10 @@ footprint, n_yaw_bins, margin_m)``, from an in-process LRU cache:
 - a window of a grid kept (same resolution, cells aligned, the same occupancy where they overlap): the
   kept free maps cropped, where the footprint swept over a yaw bin stays within the window (its
   kernel's extent), else blocked - exactly what a build on the window gives, since a window's cells off
-  it count as occupied. (The labels are the window's own: connectivity is not cropped.)
+  it count as occupied. (The labels are the window's own: connectivity is not cropped.) Where the
+  window's occupancy differs in a few cells (B5's map of a state rasterises an installed element a
+  cell or so differently from B4's), only the cells within the footprint's reach of them are built
+  again.
 
 Memory is bounded: the least recently used spaces go once the kept free maps and labels exceed
 :data:`BUDGET_BYTES`. Returned arrays are read-only (shared).
@@ -49,6 +52,9 @@ from kbplanner.world.occupancy import OccupancyGrid
 #: Bytes of free maps and labels kept at most, checked as a space is added (a 600 x 600 cell window,
 #: 72 yaw bins: 26 MB of free maps, 104 MB of labels per connectivity).
 BUDGET_BYTES = 320 * 1024 * 1024
+#: A kept grid whose occupancy differs from the one asked for is used when the cells to build again,
+#: with their kernels' reach, are at most this share of the grid asked for.
+PATCH_MAX_SHARE = 0.5
 
 _Key = tuple[tuple[Rect, ...], int, float, float]  # footprint rectangles, yaw bins, margin, resolution
 
@@ -64,7 +70,7 @@ class _Entry:
 class _Cache:
     def __init__(self) -> None:
         self.entries: OrderedDict[tuple[_Key, bytes, tuple[float, float]], _Entry] = OrderedDict()
-        self.counts = {"built": 0, "hits": 0, "cropped": 0, "evicted": 0}
+        self.counts = {"built": 0, "hits": 0, "cropped": 0, "patched": 0, "evicted": 0}
 
     def bytes(self) -> int:
         return sum(e.space.nbytes() for e in self.entries.values())
@@ -128,34 +134,64 @@ def _view(kept: ConfigurationSpace, grid: OccupancyGrid, footprint: Footprint) -
 
 
 def _cropped(key: _Key, grid: OccupancyGrid, footprint: Footprint) -> ConfigurationSpace | None:
-    """The space of ``grid`` from a kept space of a larger grid it is a window of, or None."""
+    """The space of ``grid`` from a kept space of a grid it is a window of, or None.
+
+    Where the occupancy differs in a few cells (an element rasterised a little differently), the
+    cells within a kernel's reach of them are built again, on the window around them grown by that
+    reach: used when that window is under :data:`PATCH_MAX_SHARE` of ``grid``.
+    """
     res = grid.resolution
     ox, oy = grid.origin[0] / res, grid.origin[1] / res
     sy, sx = grid.shape
-    best: tuple[int, _Entry, int, int] | None = None
+    n_bins, margin = key[1], key[2]
+    reach = _reach(footprint, res, n_bins, margin)
+    best: tuple[int, int, _Entry, int, int, tuple[int, int, int, int] | None] | None = None
     for (k, _d, _o), e in _CACHE.entries.items():
         if k != key:
             continue
         big = e.space.grid
         ny, nx = big.shape
-        if ny * nx <= sy * sx or (best is not None and ny * nx >= best[0]):
-            continue
         fx, fy = ox - e.ix0, oy - e.iy0
         ix, iy = round(fx), round(fy)
         if abs(fx - ix) > 1e-6 or abs(fy - iy) > 1e-6:
             continue
         if ix < 0 or iy < 0 or ix + sx > nx or iy + sy > ny:
             continue
-        if not np.array_equal(big.occupied[iy:iy + sy, ix:ix + sx], grid.occupied):
-            continue
-        best = (ny * nx, e, ix, iy)
+        diff = big.occupied[iy:iy + sy, ix:ix + sx] != grid.occupied
+        box = None
+        cost = 0
+        if diff.any():
+            rows, cols = np.nonzero(diff.any(axis=1))[0], np.nonzero(diff.any(axis=0))[0]
+            # the cells to build again (y0, y1, x0, x1): within reach of a changed cell
+            box = (max(0, int(rows[0]) - reach), min(sy, int(rows[-1]) + reach + 1),
+                   max(0, int(cols[0]) - reach), min(sx, int(cols[-1]) + reach + 1))
+            cost = (min(sy, box[1] + reach) - max(0, box[0] - reach)) * \
+                (min(sx, box[3] + reach) - max(0, box[2] - reach))
+            if cost > PATCH_MAX_SHARE * sy * sx:
+                continue
+        if best is None or (cost, ny * nx) < best[:2]:
+            best = (cost, ny * nx, e, ix, iy, box)
     if best is None:
         return None
-    _, e, ix, iy = best
-    n_bins, margin = key[1], key[2]
+    _, _, e, ix, iy, box = best
     free = e.space.free[:, iy:iy + sy, ix:ix + sx] & _inside(footprint, res, n_bins, margin, (sy, sx))
+    if box is not None:
+        y0, y1, x0, x1 = box
+        wy0, wy1, wx0, wx1 = max(0, y0 - reach), min(sy, y1 + reach), max(0, x0 - reach), min(sx, x1 + reach)
+        part = OccupancyGrid(grid.occupied[wy0:wy1, wx0:wx1].copy(),
+                             origin=(grid.origin[0] + wx0 * res, grid.origin[1] + wy0 * res), resolution=res)
+        again = ConfigurationSpace.build(part, footprint, n_bins, margin)
+        free[:, y0:y1, x0:x1] = again.free[:, y0 - wy0:y1 - wy0, x0 - wx0:x1 - wx0]
+        _CACHE.counts["patched"] += 1
     return ConfigurationSpace(grid=grid, footprint=footprint, free=np.ascontiguousarray(free),
                               margin_m=margin)
+
+
+def _reach(footprint: Footprint, res: float, n_bins: int, margin_m: float) -> int:
+    """The largest kernel half-size in cells: how far an occupied cell changes the free maps."""
+    width = 2 * math.pi / n_bins
+    return max(footprint.kernel(res, k * width - width / 2, k * width + width / 2, margin_m).shape[0] // 2
+               for k in range(n_bins))
 
 
 def _inside(footprint: Footprint, res: float, n_bins: int, margin_m: float,
@@ -188,6 +224,6 @@ def clear() -> None:
 
 
 def stats() -> dict[str, int]:
-    """Counts since the last :func:`clear`: built, hits (same grid), cropped (a window of a kept grid),
-    evicted; and the spaces and bytes kept now."""
+    """Counts since the last :func:`clear`: built, hits (same grid), cropped (a window of a kept grid;
+    patched: of those, with a few cells built again), evicted; and the spaces and bytes kept now."""
     return {**_CACHE.counts, "kept": len(_CACHE.entries), "bytes": _CACHE.bytes()}
