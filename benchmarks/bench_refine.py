@@ -1,0 +1,149 @@
+"""B4 speed before/after (issue 14, item 2): the case study's ``kbplanner plan`` (B1-B4), run by a
+baseline's sources and by this tree's, alternately, in one run of this script.
+
+The baseline is a git ref (default ``main``) exported (``git archive``) into a temporary folder; both
+run the same command with the same shared virtualenv, one after the other per round, with
+``PYTHONPATH`` pointing at their sources::
+
+    kbplanner plan data/case_study --scenario S --seed N --out DIR
+
+Per scenario it records the command's wall and CPU seconds and peak memory (``os.wait4``), and the
+CPU and wall seconds of B4 (``refine_plan``, timed by a wrapper around it, the same for both trees)
+with the configuration-space builds made in it (``ConfigurationSpace.build`` counted by the wrapper)
+and whether every file the command wrote is byte-identical (``outputs_identical``). Ratios are
+baseline / this tree (> 1: faster now), from the median over rounds; the load average is recorded
+before and after (on a shared machine CPU seconds are the steadier figure).
+
+Usage: .venv/bin/python benchmarks/bench_refine.py [--before REF] [--scenario S ...] [--rounds N]
+Prints a table and writes benchmarks/results/refine.json (or --out).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from _common import REPO, RESULTS_DIR, machine_info, run_measured, write_json
+
+# ``python -m kbplanner ARGS`` with B4 (manipulation.refine_plan) timed in CPU and wall seconds and the
+# configuration-space builds counted, written to the file named by the first argument.
+_TIMED = '''import json, sys, time
+import kbplanner.planning.manipulation as m
+from kbplanner.world.footprint import ConfigurationSpace
+builds = [0]
+build = ConfigurationSpace.build.__func__
+def counted(cls, *args, **kwargs):
+    builds[0] += 1
+    return build(cls, *args, **kwargs)
+ConfigurationSpace.build = classmethod(counted)
+inner = m.refine_plan
+def timed(*args, **kwargs):
+    c0, w0, b0 = time.process_time(), time.perf_counter(), builds[0]
+    try:
+        return inner(*args, **kwargs)
+    finally:
+        with open(sys.argv[1], "w") as f:
+            json.dump({"cpu_s": time.process_time() - c0, "wall_s": time.perf_counter() - w0,
+                       "builds": builds[0] - b0}, f)
+m.refine_plan = timed
+from kbplanner.cli import main
+raise SystemExit(main(sys.argv[2:]))
+'''
+
+
+def _export(ref: str, into: Path) -> Path:
+    archive = subprocess.run(["git", "-C", str(REPO), "archive", ref], check=True, capture_output=True).stdout
+    subprocess.run(["tar", "-x", "-C", str(into)], input=archive, check=True)
+    return into / "src"
+
+
+def _run(src: Path, scenario: str, seed: int, out: Path, log: Path) -> dict[str, Any]:
+    env = dict(os.environ, PYTHONPATH=str(src))
+    step_file = log.with_suffix(".b4.json")
+    cmd = [sys.executable, "-c", _TIMED, str(step_file), "plan", str(src.parent / "data" / "case_study"),
+           "--scenario", scenario, "--seed", str(seed), "--out", str(out)]
+    measured = run_measured(cmd, log=log, timeout_s=1800.0, env=env)
+    if not step_file.is_file():
+        tail = log.read_text()[-2000:]
+        raise SystemExit(f"{' '.join(cmd)} did not run B4 (exit {measured['exit']}):\n{tail}")
+    step = json.loads(step_file.read_text())
+    return {"command_s": measured["seconds"], "exit": measured["exit"], "cpu_s": measured["cpu_s"],
+            "peak_rss_mb": measured["peak_rss_mb"], "b4_s": round(step["wall_s"], 3),
+            "b4_cpu_s": round(step["cpu_s"], 3), "b4_builds": step["builds"]}
+
+
+def _median(rows: list[dict[str, Any]], key: str) -> float | None:
+    values = [r[key] for r in rows if isinstance(r.get(key), (int, float))]
+    return round(statistics.median(values), 3) if values else None
+
+
+def _files(root: Path) -> dict[str, bytes]:
+    return {p.relative_to(root).as_posix(): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
+
+
+def bench(before_src: Path, after_src: Path, scenario: str, seed: int, rounds: int, tmp: Path
+          ) -> dict[str, Any]:
+    runs: dict[str, list[dict[str, Any]]] = {"before": [], "after": []}
+    identical = True
+    for k in range(rounds):
+        outs = {}
+        for label, src in (("before", before_src), ("after", after_src)):
+            out = tmp / f"{scenario}-{label}-{k}"
+            runs[label].append(_run(src, scenario, seed, out, tmp / f"{scenario}-{label}-{k}.log"))
+            outs[label] = out
+        identical = identical and _files(outs["before"]) == _files(outs["after"])
+    row: dict[str, Any] = {"scenario": scenario, "seed": seed, "rounds": rounds,
+                           "outputs_identical": identical}
+    for label in ("before", "after"):
+        rs = runs[label]
+        keys = ("command_s", "cpu_s", "peak_rss_mb", "b4_s", "b4_cpu_s", "b4_builds")
+        row[label] = {key: _median(rs, key) for key in keys}
+        row[label]["runs"] = rs
+    b, a = row["before"], row["after"]
+    for key in ("command_s", "cpu_s", "b4_s", "b4_cpu_s"):
+        row[f"speedup_{key}"] = round(b[key] / a[key], 2) if a[key] else None
+    return row
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--before", default="main", help="git ref of the baseline (default main)")
+    ap.add_argument("--scenario", action="append", help="scenario(s) (default: both storage scenarios)")
+    ap.add_argument("--seed", type=int, default=7)
+    ap.add_argument("--rounds", type=int, default=1, help="before/after pairs per scenario (median)")
+    ap.add_argument("--out", type=Path, default=RESULTS_DIR / "refine.json")
+    args = ap.parse_args(argv)
+    scenarios = args.scenario or ["storage-outside", "storage-inside"]
+    load_before = list(os.getloadavg())
+    with tempfile.TemporaryDirectory() as tmp_name:
+        tmp = Path(tmp_name)
+        before_src = _export(args.before, tmp)
+        rows = [bench(before_src, REPO / "src", s, args.seed, args.rounds, tmp) for s in scenarios]
+    out = {"machine": machine_info(("python", "cpus", "platform")), "before": args.before,
+           "load_average_start": load_before, "load_average_end": list(os.getloadavg()), "scenarios": rows}
+    write_json(args.out, out)
+    w = sys.stdout.write
+    w(f"{'scenario':16} {'command s':>15} {'command CPU s':>15} {'B4 s':>15} {'B4 CPU s':>15} {'builds':>9} "
+      f"{'peak MB':>11} {'same':>5}\n")
+    for r in rows:
+        b, a = r["before"], r["after"]
+        w(f"{r['scenario']:16} {b['command_s']:6.1f} / {a['command_s']:6.1f} "
+          f"{b['cpu_s']:6.1f} / {a['cpu_s']:6.1f} "
+          f"{b['b4_s']:6.1f} / {a['b4_s']:6.1f} {b['b4_cpu_s']:6.1f} / {a['b4_cpu_s']:6.1f} "
+          f"{b['b4_builds']:4.0f}/{a['b4_builds']:<4.0f} {b['peak_rss_mb']:5.0f}/{a['peak_rss_mb']:<5.0f} "
+          f"{'yes' if r['outputs_identical'] else 'no':>5}\n")
+        w(f"{'':16} speed-up: command x{r['speedup_command_s']} (CPU x{r['speedup_cpu_s']}), "
+          f"B4 x{r['speedup_b4_s']} (CPU x{r['speedup_b4_cpu_s']})\n")
+    w(f"load average {load_before[0]:.2f} -> {out['load_average_end'][0]:.2f}; wrote {args.out}\n")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
