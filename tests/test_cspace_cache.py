@@ -113,3 +113,30 @@ def test_a_few_other_cells_are_built_again_exactly(fp: Footprint) -> None:
         got = configuration_space(changed, fp, 24)
         assert np.array_equal(got.free, ConfigurationSpace.build(changed, fp, 24).free), n_changed
     assert cspace_cache.stats()["patched"] == 3
+
+
+@pytest.mark.parametrize("diagonal", [True, False])
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_joined_is_the_labels_answer(seed: int, diagonal: bool) -> None:
+    """ConfigurationSpace.joined (a box around each pose, then the whole labelling) against comparing
+    the components of the whole labelling, on poses all over random maps."""
+    g = _map(seed, (100, 140))
+    fp = FOOTPRINTS[seed % 2]
+    fresh = ConfigurationSpace.build(g, fp, 24)
+    labelled = ConfigurationSpace.build(g, fp, 24)
+    rng = np.random.default_rng(seed)
+    free_cells = np.argwhere(fresh.free)
+    picks = free_cells[rng.integers(0, len(free_cells), 40)]
+    poses = [(g.origin[0] + (ix + 0.5) * RES, g.origin[1] + (iy + 0.5) * RES, k * fresh.bin_width)
+             for k, iy, ix in picks]
+    poses += [(g.origin[0] - 1.0, 0.0, 0.0), (g.origin[0] + 0.02, g.origin[1] + 0.02, 0.0)]  # off, blocked
+    shortcut = 0
+    for i in range(0, len(poses) - 1):
+        a, b = poses[i], poses[i + 1]
+        want = labelled.components_of([a, b], diagonal=diagonal)
+        cs = ConfigurationSpace(grid=g, footprint=fp, free=fresh.free)
+        got = cs.joined(a, b, diagonal=diagonal)
+        assert got == (want[0] > 0 and want[0] == want[1]), (a, b)
+        shortcut += got and diagonal not in cs.memo  # answered without labelling the whole space
+    if fp is FOOTPRINTS[0]:  # the small footprint turns in place on much of the map
+        assert shortcut > 0

@@ -77,8 +77,6 @@ WHOLE_MAP_MAX_CELLS = 250_000
 #: checks again; the verdict is :class:`CarryReach`'s).
 BLOCKER_MARGINS_M: tuple[float | None, ...] = WINDOW_MARGINS_M[:1]
 
-_Space = tuple[ConfigurationSpace, npt.NDArray[np.int32], npt.NDArray[np.int64]]
-
 
 @dataclass
 class _Level:
@@ -171,7 +169,7 @@ class CarryReach:
         self.start = Pose2(*s)
         self._levels: dict[int, _Level] = {}
         self.reason: str | None = None  # the caller's reason once no goal was reachable (kept with it)
-        self._spaces: dict[tuple[int, int], _Space] = {}
+        self._spaces: dict[tuple[int, int], ConfigurationSpace] = {}
         n_cells = grid.shape[0] * grid.shape[1]
         # the whole map only where it is small enough to label quickly; else the largest window is final
         self.capped = self.margins[-1] is None and n_cells > WHOLE_MAP_MAX_CELLS and len(self.margins) > 1
@@ -181,29 +179,32 @@ class CarryReach:
     def _window(self, i: int) -> OccupancyGrid:
         return window(self.grid, [(self.start.x, self.start.y), self.around], self.margins[i])
 
-    def _space(self, i: int, k: int) -> _Space:
-        """Footprint ``k``'s configuration space on window ``i`` and its labels and roots (built once)."""
-        got = self._spaces.get((i, k))
-        if got is None:
+    def _space(self, i: int, k: int) -> ConfigurationSpace:
+        """Footprint ``k``'s configuration space on window ``i`` (built once; its labels, 26-connected,
+        when first asked for, :meth:`~kbplanner.world.footprint.ConfigurationSpace.labels_and_roots`)."""
+        cs = self._spaces.get((i, k))
+        if cs is None:
             t0 = time.perf_counter()
             cs = configuration_space(self._window(i), self.footprints[k], self.n_bins)
-            got = (cs, *cs.labels_and_roots(True))
-            self._spaces[(i, k)] = got
+            self._spaces[(i, k)] = cs
             log.debug("carry reach: footprint %d on window %d (%s cells): %.2f s", k, i, cs.grid.shape,
                       time.perf_counter() - t0)
-        return got
+        return cs
+
+    def _joins(self, i: int, k: int, a: Pose2, b: Pose2) -> bool:
+        """Whether footprint ``k`` joins ``a`` and ``b`` on window ``i`` (26-connected, the yaw ring)."""
+        return self._space(i, k).joined((a.x, a.y, a.yaw), (b.x, b.y, b.yaw), diagonal=True)
 
     def _first_joins(self, goal: Pose2) -> bool:
         """Whether the first footprint alone (the normal carry: the navigation's first try) joins the
         start and ``goal`` on the smallest window."""
-        cs, lab, roots = self._space(0, 0)
-        a, b = (cs.component_of_labels(lab, roots, p.x, p.y, p.yaw) for p in (self.start, goal))
-        return a > 0 and a == b
+        return self._joins(0, 0, self.start, goal)
 
     def _level(self, i: int) -> _Level:
         level = self._levels.get(i)
         if level is None:
-            parts = [self._space(i, k) for k in range(len(self.footprints))]
+            parts = [(cs, *cs.labels_and_roots(True))
+                     for cs in (self._space(i, k) for k in range(len(self.footprints)))]
             sub = parts[0][0].grid
             offsets, joint = joint_components([(lab, root) for _cs, lab, root in parts])
             band = self._band(sub)
@@ -249,9 +250,7 @@ class CarryReach:
         load at a standstill."""
         for i in range(min(2, len(self.margins))):
             for k in range(len(self.footprints)):
-                cs, lab, roots = self._space(i, k)
-                a, b = (cs.component_of_labels(lab, roots, p.x, p.y, p.yaw) for p in (self.start, goal))
-                if a > 0 and a == b:
+                if self._joins(i, k, self.start, goal):
                     return True
         return False
 
@@ -265,12 +264,7 @@ class CarryReach:
 
     def joins(self, k: int, a: Pose2, b: Pose2) -> bool:
         """Whether footprint ``k`` alone joins ``a`` and ``b`` on one of the first two windows."""
-        for i in range(min(2, len(self.margins))):
-            cs, lab, roots = self._space(i, k)
-            ca, cb = (cs.component_of_labels(lab, roots, p.x, p.y, p.yaw) for p in (a, b))
-            if ca > 0 and ca == cb:
-                return True
-        return False
+        return any(self._joins(i, k, a, b) for i in range(min(2, len(self.margins))))
 
     def turn_route(self, goal: Pose2) -> str | None:
         """None when the navigation's way of turning the load on the way gets to ``goal``, else why not.

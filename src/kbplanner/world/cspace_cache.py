@@ -130,7 +130,7 @@ def _view(kept: ConfigurationSpace, grid: OccupancyGrid, footprint: Footprint) -
     if kept.grid is grid and kept.footprint is footprint:
         return kept
     return ConfigurationSpace(grid=grid, footprint=footprint, free=kept.free, margin_m=kept.margin_m,
-                              memo=kept.memo)
+                              memo=kept.memo, open_memo=kept.open_memo)
 
 
 def _cropped(key: _Key, grid: OccupancyGrid, footprint: Footprint) -> ConfigurationSpace | None:

@@ -37,6 +37,9 @@ log = logging.getLogger(__name__)
 
 BoolArray = npt.NDArray[np.bool_]
 _SUB_ANGLE_RAD = math.radians(0.5)  # sweep step when covering a yaw bin
+#: Half-size (cells) of the box around a pose in which :meth:`ConfigurationSpace.joined` looks for
+#: cells free in every yaw bin (1.5 m at 5 cm cells).
+JOIN_BOX_CELLS = 30
 
 
 @dataclass(frozen=True)
@@ -156,6 +159,8 @@ class ConfigurationSpace:
     #: :mod:`kbplanner.world.cspace_cache`)
     memo: dict[bool, tuple[npt.NDArray[np.int32], npt.NDArray[np.int64]]] = field(
         default_factory=dict, repr=False, compare=False)
+    open_memo: dict[tuple[str, bool], npt.NDArray[np.int32]] = field(default_factory=dict, repr=False,
+                                                                     compare=False)
 
     def nbytes(self) -> int:
         """Bytes of the free maps and the labels computed so far."""
@@ -263,6 +268,65 @@ class ConfigurationSpace:
             inside = 0 <= ix < nx and 0 <= iy < ny
             out.append(int(roots[labels[self.yaw_bin(yaw), iy, ix]]) if inside else 0)
         return out
+
+    def joined(self, a: tuple[float, float, float], b: tuple[float, float, float], *, diagonal: bool) -> bool:
+        """Whether poses ``a`` and ``b`` are both free and in one component of :meth:`components`.
+
+        The same answer as comparing :meth:`components_of`, often without labelling the whole space: a
+        pose's component on a small box of cells around it (:data:`JOIN_BOX_CELLS` each way, all yaw
+        bins; boxes are padded with blocked cells, so what joins there joins on the grid) that reaches
+        a cell free in every yaw bin is that cell's; such cells next to one another (8 or 4 neighbours)
+        are joined. Two poses that reach one group of such cells are joined; else the whole space is
+        labelled (once, :meth:`labels_and_roots`).
+        """
+        cells = [self._cell(*a), self._cell(*b)]
+        if any(c is None or not self.free[c] for c in cells):
+            return False
+        if diagonal not in self.memo:
+            groups, touched = self._open_groups(diagonal), []
+            for c in cells:
+                assert c is not None
+                touched.append(self._groups_near(c, groups, diagonal))
+            if touched[0] & touched[1]:
+                return True
+        ca, cb = self.components_of([a, b], diagonal=diagonal)
+        return ca > 0 and ca == cb
+
+    def _cell(self, x: float, y: float, yaw: float) -> tuple[int, int, int] | None:
+        """(bin, iy, ix) of a pose; None off the grid."""
+        ix, iy = self.grid.cell_of(x, y)
+        ny, nx = self.grid.shape
+        if not (0 <= ix < nx and 0 <= iy < ny):
+            return None
+        return (self.yaw_bin(yaw), iy, ix)
+
+    def _open_groups(self, diagonal: bool) -> npt.NDArray[np.int32]:
+        """2D labels of the cells free in every yaw bin (8- or 4-connected); 0 elsewhere (memoised)."""
+        key = ("open", diagonal)
+        got = self.open_memo.get(key)
+        if got is None:
+            from scipy import ndimage
+
+            structure = np.ones((3, 3), dtype=bool) if diagonal else ndimage.generate_binary_structure(2, 1)
+            got = ndimage.label(self.free.all(axis=0), structure=structure)[0].astype(np.int32)
+            self.open_memo[key] = got
+        return got
+
+    def _groups_near(self, cell: tuple[int, int, int], groups: npt.NDArray[np.int32],
+                     diagonal: bool) -> set[int]:
+        """The groups of :meth:`_open_groups` that the component of ``cell`` reaches within a box."""
+        k, iy, ix = cell
+        ny, nx = self.grid.shape
+        r = JOIN_BOX_CELLS
+        y0, y1, x0, x1 = max(0, iy - r), min(ny, iy + r + 1), max(0, ix - r), min(nx, ix + r + 1)
+        box = np.zeros((self.n_bins, y1 - y0 + 2, x1 - x0 + 2), dtype=bool)  # a blocked cell all round
+        box[:, 1:-1, 1:-1] = self.free[:, y0:y1, x0:x1]
+        sub = ConfigurationSpace(grid=self.grid, footprint=self.footprint, free=box)
+        labels, roots = sub._labels_and_roots(diagonal)
+        mine = roots[labels[k, iy - y0 + 1, ix - x0 + 1]]
+        near = groups[y0:y1, x0:x1]
+        here = (roots[labels[0, 1:-1, 1:-1]] == mine) & (near > 0)  # an open cell is free in bin 0
+        return {int(g) for g in np.unique(near[here])}
 
     def labels_and_roots(
         self, diagonal: bool
