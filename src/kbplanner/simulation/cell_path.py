@@ -22,8 +22,7 @@ from kbplanner.world.footprint import ConfigurationSpace
 
 def face_connected(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D) -> bool:
     """Whether face-adjacent free cells of (x, y, yaw bin) join start and goal (see :func:`face_path`)."""
-    a, b = cs.components_of([start, goal], diagonal=False)
-    return a > 0 and a == b
+    return cs.joined(start, goal, diagonal=False)
 
 
 def face_path(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D) -> list[Pose2D] | None:
