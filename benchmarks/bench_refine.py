@@ -15,7 +15,8 @@ baseline / this tree (> 1: faster now), from the median over rounds; the load av
 before and after (on a shared machine CPU seconds are the steadier figure).
 
 Usage: .venv/bin/python benchmarks/bench_refine.py [--before REF] [--scenario S ...] [--rounds N]
-Prints a table and writes benchmarks/results/refine.json (or --out).
+Prints a table and writes benchmarks/results/refine.json (or --out); ``bench_refine.py --table FILE``
+prints the docs/scale.md table of a written result.
 """
 
 from __future__ import annotations
@@ -112,6 +113,24 @@ def bench(before_src: Path, after_src: Path, scenario: str, seed: int, rounds: i
     return row
 
 
+def table(result: dict[str, Any]) -> str:
+    """The docs/scale.md table (Markdown) of a result written by this script."""
+    lines = ["| scenario | command CPU before / after | B4 CPU before / after | B4 wall before / after | "
+             "configuration-space builds in B4 | peak memory | identical |",
+             "| --- | ---: | ---: | ---: | ---: | ---: | --- |"]
+    for r in result["scenarios"]:
+        b, a = r["before"], r["after"]
+        lines.append(f"| {r['scenario']} | {b['cpu_s']:.1f} / {a['cpu_s']:.1f} s (x{r['speedup_cpu_s']}) | "
+                     f"{b['b4_cpu_s']:.1f} / {a['b4_cpu_s']:.1f} s (x{r['speedup_b4_cpu_s']}) | "
+                     f"{b['b4_s']:.1f} / {a['b4_s']:.1f} s (x{r['speedup_b4_s']}) | "
+                     f"{b['b4_builds']:.0f} / {a['b4_builds']:.0f} | "
+                     f"{b['peak_rss_mb']:.0f} / {a['peak_rss_mb']:.0f} MB | "
+                     f"{'yes' if r['outputs_identical'] else 'no'} |")
+    start, end = result["load_average_start"][0], result["load_average_end"][0]
+    lines.append(f"\n(before = `{result['before']}`; load average {start:.1f} -> {end:.1f})")
+    return "\n".join(lines) + "\n"
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--before", default="main", help="git ref of the baseline (default main)")
@@ -119,7 +138,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--rounds", type=int, default=1, help="before/after pairs per scenario (median)")
     ap.add_argument("--out", type=Path, default=RESULTS_DIR / "refine.json")
+    ap.add_argument("--table", type=Path, help="print the docs table of this written result and stop")
     args = ap.parse_args(argv)
+    if args.table:
+        sys.stdout.write(table(json.loads(args.table.read_text(encoding="utf-8"))))
+        return 0
     scenarios = args.scenario or ["storage-outside", "storage-inside"]
     load_before = list(os.getloadavg())
     with tempfile.TemporaryDirectory() as tmp_name:
