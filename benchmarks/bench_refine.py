@@ -10,7 +10,8 @@ run the same command with the same shared virtualenv, one after the other per ro
 Per scenario it records the command's wall and CPU seconds and peak memory (``os.wait4``), and the
 CPU and wall seconds of B4 (``refine_plan``, timed by a wrapper around it, the same for both trees)
 with the configuration-space builds made in it (``ConfigurationSpace.build`` counted by the wrapper)
-and whether every file the command wrote is byte-identical (``outputs_identical``). Ratios are
+and whether every file the command wrote is byte-identical (``outputs_identical``; both read this
+tree's ``data/case_study``, as the outputs name the project folder). Ratios are
 baseline / this tree (> 1: faster now), from the median over rounds; the load average is recorded
 before and after (on a shared machine CPU seconds are the steadier figure).
 
@@ -68,7 +69,8 @@ def _export(ref: str, into: Path) -> Path:
 def _run(src: Path, scenario: str, seed: int, out: Path, log: Path) -> dict[str, Any]:
     env = dict(os.environ, PYTHONPATH=str(src))
     step_file = log.with_suffix(".b4.json")
-    cmd = [sys.executable, "-c", _TIMED, str(step_file), "plan", str(src.parent / "data" / "case_study"),
+    # the same project folder for both trees: the outputs name it
+    cmd = [sys.executable, "-c", _TIMED, str(step_file), "plan", str(REPO / "data" / "case_study"),
            "--scenario", scenario, "--seed", str(seed), "--out", str(out)]
     measured = run_measured(cmd, log=log, timeout_s=1800.0, env=env)
     if not step_file.is_file():
