@@ -10,7 +10,8 @@ run the same command with the same shared virtualenv, one after the other per ro
 Per scenario it records the command's wall and CPU seconds and peak memory (``os.wait4``), and the
 CPU and wall seconds of B4 (``refine_plan``, timed by a wrapper around it, the same for both trees)
 with the configuration-space builds made in it (``ConfigurationSpace.build`` counted by the wrapper)
-and whether every file the command wrote is byte-identical (``outputs_identical``; both read this
+and whether every file the command wrote but the run folder's marker is byte-identical
+(``outputs_identical``; both read this
 tree's ``data/case_study``, as the outputs name the project folder). Ratios are
 baseline / this tree (> 1: faster now), from the median over rounds; the load average is recorded
 before and after (on a shared machine CPU seconds are the steadier figure).
@@ -87,8 +88,12 @@ def _median(rows: list[dict[str, Any]], key: str) -> float | None:
     return round(statistics.median(values), 3) if values else None
 
 
+MARKER = ".kbplanner-run"  # the run folder's marker names the command and folder: not compared
+
+
 def _files(root: Path) -> dict[str, bytes]:
-    return {p.relative_to(root).as_posix(): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
+    return {p.relative_to(root).as_posix(): p.read_bytes() for p in sorted(root.rglob("*"))
+            if p.is_file() and p.name != MARKER}
 
 
 def bench(before_src: Path, after_src: Path, scenario: str, seed: int, rounds: int, tmp: Path
