@@ -140,3 +140,16 @@ def test_joined_is_the_labels_answer(seed: int, diagonal: bool) -> None:
         shortcut += got and diagonal not in cs.memo  # answered without labelling the whole space
     if fp is FOOTPRINTS[0]:  # the small footprint turns in place on much of the map
         assert shortcut > 0
+
+
+def test_a_grid_changed_in_place_after_a_build_is_not_taken_for_the_old_one() -> None:
+    """A window is a view of the caller's array; the caller may change the array afterwards."""
+    cspace_cache.clear()
+    occ = _map(6).occupied.copy()
+    fp = FOOTPRINTS[0]
+    first = OccupancyGrid(occ[5:80, 5:110], origin=(0.25, 0.25), resolution=RES)  # a view
+    configuration_space(first, fp, 24)
+    occ[30:40, 30:60] = ~occ[30:40, 30:60]
+    again = OccupancyGrid(occ[5:80, 5:110], origin=(0.25, 0.25), resolution=RES)
+    got = configuration_space(again, fp, 24)
+    assert np.array_equal(got.free, ConfigurationSpace.build(again, fp, 24).free)

@@ -62,6 +62,7 @@ _Key = tuple[tuple[Rect, ...], int, float, float]  # footprint rectangles, yaw b
 @dataclass
 class _Entry:
     space: ConfigurationSpace
+    occupied: npt.NDArray[np.bool_]  # a copy of the grid's cells as built (the caller's may change later)
     digest: bytes
     ix0: float  # cell offset of the grid's origin (origin / resolution), for windows
     iy0: float
@@ -120,7 +121,9 @@ def configuration_space(grid: OccupancyGrid, footprint: Footprint, n_yaw_bins: i
         _CACHE.counts["cropped"] += 1
     cs.free.setflags(write=False)
     res = grid.resolution
-    _CACHE.entries[full] = _Entry(cs, digest, grid.origin[0] / res, grid.origin[1] / res)
+    kept = grid.occupied.copy()
+    kept.setflags(write=False)
+    _CACHE.entries[full] = _Entry(cs, kept, digest, grid.origin[0] / res, grid.origin[1] / res)
     _CACHE.trim()
     return cs
 
@@ -149,15 +152,14 @@ def _cropped(key: _Key, grid: OccupancyGrid, footprint: Footprint) -> Configurat
     for (k, _d, _o), e in _CACHE.entries.items():
         if k != key:
             continue
-        big = e.space.grid
-        ny, nx = big.shape
+        ny, nx = e.occupied.shape
         fx, fy = ox - e.ix0, oy - e.iy0
         ix, iy = round(fx), round(fy)
         if abs(fx - ix) > 1e-6 or abs(fy - iy) > 1e-6:
             continue
         if ix < 0 or iy < 0 or ix + sx > nx or iy + sy > ny:
             continue
-        diff = big.occupied[iy:iy + sy, ix:ix + sx] != grid.occupied
+        diff = e.occupied[iy:iy + sy, ix:ix + sx] != grid.occupied
         box = None
         cost = 0
         if diff.any():
