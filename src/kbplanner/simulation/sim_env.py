@@ -39,6 +39,7 @@ import math
 import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -120,6 +121,7 @@ class SimEnv:
         self._robot: RobotModel | None = None
         self.workers: tuple[WorkerBody, ...] = ()
         self._worker_placed: list[tuple[float, float, float] | None] = []  # where each body was put last
+        self._followed: tuple[Held, Any, Any] | None = None  # follow(): what, the tool, the body's pose
         self.tick = 0
         self.held: Held | None = None
         self.installed: list[str] = []
@@ -153,6 +155,7 @@ class SimEnv:
         self._worker_placed = [None] * len(self.workers)
         self.tick = 0
         self.held = None
+        self._followed = None
         self.installed = []
         self.grid = self.base_grid
         self._move_workers()
@@ -291,11 +294,26 @@ class SimEnv:
         return self.held
 
     def follow(self) -> None:
-        """Put the held element where the grasp holds it (after a kinematic robot motion)."""
-        if self.held is not None:
-            assert self.held.element_in_tool is not None
-            frame = self.tool_frame() @ self.held.element_in_tool
-            self.set_element_frame(self.held.element.iri, frame)
+        """Put the held element where the grasp holds it (after a kinematic robot motion).
+
+        Skipped when neither the tool nor the element has moved since the last time (the same
+        pose would be set again): the tool's pose and the element body's are compared as PyBullet
+        reports them, which is cheaper than the frames."""
+        import pybullet as p
+
+        held = self.held
+        if held is None:
+            return
+        assert held.element_in_tool is not None
+        body = held.body
+        tool = self.robot.tool_pose()
+        if self._followed is not None and self._followed[0] is held and self._followed[1] == tool and \
+                self._followed[2] == p.getBasePositionAndOrientation(body, physicsClientId=self.client):
+            return
+        pos, orn = tool
+        frame = from_pos_quat(pos, orn) @ held.element_in_tool
+        self.set_element_frame(held.element.iri, frame)
+        self._followed = (held, tool, p.getBasePositionAndOrientation(body, physicsClientId=self.client))
 
     def detach(self) -> WorldElement:
         """Release: remove the constraint (collisions with the robot stay filtered until fixed)."""
