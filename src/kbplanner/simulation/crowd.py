@@ -57,6 +57,13 @@ OFF_PATH_M = 1.0  # a robot this far from the path it asked for has left it (rep
 MAKE_WAY_RINGS_M = tuple(0.5 * k for k in range(1, 13))  # where a worker looks for a spot to make way
 
 
+def _maybe_within(p: FloatArray, robot: Obstacle, limit_m: float) -> bool:
+    """False only where ``p`` is certainly farther than ``limit_m`` from the robot's footprint: its
+    distance from the base centre less the footprint's reach exceeds it (with 1 um to spare for
+    rounding); then the distance query need not be made."""
+    return math.hypot(p[0] - robot.pose[0], p[1] - robot.pose[1]) - reach_m(robot.rects) <= limit_m + 1e-6
+
+
 @functools.lru_cache(maxsize=512)
 def _unit_steps(n: int) -> FloatArray:
     """``np.linspace(0, 1, n)`` (read only, the same array for the same ``n``)."""
@@ -460,7 +467,7 @@ class Crowd:
         self, old: FloatArray, new: FloatArray, vel: FloatArray, robot: Obstacle | None
     ) -> tuple[FloatArray, FloatArray]:
         """A worker's own step never ends in the robot's footprint or in a wall (see module doc)."""
-        if robot is not None:
+        if robot is not None and _maybe_within(new, robot, WORKER_RADIUS_M + CONTACT_MARGIN_M):
             d, ux, uy = rects_distance(new[None, 0], new[None, 1], robot.pose, robot.rects)
             if d[0] < WORKER_RADIUS_M + CONTACT_MARGIN_M:
                 n = np.array([ux[0], uy[0]])

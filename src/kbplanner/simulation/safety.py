@@ -84,6 +84,11 @@ class ContactMonitor:
         if not env.workers:
             return
         xy = env.worker_xy()
+        if not self.inside:  # nobody to see out: done when everyone is certainly clear of the footprint
+            far = WORKER_RADIUS_M + reach_m(obs.rects) + 1e-6
+            rx, ry = obs.pose[0], obs.pose[1]
+            if all(math.hypot(x - rx, y - ry) > far for x, y in xy.tolist()):
+                return
         d, _, _ = rects_distance(xy[:, 0], xy[:, 1], obs.pose, obs.rects)
         for k, w in enumerate(env.workers):
             overlap = float(d[k]) < WORKER_RADIUS_M
