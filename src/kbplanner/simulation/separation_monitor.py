@@ -133,6 +133,11 @@ class SeparationMonitor:
             return []
         pose = env.base_pose()
         xy = env.worker_xy()
+        # everyone certainly beyond (centre distance less the footprint's reach): no distance query
+        far = horizon_m + 0.25 + reach_m(rects) + 1e-6
+        if all(math.hypot(x - pose[0], y - pose[1]) > far for x, y in xy.tolist()):
+            self._tracks.clear()
+            return []
         true_d, _, _ = rects_distance(xy[:, 0], xy[:, 1], pose, rects)
         if float(np.min(true_d)) - 0.25 > horizon_m:
             self._tracks.clear()
