@@ -25,7 +25,6 @@ a fixed order; the same inputs and seed give the same motion.
 
 from __future__ import annotations
 
-import functools
 import itertools
 import math
 from collections import deque
@@ -37,6 +36,7 @@ import numpy.typing as npt
 
 from kbplanner.simulation.separation import WORKER_RADIUS_M, reach_m, rects_distance
 from kbplanner.simulation.social_force import Obstacle, SocialForceParams, accelerations, cap_speed
+from kbplanner.simulation.walk_checks import free_cells, maybe_within, unit_steps
 from kbplanner.simulation.workers import WorkerSpec, _rng_for, _Router
 from kbplanner.world.occupancy import OccupancyGrid
 
@@ -55,21 +55,6 @@ CONTACT_MARGIN_M = 0.01  # a worker's own step keeps at least this much clear of
 MAKE_WAY_MAX_HOLD_S = 300.0  # a worker who made way goes back after this even if the robot has not passed
 OFF_PATH_M = 1.0  # a robot this far from the path it asked for has left it (replanned, gave up)
 MAKE_WAY_RINGS_M = tuple(0.5 * k for k in range(1, 13))  # where a worker looks for a spot to make way
-
-
-def _maybe_within(p: FloatArray, robot: Obstacle, limit_m: float) -> bool:
-    """False only where ``p`` is certainly farther than ``limit_m`` from the robot's footprint: its
-    distance from the base centre less the footprint's reach exceeds it (with 1 um to spare for
-    rounding); then the distance query need not be made."""
-    return math.hypot(p[0] - robot.pose[0], p[1] - robot.pose[1]) - reach_m(robot.rects) <= limit_m + 1e-6
-
-
-@functools.lru_cache(maxsize=512)
-def _unit_steps(n: int) -> FloatArray:
-    """``np.linspace(0, 1, n)`` (read only, the same array for the same ``n``)."""
-    out = np.linspace(0.0, 1.0, n)
-    out.flags.writeable = False
-    return out
 
 
 def _stretch(pts: FloatArray, length_m: float, step_m: float = 0.25) -> FloatArray:
@@ -421,7 +406,7 @@ class Crowd:
         dq = np.array([q for _, q in legs], dtype=np.float64).reshape(-1, 2) - ps
         counts = np.maximum((np.hypot(dq[:, 0], dq[:, 1]) / 0.1).astype(np.int64) + 1, 2)
         leg = np.repeat(np.arange(len(legs)), counts)
-        f = np.concatenate([_unit_steps(int(n)) for n in counts])[:, None]
+        f = np.concatenate([unit_steps(int(n)) for n in counts])[:, None]
         pts = ps[leg] + f * dq[leg]
         starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
         d_all, _, _ = rects_distance(pts[:, 0], pts[:, 1], robot.pose, robot.rects)
@@ -429,21 +414,11 @@ class Crowd:
         free, g = self.router.free, self.router.grid
         if free is None or g is None:
             return [bool(c) for c in clear]
-        ok = self._free_cells(pts, free, g)
+        ok = free_cells(pts, free, g)
         leaves = ok[:-1] & ~ok[1:]  # a step out of the walkable cells
         leaves[starts[1:] - 1] = False  # (not between one leg's last sample and the next one's first)
         left = np.add.reduceat(np.append(leaves, False), starts) > 0
         return [bool(c and not lv) for c, lv in zip(clear, left, strict=True)]
-
-    @staticmethod
-    def _free_cells(pts: FloatArray, free: npt.NDArray[np.bool_], g: OccupancyGrid) -> npt.NDArray[np.bool_]:
-        """Whether each point lies in a free cell of the walking map (off the map: not)."""
-        ix = np.floor((pts[:, 0] - g.origin[0]) / g.resolution).astype(np.int64)
-        iy = np.floor((pts[:, 1] - g.origin[1]) / g.resolution).astype(np.int64)
-        inside = (ix >= 0) & (iy >= 0) & (iy < free.shape[0]) & (ix < free.shape[1])
-        ok = np.zeros(len(pts), dtype=bool)
-        ok[inside] = free[iy[inside], ix[inside]].astype(bool)
-        return ok
 
     def _free_at(self, q: FloatArray) -> bool:
         """Whether a worker may stand at ``q`` (a free cell of the walking map; no map: anywhere)."""
@@ -460,14 +435,14 @@ class Crowd:
         g = self.router.grid
         if free is None or g is None:
             return True
-        ok = self._free_cells(pts, free, g)
+        ok = free_cells(pts, free, g)
         return bool(np.all(ok[1:] | ~ok[:-1]))
 
     def _constrain(
         self, old: FloatArray, new: FloatArray, vel: FloatArray, robot: Obstacle | None
     ) -> tuple[FloatArray, FloatArray]:
         """A worker's own step never ends in the robot's footprint or in a wall (see module doc)."""
-        if robot is not None and _maybe_within(new, robot, WORKER_RADIUS_M + CONTACT_MARGIN_M):
+        if robot is not None and maybe_within(new, robot, WORKER_RADIUS_M + CONTACT_MARGIN_M):
             d, ux, uy = rects_distance(new[None, 0], new[None, 1], robot.pose, robot.rects)
             if d[0] < WORKER_RADIUS_M + CONTACT_MARGIN_M:
                 n = np.array([ux[0], uy[0]])
