@@ -10,7 +10,8 @@ S_p(v) fits the measured separation:
   hit: the robot's own body, the carried element, a wall or another person hide what is behind). A
   person's separation is the smallest distance from their hit points to the hazard footprint. The
   scan is skipped while every worker is farther from the footprint than S_p at full speed, where it
-  could not change the outcome.
+  could not change the outcome, and while the workers are on another floor than the robot
+  (:attr:`kbplanner.simulation.sim_env.SimEnv.workers_on_robot_floor`).
 - **Human speed.** A person seen in consecutive scans is tracked (the centroid of their hits): v_h is
   their measured speed towards the robot, at least the skill's ``trackedApproachSpeed`` (knowledge base
   default 0.3 m/s, ``TRACKED_SPEED_FLOOR_MPS`` when a skill lacks it); a person seen for the
@@ -129,8 +130,8 @@ class SeparationMonitor:
     def sense(self, rects: Sequence[Rect], *, horizon_m: float) -> list[Sensed]:
         """The people the lidar sees, with separation and approach speed (none beyond ``horizon_m``)."""
         env = self.env
-        if not env.workers:
-            return []
+        if not env.workers or not env.workers_on_robot_floor:
+            return []  # nobody, or everybody on another floor (out of the robot's hazard scope)
         pose = env.base_pose()
         xy = env.worker_xy()
         true_d, _, _ = rects_distance(xy[:, 0], xy[:, 1], pose, rects)
