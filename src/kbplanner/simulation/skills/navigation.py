@@ -19,9 +19,12 @@ storey's occupancy grid with the elements installed so far) and the step's effec
 - **Speed and separation monitoring** (ISO/TS 15066, :mod:`kbplanner.simulation.separation_monitor`):
   every period the lidar's view of people sets how much of the timed trajectory the robot drives: full
   speed, slower ("slow" ... "slow_end", with the time lost), or a protective stop ("stop" ... "resume");
-  forwards only (no reversing into the scanner's blind sector). Stopped for ``replan_after_s``, it plans
-  again around the person ("replan") and asks a waiting worker to make way ("make_way",
-  :mod:`~kbplanner.simulation.skills.make_way`); stopped for ``give_up_after_s`` the step fails.
+  forwards only (no reversing into the scanner's blind sector). While the arm turns the carried load
+  (the base standing still) the load's ends sweep at the fastest joint's rate times the footprint's
+  reach (with the load either way): the turn slows or waits as a drive would. Stopped for
+  ``replan_after_s``, it plans again around the person ("replan") and asks a waiting worker to make
+  way ("make_way", :mod:`~kbplanner.simulation.skills.make_way`); stopped for ``give_up_after_s``
+  the step fails.
   ``ExecSettings.monitoring = "off"`` drives the trajectory regardless (what monitoring prevents).
 """
 
@@ -351,11 +354,19 @@ class NavigationSkill(Skill):
         while self.queue:
             head = self.queue[0]
             if isinstance(head, Turn):
-                if head.event and head.path._i == 0:
+                if head.event and not head.announced:
+                    head.announced = True
                     x, y, yaw = env.base_pose()
                     self.c.emit(head.event, mode=head.mode, x=round(x, 3), y=round(y, 3))
                     if head.mode not in self.details["carry_modes"]:
                         self.details["carry_modes"].append(head.mode)
+                if self.geo is not None and not head.path.done:
+                    head.share = min(head.share + self._monitor_turn(head), 1.0)
+                    if head.share < 0:
+                        return self.fail(f"blocked by a worker for {self.blocked_s:.0f} s")
+                    if head.share < 1.0 - 1e-9:
+                        return Status.RUNNING  # the load's turn waits (stopped) or goes slower
+                    head.share = 0.0
                 sample = head.path.next()
                 if sample is None:
                     self.queue.pop(0)
@@ -393,9 +404,7 @@ class NavigationSkill(Skill):
 
     def _rects(self) -> list[Rect]:
         env = self.c.env
-        if env.hazard is not None:
-            return list(env.hazard().rects)
-        return list(env.robot.spec.footprint().rects)
+        return list(env.hazard().rects if env.hazard is not None else env.robot.spec.footprint().rects)
 
     def _end_slow(self) -> None:
         if self.slow_since is not None:
@@ -403,11 +412,23 @@ class NavigationSkill(Skill):
                         time_lost_s=round(self.slow_lost, 3))
             self.slow_since = None
 
-    def _monitor(self, here: Pose2D, nxt: Pose2D) -> float:
-        """Speed and separation monitoring for one period: the fraction of the step to drive (-1: give up)."""
+    def _monitor_turn(self, turn: Turn) -> float:
+        """Monitoring while the arm turns the carried load, the base standing still: the load's ends sweep
+        at the fastest joint's rate times the reach of the footprint with the load either way. The
+        fraction of the next arm sample to make (0: a protective stop), -1: give up."""
+        env = self.c.env
+        assert self.geo is not None
+        rects = [*self.geo.footprint(NORMAL).rects, *self.geo.footprint(NARROW).rects]
+        sweep = turn.joint_rate(env.robot.arm_positions(), env.control_hz) * reach_m(rects)
+        return self._monitor(env.base_pose(), env.base_pose(), sweep_mps=sweep, rects=rects, replan=False)
+
+    def _monitor(self, here: Pose2D, nxt: Pose2D, *, sweep_mps: float = 0.0, rects: list[Rect] | None = None,
+                 replan: bool = True) -> float:
+        """Speed and separation monitoring for one period: the fraction of the step to drive (-1: give up);
+        ``replan`` False: stopped for ``replan_after_s``, only ask the person to make way."""
         env = self.c.env
         s = self.c.settings
-        d = self.monitor.decide(self._rects(), here, nxt)
+        d = self.monitor.decide(self._rects() if rects is None else rects, here, nxt, sweep_mps=sweep_mps)
         f = d.fraction
         dt = env.dt
         if f < 1.0:
@@ -439,7 +460,8 @@ class NavigationSkill(Skill):
                 return -1.0
             if self.blocked_s >= s.replan_after_s and self.replanned_at is None and d.sensed is not None:
                 self.replanned_at = env.t
-                self._replan(d.sensed.worker, d.sensed.separation_m)
+                if replan:
+                    self._replan(d.sensed.worker, d.sensed.separation_m)
                 pts = [(p[0], p[1]) for q in self.queue if isinstance(q, Drive) for p in q.t[int(q.s)::5]]
                 ask_way(env, d.sensed.worker, pts, reach_m(self._rects()) + d.protective_m, self.c.emit)
             return 0.0 if self.replanned_at == env.t else f  # f > 0: a step away from everyone seen
