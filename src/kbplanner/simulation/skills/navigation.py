@@ -1,3 +1,5 @@
+# Over 500 lines: the skill's planning (legs, load turns, unstick at start and base pose) and its
+# monitored execution share one state; split candidates: the planning half.
 """B5 skills NV-1 (navigation) and NV-2 (navigation with object): drive the base along an OMPL path.
 
 Takes the step's base pose (B4) or its destination input, the environment's navigation grid (the
@@ -266,7 +268,7 @@ class NavigationSkill(Skill):
         if not any(checker.free(f, *start) for f in fps):
             free = nearest_free_pose(checker, start, fps)
             if free is not None:
-                rest = self._plan_from(grid, free, normal, narrow)
+                rest = self._plan_to(grid, free, normal, narrow)
                 if isinstance(rest, str):
                     return rest
                 mode = (self.c.carry_mode or NORMAL) if self.geo is not None else ""
@@ -274,7 +276,31 @@ class NavigationSkill(Skill):
                 self.c.emit("unstick", x=round(start[0], 3), y=round(start[1], 3), distance_m=round(step, 3))
                 return Route([([start, free], mode, None), *rest.pieces], rest.length_m + step,
                               rest.narrow_length_m)
-        return self._plan_from(grid, start, normal, narrow)
+        return self._plan_to(grid, start, normal, narrow)
+
+    def _plan_to(self, grid: OccupancyGrid, start: Pose2D, normal: Footprint,
+                 narrow: Footprint | None) -> Route | str:
+        """The route from ``start``; a base pose that the (conservative) map calls blocked for every
+        footprint - the held element a few centimetres into the cells of a wall or of an element
+        installed before - is reached by a route to the nearest free pose within ``UNSTICK_RADIUS_M``
+        and a short straight move from there (event ``unstick`` with ``at`` "base pose")."""
+        checker, goal = PoseChecker(self.c.env.grid), self.goal
+        fps = [normal] if narrow is None else [normal, narrow]
+        near = None if any(checker.free(f, *goal) for f in fps) else nearest_free_pose(checker, goal, fps)
+        if near is None:
+            return self._plan_from(grid, start, normal, narrow)
+        try:
+            self.goal = near
+            rest = self._plan_from(grid, start, normal, narrow)
+        finally:
+            self.goal = goal
+        if isinstance(rest, str):
+            return rest
+        step = math.hypot(goal[0] - near[0], goal[1] - near[1])
+        self.c.emit("unstick", at="base pose", x=round(near[0], 3), y=round(near[1], 3),
+                    distance_m=round(step, 3))
+        mode = rest.pieces[-1][1] if rest.pieces else ""
+        return Route([*rest.pieces, ([near, goal], mode, None)], rest.length_m + step, rest.narrow_length_m)
 
     def _plan_from(self, grid: OccupancyGrid, start: Pose2D, normal: Footprint,
                    narrow: Footprint | None) -> Route | str:
