@@ -445,7 +445,10 @@ class NavigationSkill(Skill):
         env = self.c.env
         assert self.geo is not None
         rects = [*self.geo.footprint(NORMAL).rects, *self.geo.footprint(NARROW).rects]
-        sweep = turn.joint_rate(env.robot.arm_positions(), env.control_hz) * reach_m(rects)
+        # at most the joint speed (a turn queued before the last one ended starts from where that one did)
+        rate = min(turn.joint_rate(env.robot.arm_positions(), env.control_hz),
+                   self.c.settings.joint_speed_rps)
+        sweep = rate * reach_m(rects)
         return self._monitor(env.base_pose(), env.base_pose(), sweep_mps=sweep, rects=rects, replan=False)
 
     def _monitor(self, here: Pose2D, nxt: Pose2D, *, sweep_mps: float = 0.0, rects: list[Rect] | None = None,
