@@ -80,3 +80,22 @@ def test_the_arm_turning_the_load_counts_the_sweep_of_its_ends(case, tmp_path: P
     finally:
         env.close()
     assert not far.stopped and far.fraction > 0
+
+
+def test_the_arm_turns_the_load_from_where_it_is_without_jumps(case, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    # the turn to narrow used to start from the lift pose, not from the carry pose the arm was in
+    from kbplanner.simulation.executor import simulate
+    from kbplanner.simulation.skills import ExecSettings
+
+    case.refined.keep_first(1)
+    settings = ExecSettings(keyframes=False)
+    r = simulate(case.project, case.refined, seed=3, out_dir=tmp_path / "run", world=case.world,
+                 grid=case.grid, settings=settings, workers=[])
+    kinds = {e["kind"] for e in r.events}
+    assert {"carry_pose", "rotate_to_narrow", "rotate_back"} <= kinds
+    nv2 = next(e["step"] for e in r.events if e["kind"] == "rotate_to_narrow")
+    rows = [line.split(",") for line in (tmp_path / "run" / "trajectories.csv").read_text().splitlines()[1:]]
+    q = np.array([[float(v) for v in row[4:10]] for row in rows if row[12] == str(nv2)])
+    t = np.array([float(row[0]) for row in rows if row[12] == str(nv2)])
+    rate = np.abs(np.diff(q, axis=0)).max(axis=1) / np.diff(t)
+    assert float(rate.max()) <= settings.joint_speed_rps + 0.01

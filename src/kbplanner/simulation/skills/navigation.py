@@ -144,11 +144,14 @@ class NavigationSkill(Skill):
                             max_speed_mps=self.max_speed)
 
     def _joint_path(self, waypoints: list[tuple[str, list[float] | tuple[float, ...]]]) -> JointPath:
+        """An arm motion that starts where the arm will be once the turns already queued are done."""
         env = self.c.env
         arm = env.robot.spec.arm
         limits = arm.velocity_rps if arm is not None else None
         hz, speed = env.control_hz, self.c.settings.joint_speed_rps
-        return JointPath(env.robot.arm_positions(), waypoints, speed, hz, limits)
+        ends = [q.path.samples[-1][0] for q in self.queue if isinstance(q, Turn) and q.path.samples]
+        start = ends[-1] if ends else env.robot.arm_positions()
+        return JointPath(start, waypoints, speed, hz, limits)
 
     def _carry_geometry(self) -> str | None:
         env = self.c.env
