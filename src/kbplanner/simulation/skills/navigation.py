@@ -21,9 +21,10 @@ storey's occupancy grid with the elements installed so far) and the step's effec
 - **Speed and separation monitoring** (ISO/TS 15066, :mod:`kbplanner.simulation.separation_monitor`):
   every period the lidar's view of people sets how much of the timed trajectory the robot drives: full
   speed, slower ("slow" ... "slow_end", with the time lost), or a protective stop ("stop" ... "resume");
-  forwards only (no reversing into the scanner's blind sector). While the arm turns the carried load
-  (the base standing still) the load's ends sweep at the fastest joint's rate times the footprint's
-  reach (with the load either way): the turn slows or waits as a drive would. Stopped for
+  forwards only (no reversing into the scanner's blind sector). With ``monitor_load_turns`` (off by
+  default), while the arm turns the carried load (the base standing still) the load's ends sweep at
+  the fastest joint's rate times the footprint's reach (with the load either way): the turn slows or
+  waits as a drive would. Stopped for
   ``replan_after_s``, it plans again around the person ("replan") and asks a waiting worker to make
   way ("make_way", :mod:`~kbplanner.simulation.skills.make_way`); stopped for ``give_up_after_s``
   the step fails.
@@ -389,7 +390,7 @@ class NavigationSkill(Skill):
                     self.c.emit(head.event, mode=head.mode, x=round(x, 3), y=round(y, 3))
                     if head.mode not in self.details["carry_modes"]:
                         self.details["carry_modes"].append(head.mode)
-                if self.geo is not None and not head.path.done:
+                if self.geo is not None and self.c.settings.monitor_load_turns and not head.path.done:
                     head.share = min(head.share + self._monitor_turn(head), 1.0)
                     if head.share < 0:
                         return self.fail(f"blocked by a worker for {self.blocked_s:.0f} s")
