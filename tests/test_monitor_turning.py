@@ -2,7 +2,8 @@
 
 A turn moves one end of a long load away from one person and the other end towards another: a
 protective stop may only be left by a step away from *everyone* seen. While the arm turns the load
-with the base standing still, the sweep of the load's ends counts as the robot's speed.
+with the base standing still (``ExecSettings.monitor_load_turns``, off by default), the sweep of the
+load's ends counts as the robot's speed; and the arm turns the load from where it is, without jumps.
 """
 
 from __future__ import annotations
