@@ -18,7 +18,8 @@ this tree (> 1: faster now), from the median over rounds. The load average is re
 after: on a shared machine absolute seconds vary, the ratios of one run much less.
 
 Usage: .venv/bin/python benchmarks/bench_simspeed.py [--before REF] [--scenario S ...] [--rounds N]
-Prints a table and writes benchmarks/results/simspeed.json (or --out).
+Prints a table and writes benchmarks/results/simspeed.json (or --out); ``--markdown-from JSON`` prints
+the Markdown table of such a result (for the docs) without running anything.
 """
 
 from __future__ import annotations
@@ -127,14 +128,43 @@ def bench(before_src: Path, after_src: Path, scenario: str, seed: int, rounds: i
     return row
 
 
+def markdown(out: dict[str, Any]) -> str:
+    """The Markdown table of a result (docs/scale.md, docs/simulation.md): CPU figures first, they are
+    the steadier ones on a shared machine."""
+    lines = ["| scenario | simulated | simulation step CPU before / after | step x real time (CPU) "
+             "| command CPU before / after | command wall before / after | peak memory | identical |",
+             "| --- | ---: | ---: | --- | ---: | ---: | ---: | --- |"]
+    for r in out["scenarios"]:
+        b, a = r["before"], r["after"]
+        mem = [_median(side["runs"], "peak_rss_mb") for side in (b, a)]
+        lines.append(
+            f"| {r['scenario']} | {a['sim_time_s']:,.1f} s "
+            f"| {b['simulation_cpu_s']:.1f} / {a['simulation_cpu_s']:.1f} s (x{r['speedup_simulation_cpu']}) "
+            f"| {b['x_real_time_simulation_cpu']:.0f}x -> {a['x_real_time_simulation_cpu']:.0f}x "
+            f"| {b['command_cpu_s']:.1f} / {a['command_cpu_s']:.1f} s (x{r['speedup_command_cpu']}) "
+            f"| {b['command_s']:.0f} / {a['command_s']:.0f} s "
+            f"| {mem[0]:.0f} / {mem[1]:.0f} MB | {'yes' if r['outputs_identical'] else 'no'} |")
+    load = f"load average {out['load_average_start'][0]:.1f} -> {out['load_average_end'][0]:.1f}"
+    rounds = out["scenarios"][0]["rounds"] if out["scenarios"] else 0
+    lines.append("")
+    lines.append(f"(`bench_simspeed.py --before {out['before']} --rounds {rounds}`: medians of {rounds} "
+                 f"round(s), seed {out['scenarios'][0]['seed'] if out['scenarios'] else ''}; {load})")
+    return "\n".join(lines) + "\n"
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--markdown-from", type=Path, metavar="JSON",
+                    help="print the Markdown table of an earlier result and exit (no runs)")
     ap.add_argument("--before", default="main", help="git ref of the baseline (default main)")
     ap.add_argument("--scenario", action="append", help="scenario(s) (default: both storage scenarios)")
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--rounds", type=int, default=1, help="before/after pairs per scenario (median)")
     ap.add_argument("--out", type=Path, default=RESULTS_DIR / "simspeed.json")
     args = ap.parse_args(argv)
+    if args.markdown_from:
+        sys.stdout.write(markdown(json.loads(args.markdown_from.read_text())))
+        return 0
     scenarios = args.scenario or ["storage-outside", "storage-inside"]
     load_before = list(os.getloadavg())
     with tempfile.TemporaryDirectory() as tmp_name:

@@ -141,6 +141,42 @@ def test_without_monitoring_driving_into_a_worker_is_a_collision_event_and_count
     assert metrics["safety"]["collision_events"][0]["worker"] == "stander"
 
 
+def test_workers_on_another_floor_are_out_of_the_robot_s_hazard_scope(
+    case, tmp_path: Path
+) -> None:  # type: ignore[no-untyped-def]
+    # the same task with the ground 3 m below the robot's storey (the robot works upstairs) and a
+    # worker standing on the ground right under the robot's way: nobody yields, stops or collides
+    from dataclasses import replace
+
+    from kbplanner.simulation.sim_env import FLOOR_GAP_M
+
+    upstairs = replace(case, world=replace(case.world, ground_z=case.world.ground_z - 3.0))
+    _run(upstairs, tmp_path / "free", workers=[])
+    row = next(
+        line.split(",")
+        for line in (tmp_path / "free" / "trajectories.csv").read_text().splitlines()[1:]
+        if float(line.split(",")[0]) >= 10.0
+        and (float(line.split(",")[1]) - 6.5) ** 2 + (float(line.split(",")[2]) + 5.0) ** 2 > 4.0
+    )
+    r = _run(upstairs, tmp_path / "under", workers=[_standing(float(row[1]), float(row[2]))])
+    s = r.metrics["safety"]
+    assert FLOOR_GAP_M < 3.0 and s["dz_m"] == 3.0 and s["workers_off_robot_floor"] == 1
+    assert s["collisions"] == 0 and s["stops"] == 0 and s["slowdowns"] == 0
+    assert not [e for e in r.events if e["kind"] in ("collision", "stop", "slow", "make_way")]
+    assert s["min_separation_m"] >= 3.0 - WORKER_RADIUS_M
+    assert r.all_installed
+    # the robot drives exactly as with nobody on site
+    def robot(run: str) -> list[list[str]]:
+        rows = (tmp_path / run / "trajectories.csv").read_text().splitlines()
+        return [line.split(",")[:13] for line in rows]
+
+    assert robot("under") == robot("free")
+    # on the robot's own floor the same worker stops it (the ground-floor behaviour is unchanged)
+    ground = _run(case, tmp_path / "ground", workers=[_standing(float(row[1]), float(row[2]))])
+    assert ground.metrics["safety"]["workers_off_robot_floor"] == 0
+    assert ground.metrics["safety"]["stops"] + ground.metrics["safety"]["slowdowns"] > 0
+
+
 def _corridor_with_alcove():  # type: ignore[no-untyped-def]
     from kbplanner.world.occupancy import OccupancyGrid
 

@@ -127,6 +127,9 @@ def run(args: argparse.Namespace) -> int:
                   f"s below 1 m, "
               f"{safety['time_below_protective_s']} s below S_p, {safety['slowdowns']} slow-down(s), "
               f"{safety['time_lost_s']} s lost to monitoring ({safety['monitoring']})")
+    if safety.get("workers_off_robot_floor"):
+        out.print(f"safety: {safety['workers_off_robot_floor']} worker(s) on another floor than the robot "
+                  f"({safety['dz_m']} m apart): out of its hazard scope")
     if safety["collisions"]:
         return 1
     return 0 if all(e.outcome == INSTALLED for e in result.elements) and result.elements else 1

@@ -36,6 +36,7 @@ import numpy.typing as npt
 
 from kbplanner.simulation.separation import WORKER_RADIUS_M, reach_m, rects_distance
 from kbplanner.simulation.social_force import Obstacle, SocialForceParams, accelerations, cap_speed
+from kbplanner.simulation.walk_checks import free_cells, maybe_within, unit_steps
 from kbplanner.simulation.workers import WorkerSpec, _rng_for, _Router
 from kbplanner.world.occupancy import OccupancyGrid
 
@@ -397,24 +398,27 @@ class Crowd:
                 a.anchor = (stop.x, stop.y)
 
     def _clear_many(self, legs: Sequence[tuple[FloatArray, FloatArray]], robot: Obstacle) -> list[bool]:
-        """Per leg (p, q): sampled every 0.1 m, clear of the footprint and walkable. One distance query
-        for all legs' samples (element-wise the same numbers as one query per leg)."""
+        """Per leg (p, q): sampled every 0.1 m, clear of the footprint and walkable. All legs at once
+        (element-wise the same numbers as one query per leg and :meth:`_walkable_along` per leg)."""
         if not legs:
             return []
-        samples = []
-        for p, q in legs:
-            n = max(2, int(np.hypot(*(q - p)) / 0.1) + 1)
-            f = np.linspace(0.0, 1.0, n)[:, None]
-            samples.append(p[None, :] + f * (q - p)[None, :])
-        pts = np.concatenate(samples)
+        ps = np.array([p for p, _ in legs], dtype=np.float64).reshape(-1, 2)
+        dq = np.array([q for _, q in legs], dtype=np.float64).reshape(-1, 2) - ps
+        counts = np.maximum((np.hypot(dq[:, 0], dq[:, 1]) / 0.1).astype(np.int64) + 1, 2)
+        leg = np.repeat(np.arange(len(legs)), counts)
+        f = np.concatenate([unit_steps(int(n)) for n in counts])[:, None]
+        pts = ps[leg] + f * dq[leg]
+        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
         d_all, _, _ = rects_distance(pts[:, 0], pts[:, 1], robot.pose, robot.rects)
-        out = []
-        start = 0
-        for leg in samples:
-            d = d_all[start : start + len(leg)]
-            start += len(leg)
-            out.append(float(d.min()) >= WORKER_RADIUS_M + 0.3 and self._walkable_along(leg))
-        return out
+        clear = np.minimum.reduceat(d_all, starts) >= WORKER_RADIUS_M + 0.3
+        free, g = self.router.free, self.router.grid
+        if free is None or g is None:
+            return [bool(c) for c in clear]
+        ok = free_cells(pts, free, g)
+        leaves = ok[:-1] & ~ok[1:]  # a step out of the walkable cells
+        leaves[starts[1:] - 1] = False  # (not between one leg's last sample and the next one's first)
+        left = np.add.reduceat(np.append(leaves, False), starts) > 0
+        return [bool(c and not lv) for c, lv in zip(clear, left, strict=True)]
 
     def _free_at(self, q: FloatArray) -> bool:
         """Whether a worker may stand at ``q`` (a free cell of the walking map; no map: anywhere)."""
@@ -431,18 +435,14 @@ class Crowd:
         g = self.router.grid
         if free is None or g is None:
             return True
-        ix = np.floor((pts[:, 0] - g.origin[0]) / g.resolution).astype(np.int64)
-        iy = np.floor((pts[:, 1] - g.origin[1]) / g.resolution).astype(np.int64)
-        inside = (ix >= 0) & (iy >= 0) & (iy < free.shape[0]) & (ix < free.shape[1])
-        ok = np.zeros(len(pts), dtype=bool)
-        ok[inside] = free[iy[inside], ix[inside]].astype(bool)
+        ok = free_cells(pts, free, g)
         return bool(np.all(ok[1:] | ~ok[:-1]))
 
     def _constrain(
         self, old: FloatArray, new: FloatArray, vel: FloatArray, robot: Obstacle | None
     ) -> tuple[FloatArray, FloatArray]:
         """A worker's own step never ends in the robot's footprint or in a wall (see module doc)."""
-        if robot is not None:
+        if robot is not None and maybe_within(new, robot, WORKER_RADIUS_M + CONTACT_MARGIN_M):
             d, ux, uy = rects_distance(new[None, 0], new[None, 1], robot.pose, robot.rects)
             if d[0] < WORKER_RADIUS_M + CONTACT_MARGIN_M:
                 n = np.array([ux[0], uy[0]])

@@ -7,7 +7,9 @@ shortcutting: a slightly optimistic length to compare planned paths with (benchm
 
 from __future__ import annotations
 
+import functools
 import math
+import weakref
 
 import numpy as np
 import numpy.typing as npt
@@ -63,15 +65,28 @@ def grid_shortest_path_length(
 
     Dijkstra, 8-connected, over the cells where the footprint fits at some yaw (a relaxation: it
     may turn anywhere), then greedy line-of-sight shortcutting through those cells, which removes
-    most of the 8-connected metric's excess (up to 8 %) over straight lines.
+    most of the 8-connected metric's excess (up to 8 %) over straight lines. On a configuration space
+    the length is kept with it: asked again for the same start and goal, it is not searched again.
     """
     if isinstance(grid, ConfigurationSpace):
-        cs = grid
-    else:
-        if footprint is None:
-            raise KbplannerError("grid_shortest_path_length on a grid needs a footprint",
-                                 element="grid_shortest_path_length", fix="pass footprint=...")
-        cs = ConfigurationSpace.build(grid, footprint, n_yaw_bins)
+        known = _LENGTHS.setdefault(grid, {})
+        key = (tuple(start), tuple(goal))
+        if key not in known:
+            known[key] = _shortest_length(grid, start, goal)
+        return known[key]
+    if footprint is None:
+        raise KbplannerError("grid_shortest_path_length on a grid needs a footprint",
+                             element="grid_shortest_path_length", fix="pass footprint=...")
+    return _shortest_length(ConfigurationSpace.build(grid, footprint, n_yaw_bins), start, goal)
+
+
+# the lengths found in a configuration space (the skills ask again for the leg they planned)
+_Ends = tuple[tuple[float, ...], tuple[float, ...]]
+_LENGTHS: weakref.WeakKeyDictionary[ConfigurationSpace, dict[_Ends, float]] = weakref.WeakKeyDictionary()
+
+
+def _shortest_length(cs: ConfigurationSpace, start: Pose2D | tuple[float, float],
+                     goal: Pose2D | tuple[float, float]) -> float:
     free = cs.free_any_yaw()
     g = cs.grid
     ny, nx = g.shape
@@ -87,21 +102,52 @@ def grid_shortest_path_length(
     pts += [g.center_of(x, y) for y, x in cells[1:-1]]
     pts.append((float(goal[0]), float(goal[1])))
 
-    def visible(a: tuple[float, float], b: tuple[float, float]) -> bool:
-        n = max(1, math.ceil(math.hypot(b[0] - a[0], b[1] - a[1]) / (g.resolution / 2)))
-        u = np.linspace(0.0, 1.0, n + 1)
-        xs, ys = a[0] + u * (b[0] - a[0]), a[1] + u * (b[1] - a[1])
-        ix = np.floor((xs - g.origin[0]) / g.resolution).astype(np.int64)
-        iy = np.floor((ys - g.origin[1]) / g.resolution).astype(np.int64)
-        inside = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny)
-        return bool(inside.all() and free[iy, ix].all())
-
     length = 0.0
     i = 0
     while i < len(pts) - 1:
-        j = len(pts) - 1
-        while j > i + 1 and not visible(pts[i], pts[j]):
-            j -= 1
+        j = _farthest_visible(pts, i, free, g)
         length += math.hypot(pts[j][0] - pts[i][0], pts[j][1] - pts[i][1])
         i = j
     return length
+
+
+_BATCH = 32  # line-of-sight candidates checked per numpy query
+
+
+@functools.lru_cache(maxsize=1024)
+def _unit_steps(n: int) -> npt.NDArray[np.float64]:
+    """``np.linspace(0, 1, n)`` (read only, the same array for the same ``n``)."""
+    out = np.linspace(0.0, 1.0, n)
+    out.flags.writeable = False
+    return out
+
+
+def _farthest_visible(pts: list[tuple[float, float]], i: int, free: npt.NDArray[np.bool_],
+                      g: OccupancyGrid) -> int:
+    """The farthest ``j > i`` whose straight line from ``pts[i]`` stays in free cells (sampled every half
+    cell), else ``i + 1``: candidates from the last point back, ``_BATCH`` per numpy query."""
+    ny, nx = free.shape
+    a = pts[i]
+    j = len(pts) - 1
+    while j > i + 1:
+        cands = range(j, max(i + 1, j - _BATCH), -1)
+        xs, ys, counts = [], [], []
+        for k in cands:
+            b = pts[k]
+            n = max(1, math.ceil(math.hypot(b[0] - a[0], b[1] - a[1]) / (g.resolution / 2)))
+            u = _unit_steps(n + 1)
+            xs.append(a[0] + u * (b[0] - a[0]))
+            ys.append(a[1] + u * (b[1] - a[1]))
+            counts.append(n + 1)
+        x, y = np.concatenate(xs), np.concatenate(ys)
+        ix = np.floor((x - g.origin[0]) / g.resolution).astype(np.int64)
+        iy = np.floor((y - g.origin[1]) / g.resolution).astype(np.int64)
+        ok = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny)
+        ok[ok] = free[iy[ok], ix[ok]]
+        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        seen = np.logical_and.reduceat(ok, starts)
+        hit = np.flatnonzero(seen)
+        if hit.size:
+            return cands[int(hit[0])]
+        j = cands[-1] - 1
+    return i + 1

@@ -17,6 +17,9 @@ from collections.abc import Sequence
 from kbplanner.simulation.nav_path import Pose2D, densify, path_length, wrap
 from kbplanner.world.footprint import ConfigurationSpace
 
+_PI = math.pi
+_TAU = 2 * math.pi
+
 
 class ExactMotion:
     """Exact motion checks in a configuration space for SE(2) straight-line motions.
@@ -35,6 +38,8 @@ class ExactMotion:
         self.n_bins = cs.n_bins
         self.w = cs.bin_width
         self.plane = self.ny * self.nx
+        self._consts = (self.inv_res, self.ox, self.oy, self.nx, self.ny, self.w, self.n_bins, self.plane,
+                        self.free)
 
     def pose_free(self, x: float, y: float, yaw: float) -> bool:
         ix = math.floor((x - self.ox) * self.inv_res)
@@ -69,16 +74,21 @@ class ExactMotion:
 
     def motion_free(self, a: Sequence[float], b: Sequence[float]) -> bool:
         """Whether the straight SE(2) motion from ``a`` to ``b`` is free (both ends included)."""
-        t0 = float(a[2])
-        d = wrap(float(b[2]) - t0)
-        # Cheap rejection first: most motions a planner tries run into a wall somewhere. (pose_free
-        # inlined: the same arithmetic, without a method call per sample.)
-        a0, a1 = a[0], a[1]
-        bx, by = b[0] - a0, b[1] - a1
-        inv_res, ox, oy, nx, ny = self.inv_res, self.ox, self.oy, self.nx, self.ny
-        w, n_bins, plane, free, floor = self.w, self.n_bins, self.plane, self.free, math.floor
+        return self.free6(a[0], a[1], a[2], b[0], b[1], b[2])
+
+    def free6(self, a0: float, a1: float, a2: float, b0: float, b1: float, b2: float) -> bool:
+        """:meth:`motion_free` of ``(a0, a1, a2)`` to ``(b0, b1, b2)``, the six numbers passed one by one
+        (the OMPL motion validator's call, without building tuples)."""
+        inv_res, ox, oy, nx, ny, w, n_bins, plane, free = self._consts
+        floor = math.floor
+        t0 = float(a2)
+        d = (float(b2) - t0 + _PI) % _TAU - _PI  # nav_path.wrap inlined
+        # Cheap rejection first: most motions a planner tries run into a wall somewhere, most of them
+        # half-way. (pose_free inlined: the same arithmetic, without a method call per sample.) The
+        # samples are u = i / n for i = n // 2, n, 1, ..., n - 1.
+        bx, by = b0 - a0, b1 - a1
         n = max(2, math.ceil(max(abs(bx), abs(by)) * inv_res / 2))
-        for i in (n // 2, n, *range(1, n)):
+        for i in itertools.chain((n // 2, n), range(1, n)):
             u = i / n
             ix = floor((a0 + u * bx - ox) * inv_res)
             iy = floor((a1 + u * by - oy) * inv_res)
@@ -86,19 +96,49 @@ class ExactMotion:
                 return False
             if free[(floor((t0 + u * d) / w + 0.5) % n_bins) * plane + iy * nx + ix] != 1:
                 return False
+        # The exact check, piece by piece between yaw-bin borders: :meth:`_segment_free` inlined (the
+        # same arithmetic; a one-cell column is read directly rather than sliced).
         cuts = [0.0]
         if d != 0.0:
-            k0 = math.floor(t0 / self.w + 0.5)
-            k1 = math.floor((t0 + d) / self.w + 0.5)
+            k0 = floor(t0 / w + 0.5)
+            k1 = floor((t0 + d) / w + 0.5)
             borders = range(k0, k1) if d > 0 else range(k0 - 1, k1 - 1, -1)
-            cuts += [((k + 0.5) * self.w - t0) / d for k in borders]
+            cuts += [((k + 0.5) * w - t0) / d for k in borders]
         cuts.append(1.0)
-        ax, ay = (a[0] - self.ox) * self.inv_res, (a[1] - self.oy) * self.inv_res
-        dx, dy = (b[0] - self.ox) * self.inv_res - ax, (b[1] - self.oy) * self.inv_res - ay
-        for ua, ub in itertools.pairwise(cuts):
-            k = math.floor((t0 + 0.5 * (ua + ub) * d) / self.w + 0.5) % self.n_bins
-            if not self._segment_free(k, ax + ua * dx, ay + ua * dy, ax + ub * dx, ay + ub * dy):
+        ax, ay = (a0 - ox) * inv_res, (a1 - oy) * inv_res
+        dx, dy = (b0 - ox) * inv_res - ax, (b1 - oy) * inv_res - ay
+        ua = 0.0
+        for ub in cuts[1:]:
+            base = (floor((t0 + 0.5 * (ua + ub) * d) / w + 0.5) % n_bins) * plane
+            x0, y0, x1, y1 = ax + ua * dx, ay + ua * dy, ax + ub * dx, ay + ub * dy
+            ua = ub
+            if x0 > x1:
+                x0, y0, x1, y1 = x1, y1, x0, y0
+            ixa, ixb = floor(x0), floor(x1)
+            if ixa < 0 or ixb >= nx:
                 return False
+            if x1 > x0:
+                slope = (y1 - y0) / (x1 - x0)
+                for ix in range(ixa, ixb + 1):
+                    ya = y0 + ((ix if ix > x0 else x0) - x0) * slope
+                    yb = y0 + ((ix + 1 if ix + 1 < x1 else x1) - x0) * slope
+                    if ya > yb:
+                        ya, yb = yb, ya
+                    lo, hi = floor(ya), floor(yb)
+                    if lo < 0 or hi >= ny:
+                        return False
+                    if lo == hi:
+                        if free[base + lo * nx + ix] != 1:
+                            return False
+                    elif 0 in free[base + lo * nx + ix : base + hi * nx + ix + 1 : nx]:
+                        return False
+            else:
+                lo, hi = (floor(y0), floor(y1)) if y0 <= y1 else (floor(y1), floor(y0))
+                if lo < 0 or hi >= ny:
+                    return False
+                for ix in range(ixa, ixb + 1):
+                    if 0 in free[base + lo * nx + ix : base + hi * nx + ix + 1 : nx]:
+                        return False
         return True
 
     def path_free(self, poses: Sequence[Sequence[float]]) -> bool:

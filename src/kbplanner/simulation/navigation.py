@@ -103,13 +103,13 @@ class _OmplMotionValidator(ob.MotionValidator):
     def __init__(self, si: ob.SpaceInformation, exact: ExactMotion) -> None:
         super().__init__(si)
         self.exact = exact
+        self.free6 = exact.free6
 
     calls = 0
 
     def checkMotion(self, s1: ob.State, s2: ob.State) -> bool:  # OMPL's method name
         self.calls += 1
-        a = (s1.getX(), s1.getY(), s1.getYaw())
-        return self.exact.motion_free(a, (s2.getX(), s2.getY(), s2.getYaw()))
+        return self.free6(s1.getX(), s1.getY(), s1.getYaw(), s2.getX(), s2.getY(), s2.getYaw())
 
 
 def plan_path(

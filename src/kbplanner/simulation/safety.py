@@ -12,6 +12,11 @@ recorded, rounded values, so that an independent script reading the file gets th
 per worker and overall the minimum separation, the time below 1 m and below the ISO/TS 15066
 protective separation distance S_p at the robot's recorded speed, plus the collisions, stops,
 slow-downs and time lost from the events and the navigation steps.
+
+**Floors.** Workers walk on the ground; when the robot works on a floor more than
+:data:`~kbplanner.simulation.sim_env.FLOOR_GAP_M` above or below it (an upper storey), nobody is on
+its floor: no contact is checked, the separations include the storeys between (``dz_m``), and
+``workers_off_robot_floor`` counts the workers out of the robot's hazard scope.
 """
 
 from __future__ import annotations
@@ -34,7 +39,7 @@ from kbplanner.simulation.separation import (
     robot_speed,
     time_below_s,
 )
-from kbplanner.simulation.sim_env import SimEnv
+from kbplanner.simulation.sim_env import FLOOR_GAP_M, SimEnv
 from kbplanner.simulation.social_force import Obstacle
 from kbplanner.world.footprint import Rect
 
@@ -81,9 +86,14 @@ class ContactMonitor:
 
     def _check(self, obs: Obstacle, cause: str) -> None:
         env = self.env
-        if not env.workers:
-            return
+        if not env.workers or not env.workers_on_robot_floor:
+            return  # nobody, or everybody on another floor: no overlap is possible
         xy = env.worker_xy()
+        if not self.inside:  # nobody to see out: done when everyone is certainly clear of the footprint
+            far = WORKER_RADIUS_M + reach_m(obs.rects) + 1e-6
+            rx, ry = obs.pose[0], obs.pose[1]
+            if all(math.hypot(x - rx, y - ry) > far for x, y in xy.tolist()):
+                return
         d, _, _ = rects_distance(xy[:, 0], xy[:, 1], obs.pose, obs.rects)
         for k, w in enumerate(env.workers):
             overlap = float(d[k]) < WORKER_RADIUS_M
@@ -222,6 +232,7 @@ def safety_summary(
         "per_worker": per_worker,
         "ssm": ssm.as_dict(),
         "dz_m": round(dz_m, 4),
+        "workers_off_robot_floor": len(seps) if dz_m > FLOOR_GAP_M else 0,
         "worker_radius_m": WORKER_RADIUS_M,
         "fixed_threshold_m": FIXED_THRESHOLD_M,
         "definition": "separation: footprint (base + carried element's carry-mode rectangle; lifted/placing: "

@@ -10,7 +10,8 @@ S_p(v) fits the measured separation:
   hit: the robot's own body, the carried element, a wall or another person hide what is behind). A
   person's separation is the smallest distance from their hit points to the hazard footprint. The
   scan is skipped while every worker is farther from the footprint than S_p at full speed, where it
-  could not change the outcome.
+  could not change the outcome, and while the workers are on another floor than the robot
+  (:attr:`kbplanner.simulation.sim_env.SimEnv.workers_on_robot_floor`).
 - **Human speed.** A person seen in consecutive scans is tracked (the centroid of their hits): v_h is
   their measured speed towards the robot, at least the skill's ``trackedApproachSpeed`` (knowledge base
   default 0.3 m/s, ``TRACKED_SPEED_FLOOR_MPS`` when a skill lacks it); a person seen for the
@@ -129,10 +130,15 @@ class SeparationMonitor:
     def sense(self, rects: Sequence[Rect], *, horizon_m: float) -> list[Sensed]:
         """The people the lidar sees, with separation and approach speed (none beyond ``horizon_m``)."""
         env = self.env
-        if not env.workers:
-            return []
+        if not env.workers or not env.workers_on_robot_floor:
+            return []  # nobody, or everybody on another floor (out of the robot's hazard scope)
         pose = env.base_pose()
         xy = env.worker_xy()
+        # everyone certainly beyond (centre distance less the footprint's reach): no distance query
+        far = horizon_m + 0.25 + reach_m(rects) + 1e-6
+        if all(math.hypot(x - pose[0], y - pose[1]) > far for x, y in xy.tolist()):
+            self._tracks.clear()
+            return []
         true_d, _, _ = rects_distance(xy[:, 0], xy[:, 1], pose, rects)
         if float(np.min(true_d)) - 0.25 > horizon_m:
             self._tracks.clear()
@@ -161,12 +167,14 @@ class SeparationMonitor:
         self._tracks = tracks
         return out
 
-    def decide(self, rects: Sequence[Rect], here: Pose2D, nxt: Pose2D) -> Decision:
-        """How much of the step from ``here`` to ``nxt`` (one control period at full speed) to make."""
+    def decide(self, rects: Sequence[Rect], here: Pose2D, nxt: Pose2D, *, sweep_mps: float = 0.0) -> Decision:
+        """How much of the step from ``here`` to ``nxt`` (one control period at full speed) to make;
+        ``sweep_mps``: the speed of the footprint's fastest point from what moves besides the base (the
+        arm turning the carried load, the base standing still)."""
         hz = self.env.control_hz
         lin = math.hypot(nxt[0] - here[0], nxt[1] - here[1]) * hz
         turn = abs(math.atan2(math.sin(nxt[2] - here[2]), math.cos(nxt[2] - here[2]))) * hz
-        v_nom = lin + turn * reach_m(rects)
+        v_nom = lin + turn * reach_m(rects) + sweep_mps
         protective = float(self.ssm.separation_m(v_nom))
         if not self.enabled or v_nom <= 1e-9:
             return Decision(1.0, None, protective, False)
@@ -191,10 +199,11 @@ class SeparationMonitor:
             # held after a stop: only a step away from everyone seen (a stop all the same)
             away = self._away(rects, here, nxt, np.concatenate([s.points for s in seen]), v_nom)
             return replace(held, fraction=away)
-        # protective stop, unless the step takes the footprint away from every sensed point
+        # protective stop, unless the step takes the footprint away from every point of everyone seen
+        # (turning in place, one end of the load may come away from one person and towards another)
         self._stopped, self._clear_since, self._stopped_by = True, None, sensed
         self._last_t = self._stopped_at = self.env.t
-        f = self._away(rects, here, nxt, sensed.points, v_nom)
+        f = self._away(rects, here, nxt, np.concatenate([s.points for s in seen]), v_nom)
         if f > 0:
             return Decision(f, sensed, protective, False)
         return Decision(0.0, sensed, protective, True)

@@ -16,6 +16,11 @@ physics is not stepped except by :meth:`SimEnv.settle` where it matters.
 - Workers: kinematic capsules (radius 0.25 m, 1.7 m tall, mass 0), either reactive
   (:class:`kbplanner.simulation.crowd.Crowd`, stepped each period with the robot's hazard footprint
   from :attr:`SimEnv.hazard`) or scripted (``WorkerMotion.position(t)``, e.g. for tests).
+- Floors: workers walk on the ground (``World.ground_z``), the robot works on the task storey
+  (:attr:`SimEnv.robot_floor_z`). When the two are more than :data:`FLOOR_GAP_M` apart
+  (:attr:`SimEnv.workers_on_robot_floor` false: the robot works upstairs, or below ground), the
+  workers are out of the robot's hazard scope: the crowd steps them without the robot's footprint
+  (no yielding, no making way), and the separation monitor and the contact check pass them by.
 - Holding: :meth:`SimEnv.attach` ties the element to the tool link with a ``p.JOINT_FIXED``
   constraint at the grasp and filters collisions between the element and every robot link off; as
   the robot moves kinematically, :meth:`SimEnv.step` also puts the element where the constraint
@@ -39,6 +44,7 @@ import math
 import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -57,6 +63,9 @@ from kbplanner.world.world_types import World, WorldElement
 log = logging.getLogger(__name__)
 
 WORKER_HEIGHT_M = 1.7
+#: A worker whose floor is more than this above or below the robot's floor is out of its hazard scope:
+#: half a storey of 3 m, well above a raised ground floor (``GROUND_STOREY_TOLERANCE_M`` 0.5 m).
+FLOOR_GAP_M = 1.5
 _RGBA_WORKER = (0.1, 0.6, 0.2, 1.0)
 
 
@@ -120,6 +129,7 @@ class SimEnv:
         self._robot: RobotModel | None = None
         self.workers: tuple[WorkerBody, ...] = ()
         self._worker_placed: list[tuple[float, float, float] | None] = []  # where each body was put last
+        self._followed: tuple[Held, Any, Any] | None = None  # follow(): what, the tool, the body's pose
         self.tick = 0
         self.held: Held | None = None
         self.installed: list[str] = []
@@ -153,6 +163,7 @@ class SimEnv:
         self._worker_placed = [None] * len(self.workers)
         self.tick = 0
         self.held = None
+        self._followed = None
         self.installed = []
         self.grid = self.base_grid
         self._move_workers()
@@ -161,7 +172,8 @@ class SimEnv:
         """Advance the clock by one control period; move workers and the held element. Returns t (s)."""
         self.tick += 1
         if self.crowd is not None:
-            self.crowd.step(self.hazard() if self.hazard is not None else None)
+            hazard = self.hazard if self.workers_on_robot_floor else None
+            self.crowd.step(hazard() if hazard is not None else None)
         self._move_workers()
         self.follow()
         return self.t
@@ -211,6 +223,12 @@ class SimEnv:
         """Elevation of the floor the robot works on: the task storey's, else the site's ground."""
         storey = self.world.storey(self.world.task_storey)
         return float(storey.elevation_m) if storey is not None else float(self.world.ground_z)
+
+    @property
+    def workers_on_robot_floor(self) -> bool:
+        """Whether the workers' ground is within :data:`FLOOR_GAP_M` of the robot's floor (in its hazard
+        scope); else they are on another floor: no yielding, monitoring or contact with the robot."""
+        return abs(self.robot_floor_z - float(self.world.ground_z)) <= FLOOR_GAP_M
 
     def set_base_pose(self, x: float, y: float, yaw: float) -> None:
         """Place the robot base (kinematically) on its floor."""
@@ -291,11 +309,26 @@ class SimEnv:
         return self.held
 
     def follow(self) -> None:
-        """Put the held element where the grasp holds it (after a kinematic robot motion)."""
-        if self.held is not None:
-            assert self.held.element_in_tool is not None
-            frame = self.tool_frame() @ self.held.element_in_tool
-            self.set_element_frame(self.held.element.iri, frame)
+        """Put the held element where the grasp holds it (after a kinematic robot motion).
+
+        Skipped when neither the tool nor the element has moved since the last time (the same
+        pose would be set again): the tool's pose and the element body's are compared as PyBullet
+        reports them, which is cheaper than the frames."""
+        import pybullet as p
+
+        held = self.held
+        if held is None:
+            return
+        assert held.element_in_tool is not None
+        body = held.body
+        tool = self.robot.tool_pose()
+        if self._followed is not None and self._followed[0] is held and self._followed[1] == tool and \
+                self._followed[2] == p.getBasePositionAndOrientation(body, physicsClientId=self.client):
+            return
+        pos, orn = tool
+        frame = from_pos_quat(pos, orn) @ held.element_in_tool
+        self.set_element_frame(held.element.iri, frame)
+        self._followed = (held, tool, p.getBasePositionAndOrientation(body, physicsClientId=self.client))
 
     def detach(self) -> WorldElement:
         """Release: remove the constraint (collisions with the robot stay filtered until fixed)."""

@@ -83,13 +83,6 @@ class Obstacle:
     rects: Sequence[Rect]
 
 
-def _weight(vx: FloatArray, vy: FloatArray, nx: FloatArray, ny: FloatArray, lam: FloatArray) -> FloatArray:
-    """Anisotropy: ``n`` points from the other party to the worker, so it is ahead when -n . v > 0."""
-    sp = np.hypot(vx, vy)
-    cos_phi = np.where(sp > 1e-9, -(nx * vx + ny * vy) / np.maximum(sp, 1e-9), 1.0)
-    return np.asarray(lam + (1 - lam) * (1 + cos_phi) / 2, dtype=np.float64)
-
-
 @functools.lru_cache(maxsize=64)
 def _constants(params: tuple[SocialForceParams, ...]) -> dict[str, FloatArray]:
     """The per-worker constants as arrays (the same arrays for the same workers; read only)."""
@@ -104,6 +97,14 @@ def _constants(params: tuple[SocialForceParams, ...]) -> dict[str, FloatArray]:
         "s_c": np.array([p.comfort_distance_m for p in params]),
         "vmax_factor": np.array([p.max_speed_factor for p in params]),
     }
+    # derived once, element-wise the same numbers as computed in each step
+    out["a_over_b_p"] = out["a_p"] / out["b_p"]
+    out["neg_b_p"] = -out["b_p"]
+    out["neg_s_p"] = -out["s_p"]
+    out["one_minus_lam"] = (1 - out["lam"])[:, None]
+    out["a_over_b_r"] = out["a_r"] / out["b_r"]
+    out["neg_b_r"] = -out["b_r"]
+    out["neg_s_c"] = -out["s_c"]
     for a in out.values():
         a.flags.writeable = False
     return out
@@ -111,40 +112,46 @@ def _constants(params: tuple[SocialForceParams, ...]) -> dict[str, FloatArray]:
 
 def accelerations(pos: FloatArray, vel: FloatArray, desired: FloatArray, params: Sequence[SocialForceParams],
                   seen: Obstacle | None, active: BoolArray) -> FloatArray:
-    """The social-force acceleration (n, 2) of every worker (inactive ones: none)."""
+    """The social-force acceleration (n, 2) of every worker (inactive ones: none).
+
+    (Written for few workers, where each numpy call's fixed cost dominates: constants derived once
+    per crowd, shared terms computed once; ``-x / b`` as ``x / -b`` and ``x * 1.0`` left out are the
+    same numbers.)"""
     n = len(pos)
     k = _constants(tuple(params))
-    tau = k["tau"]
-    acc = (desired - vel) / tau[:, None]
-    lam = k["lam"]
+    acc = (desired - vel) / k["tau"][:, None]
     if n > 1:
         d = pos[:, None, :] - pos[None, :, :]
-        dist = np.hypot(d[..., 0], d[..., 1])
+        dx, dy = d[..., 0], d[..., 1]
+        dist = np.hypot(dx, dy)
         np.fill_diagonal(dist, np.inf)
-        nx, ny = d[..., 0] / np.where(dist > 0, dist, 1), d[..., 1] / np.where(dist > 0, dist, 1)
-        a_p, b_p, s_p = k["a_p"], k["b_p"], k["s_p"]
-        mag = a_p / b_p * np.exp(-np.maximum(dist - 2 * WORKER_RADIUS_M - s_p, -s_p) / b_p)
+        norm = np.where(dist > 0, dist, 1)
+        nx, ny = dx / norm, dy / norm
+        gap = np.maximum(dist - 2 * WORKER_RADIUS_M - k["s_p"], k["neg_s_p"])
+        mag = k["a_over_b_p"] * np.exp(gap / k["neg_b_p"])
         mag = np.where(np.isfinite(dist) & active[None, :], mag, 0.0)
-        w = _weight(vel[:, 0:1], vel[:, 1:2], nx, ny, lam[:, None])
-        fx, fy = mag * w * nx, mag * w * ny
-        acc[:, 0] += fx.sum(axis=1)
-        acc[:, 1] += fy.sum(axis=1)
+        # anisotropy: n points from the other party to the worker, ahead when -n . v > 0
+        vx, vy = vel[:, 0:1], vel[:, 1:2]
+        sp = np.hypot(vx, vy)
+        cos_phi = np.where(sp > 1e-9, -(nx * vx + ny * vy) / np.maximum(sp, 1e-9), 1.0)
+        mw = mag * (k["lam"][:, None] + k["one_minus_lam"] * (1 + cos_phi) / 2)
+        acc[:, 0] += (mw * nx).sum(axis=1)
+        acc[:, 1] += (mw * ny).sum(axis=1)
     if seen is not None:
         dr, ux, uy = rects_distance(pos[:, 0], pos[:, 1], seen.pose, seen.rects)
         # inside the footprint (ux = uy = 0): away from the robot's centre
         inside = (ux == 0) & (uy == 0)
-        cx, cy = pos[:, 0] - seen.pose[0], pos[:, 1] - seen.pose[1]
-        cn = np.maximum(np.hypot(cx, cy), 1e-9)
-        ux, uy = np.where(inside, cx / cn, ux), np.where(inside, cy / cn, uy)
-        a_r, b_r, s_c = k["a_r"], k["b_r"], k["s_c"]
-        mag = a_r / b_r * np.exp(-np.maximum(dr - WORKER_RADIUS_M - s_c, -s_c) / b_r)
-        w_robot = 1.0  # a moving machine is heard all round: no anisotropy for the robot
+        if inside.any():
+            cx, cy = pos[:, 0] - seen.pose[0], pos[:, 1] - seen.pose[1]
+            cn = np.maximum(np.hypot(cx, cy), 1e-9)
+            ux, uy = np.where(inside, cx / cn, ux), np.where(inside, cy / cn, uy)
+        gap = np.maximum(dr - WORKER_RADIUS_M - k["s_c"], k["neg_s_c"])
+        mag = k["a_over_b_r"] * np.exp(gap / k["neg_b_r"])
+        # a moving machine is heard all round: no anisotropy for the robot (weight 1)
         ahead = -(ux * vel[:, 0] + uy * vel[:, 1]) > 0
-        rx = np.where(ahead, _COS_R * ux - _SIN_R * uy, ux)
-        ry = np.where(ahead, _SIN_R * ux + _COS_R * uy, uy)
-        acc[:, 0] += mag * w_robot * rx
-        acc[:, 1] += mag * w_robot * ry
-    return np.where(active[:, None], acc, 0.0)
+        acc[:, 0] += mag * np.where(ahead, _COS_R * ux - _SIN_R * uy, ux)
+        acc[:, 1] += mag * np.where(ahead, _SIN_R * ux + _COS_R * uy, uy)
+    return acc if active.all() else np.where(active[:, None], acc, 0.0)
 
 
 def cap_speed(vel: FloatArray, v0: FloatArray, params: Sequence[SocialForceParams]) -> FloatArray:

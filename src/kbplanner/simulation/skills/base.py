@@ -43,6 +43,9 @@ class ExecSettings:
     give_up_after_s: float = 300.0  # blocked this long in one step: the step fails
     monitoring: str = "ssm"  # ISO/TS 15066 speed and separation monitoring; "off": none (what-if)
     reactive_workers: bool = True  # workers yield (social force); False: scripted walks through
+    # monitor the arm's turns of a carried load at a standstill (off: a worker who cannot make way holds
+    # the turn until the step gives up, test project seed 2; docs/safety.md)
+    monitor_load_turns: bool = False
     nav_time_limit_s: float = 120.0  # safety cap per OMPL query; the work budget (motion checks) decides
     window_margins_m: tuple[float | None, ...] = (4.0, 10.0, None)  # planning windows; None: the whole map
     carry_margin_m: float = 0.5  # narrow carry kept this far before and after where the normal one is blocked

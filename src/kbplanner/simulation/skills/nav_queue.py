@@ -7,6 +7,7 @@ standing still: the carried element's carry pose or its turn to narrow and back)
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from kbplanner.simulation.carry_paths import CarryPlan
@@ -54,3 +55,9 @@ class Turn:
     path: JointPath
     event: str | None
     mode: str
+    announced: bool = False  # its event is recorded
+    share: float = 0.0  # of the next arm sample made (monitoring slows or holds the turn)
+
+    def joint_rate(self, q: Sequence[float], hz: float) -> float:
+        """The fastest joint's rate (rad/s) from ``q`` to the next sample (not done)."""
+        return max(abs(b - a) for a, b in zip(q, self.path.samples[self.path._i][0], strict=True)) * hz

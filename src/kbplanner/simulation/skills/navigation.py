@@ -1,3 +1,5 @@
+# Over 500 lines: the skill's planning (legs, load turns, unstick at start and base pose) and its
+# monitored execution share one state; split candidates: the planning half.
 """B5 skills NV-1 (navigation) and NV-2 (navigation with object): drive the base along an OMPL path.
 
 Takes the step's base pose (B4) or its destination input, the environment's navigation grid (the
@@ -19,9 +21,13 @@ storey's occupancy grid with the elements installed so far) and the step's effec
 - **Speed and separation monitoring** (ISO/TS 15066, :mod:`kbplanner.simulation.separation_monitor`):
   every period the lidar's view of people sets how much of the timed trajectory the robot drives: full
   speed, slower ("slow" ... "slow_end", with the time lost), or a protective stop ("stop" ... "resume");
-  forwards only (no reversing into the scanner's blind sector). Stopped for ``replan_after_s``, it plans
-  again around the person ("replan") and asks a waiting worker to make way ("make_way",
-  :mod:`~kbplanner.simulation.skills.make_way`); stopped for ``give_up_after_s`` the step fails.
+  forwards only (no reversing into the scanner's blind sector). With ``monitor_load_turns`` (off by
+  default), while the arm turns the carried load (the base standing still) the load's ends sweep at
+  the fastest joint's rate times the footprint's reach (with the load either way): the turn slows or
+  waits as a drive would. Stopped for
+  ``replan_after_s``, it plans again around the person ("replan") and asks a waiting worker to make
+  way ("make_way", :mod:`~kbplanner.simulation.skills.make_way`); stopped for ``give_up_after_s``
+  the step fails.
   ``ExecSettings.monitoring = "off"`` drives the trajectory regardless (what monitoring prevents).
 """
 
@@ -140,11 +146,14 @@ class NavigationSkill(Skill):
                             max_speed_mps=self.max_speed)
 
     def _joint_path(self, waypoints: list[tuple[str, list[float] | tuple[float, ...]]]) -> JointPath:
+        """An arm motion that starts where the arm will be once the turns already queued are done."""
         env = self.c.env
         arm = env.robot.spec.arm
         limits = arm.velocity_rps if arm is not None else None
         hz, speed = env.control_hz, self.c.settings.joint_speed_rps
-        return JointPath(env.robot.arm_positions(), waypoints, speed, hz, limits)
+        ends = [q.path.samples[-1][0] for q in self.queue if isinstance(q, Turn) and q.path.samples]
+        start = ends[-1] if ends else env.robot.arm_positions()
+        return JointPath(start, waypoints, speed, hz, limits)
 
     def _carry_geometry(self) -> str | None:
         env = self.c.env
@@ -264,7 +273,7 @@ class NavigationSkill(Skill):
         if not any(checker.free(f, *start) for f in fps):
             free = nearest_free_pose(checker, start, fps)
             if free is not None:
-                rest = self._plan_from(grid, free, normal, narrow)
+                rest = self._plan_to(grid, free, normal, narrow)
                 if isinstance(rest, str):
                     return rest
                 mode = (self.c.carry_mode or NORMAL) if self.geo is not None else ""
@@ -272,7 +281,31 @@ class NavigationSkill(Skill):
                 self.c.emit("unstick", x=round(start[0], 3), y=round(start[1], 3), distance_m=round(step, 3))
                 return Route([([start, free], mode, None), *rest.pieces], rest.length_m + step,
                               rest.narrow_length_m)
-        return self._plan_from(grid, start, normal, narrow)
+        return self._plan_to(grid, start, normal, narrow)
+
+    def _plan_to(self, grid: OccupancyGrid, start: Pose2D, normal: Footprint,
+                 narrow: Footprint | None) -> Route | str:
+        """The route from ``start``; a base pose that the (conservative) map calls blocked for every
+        footprint - the held element a few centimetres into the cells of a wall or of an element
+        installed before - is reached by a route to the nearest free pose within ``UNSTICK_RADIUS_M``
+        and a short straight move from there (event ``unstick`` with ``at`` "base pose")."""
+        checker, goal = PoseChecker(self.c.env.grid), self.goal
+        fps = [normal] if narrow is None else [normal, narrow]
+        near = None if any(checker.free(f, *goal) for f in fps) else nearest_free_pose(checker, goal, fps)
+        if near is None:
+            return self._plan_from(grid, start, normal, narrow)
+        try:
+            self.goal = near
+            rest = self._plan_from(grid, start, normal, narrow)
+        finally:
+            self.goal = goal
+        if isinstance(rest, str):
+            return rest
+        step = math.hypot(goal[0] - near[0], goal[1] - near[1])
+        self.c.emit("unstick", at="base pose", x=round(near[0], 3), y=round(near[1], 3),
+                    distance_m=round(step, 3))
+        mode = rest.pieces[-1][1] if rest.pieces else ""
+        return Route([*rest.pieces, ([near, goal], mode, None)], rest.length_m + step, rest.narrow_length_m)
 
     def _plan_from(self, grid: OccupancyGrid, start: Pose2D, normal: Footprint,
                    narrow: Footprint | None) -> Route | str:
@@ -352,11 +385,19 @@ class NavigationSkill(Skill):
         while self.queue:
             head = self.queue[0]
             if isinstance(head, Turn):
-                if head.event and head.path._i == 0:
+                if head.event and not head.announced:
+                    head.announced = True
                     x, y, yaw = env.base_pose()
                     self.c.emit(head.event, mode=head.mode, x=round(x, 3), y=round(y, 3))
                     if head.mode not in self.details["carry_modes"]:
                         self.details["carry_modes"].append(head.mode)
+                if self.geo is not None and self.c.settings.monitor_load_turns and not head.path.done:
+                    head.share = min(head.share + self._monitor_turn(head), 1.0)
+                    if head.share < 0:
+                        return self.fail(f"blocked by a worker for {self.blocked_s:.0f} s")
+                    if head.share < 1.0 - 1e-9:
+                        return Status.RUNNING  # the load's turn waits (stopped) or goes slower
+                    head.share = 0.0
                 sample = head.path.next()
                 if sample is None:
                     self.queue.pop(0)
@@ -394,9 +435,7 @@ class NavigationSkill(Skill):
 
     def _rects(self) -> list[Rect]:
         env = self.c.env
-        if env.hazard is not None:
-            return list(env.hazard().rects)
-        return list(env.robot.spec.footprint().rects)
+        return list(env.hazard().rects if env.hazard is not None else env.robot.spec.footprint().rects)
 
     def _end_slow(self) -> None:
         if self.slow_since is not None:
@@ -404,11 +443,26 @@ class NavigationSkill(Skill):
                         time_lost_s=round(self.slow_lost, 3))
             self.slow_since = None
 
-    def _monitor(self, here: Pose2D, nxt: Pose2D) -> float:
-        """Speed and separation monitoring for one period: the fraction of the step to drive (-1: give up)."""
+    def _monitor_turn(self, turn: Turn) -> float:
+        """Monitoring while the arm turns the carried load, the base standing still: the load's ends sweep
+        at the fastest joint's rate times the reach of the footprint with the load either way. The
+        fraction of the next arm sample to make (0: a protective stop), -1: give up."""
+        env = self.c.env
+        assert self.geo is not None
+        rects = [*self.geo.footprint(NORMAL).rects, *self.geo.footprint(NARROW).rects]
+        # at most the joint speed (a turn queued before the last one ended starts from where that one did)
+        rate = min(turn.joint_rate(env.robot.arm_positions(), env.control_hz),
+                   self.c.settings.joint_speed_rps)
+        sweep = rate * reach_m(rects)
+        return self._monitor(env.base_pose(), env.base_pose(), sweep_mps=sweep, rects=rects, replan=False)
+
+    def _monitor(self, here: Pose2D, nxt: Pose2D, *, sweep_mps: float = 0.0, rects: list[Rect] | None = None,
+                 replan: bool = True) -> float:
+        """Speed and separation monitoring for one period: the fraction of the step to drive (-1: give up);
+        ``replan`` False: stopped for ``replan_after_s``, only ask the person to make way."""
         env = self.c.env
         s = self.c.settings
-        d = self.monitor.decide(self._rects(), here, nxt)
+        d = self.monitor.decide(self._rects() if rects is None else rects, here, nxt, sweep_mps=sweep_mps)
         f = d.fraction
         dt = env.dt
         if f < 1.0:
@@ -440,7 +494,8 @@ class NavigationSkill(Skill):
                 return -1.0
             if self.blocked_s >= s.replan_after_s and self.replanned_at is None and d.sensed is not None:
                 self.replanned_at = env.t
-                self._replan(d.sensed.worker, d.sensed.separation_m)
+                if replan:
+                    self._replan(d.sensed.worker, d.sensed.separation_m)
                 pts = [(p[0], p[1]) for q in self.queue if isinstance(q, Drive) for p in q.t[int(q.s)::5]]
                 ask_way(env, d.sensed.worker, pts, reach_m(self._rects()) + d.protective_m, self.c.emit)
             return 0.0 if self.replanned_at == env.t else f  # f > 0: a step away from everyone seen
