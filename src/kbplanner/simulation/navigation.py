@@ -64,8 +64,7 @@ def _connected(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D) -> bool:
     26-connectivity with the yaw axis closed into a ring over-connects, so "not connected" is
     certain: no continuous path exists in the (conservative) configuration space.
     """
-    a, b = cs.components_of([start, goal], diagonal=True)
-    return a == b
+    return cs.joined(start, goal, diagonal=True)  # labels the whole space only where boxes do not decide
 
 
 def _validity_checker(cs: ConfigurationSpace) -> Callable[[ob.State], bool]:
