@@ -51,6 +51,9 @@ def test_a_pickup_behind_a_gap_narrower_than_the_robot_is_not_reached(gap_m: flo
     assert (out == {}) is reached
     if not reached:
         assert "cannot drive from its start (2.00, 3.00) to the pickup location (8.00, 3.00)" in out["urn:E"]
+    occ[50:70, 30:50] = True  # a storage over the start: the navigation does not start
+    out = unreached_pickups(_plan_to(8.0, 3.0), grid, Pose2(2.0, 3.0, 0.0))
+    assert "at its start (2.00, 3.00) stands in collision" in out["urn:E"]
 
 
 def test_stacks_follow_the_order_b4_found() -> None:

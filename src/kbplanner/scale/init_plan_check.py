@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from kbplanner.model.project_data import ProjectData
+from kbplanner.planning.base_poses import PoseChecker
 from kbplanner.planning.carry_reach import CarryReach
 from kbplanner.planning.feasibility import element_verdicts
 from kbplanner.planning.manipulation import refine_plan, robot_name
@@ -87,13 +88,19 @@ def _unloaded_destinations(plan: Plan) -> list[tuple[str, Pose2]]:
 
 def unreached_pickups(plan: Plan, grid: OccupancyGrid, start: Pose2) -> dict[str, str]:
     """Element IRI -> reason, for the elements whose unloaded navigation goes to a pose the robot's base
-    footprint cannot reach from ``start`` on ``grid`` (the configuration-space test of the carry leg)."""
+    footprint cannot reach from ``start`` on ``grid`` (the configuration-space test of the carry leg), or
+    all of them when the robot stands in collision at ``start`` (the navigation fails there)."""
     spec = load_robot_specs().get(robot_name(plan))
     if spec is None:
         return {}
     fp = spec.footprint()
     reaches: dict[tuple[float, float, float], bool] = {}
     out: dict[str, str] = {}
+    if not PoseChecker(grid).free(fp, start.x, start.y, start.yaw):  # navigation does not start there
+        return {iri: (f"navigate to the pickup location: the robot ({spec.base.length_m:.2f} x "
+                      f"{spec.base.width_m:.2f} m) at its start ({start.x:.2f}, {start.y:.2f}) stands in "
+                      "collision (a storage or another object covers the start)")
+                for iri, _d in _unloaded_destinations(plan)}
     for iri, dest in _unloaded_destinations(plan):
         key = (round(dest.x, 3), round(dest.y, 3), round(dest.yaw, 3))
         if key not in reaches:
