@@ -254,6 +254,8 @@ def main() -> int:
     parser.add_argument("--run", action="store_true", help="also `kbplanner run` on each project (slow)")
     parser.add_argument("--run-max-frames", type=int, default=40,
                         help="run only projects with at most this many frames (default 40)")
+    parser.add_argument("--only", help="with --fixtures: only these fixtures, by index (0 = the small "
+                                       "office), comma-separated (to measure them in several processes)")
     parser.add_argument("--check-max-frames", type=int, default=20,
                         help="init with the plan check only on projects of at most this many frames "
                              "(default 20)")
@@ -281,7 +283,9 @@ def main() -> int:
     with tempfile.TemporaryDirectory() as fixture_dir:
         files: list[tuple[str | None, Path, int]] = [(None, p, 8) for p in args.ifc]
         if args.fixtures:
-            files += list(fixtures(Path(fixture_dir)))
+            written = list(fixtures(Path(fixture_dir)))
+            only = {int(i) for i in args.only.split(",")} if args.only else set(range(len(written)))
+            files += [f for i, f in enumerate(written) if i in only]
         if not args.ifc and not args.no_public:
             files += [*((None, p, 8) for p in sorted(PUBLIC.glob("*.ifc"))), (None, DUPLEX, 8)]
         for label, ifc, max_walls in files:
