@@ -9,6 +9,7 @@ present (skipped otherwise).
 from __future__ import annotations
 
 import hashlib
+import re
 from collections.abc import Callable
 from pathlib import Path
 
@@ -178,9 +179,13 @@ def test_traits_give_a_valid_project(tmp_path: Path, writer: Callable[[Path], ob
 @pytest.mark.slow
 @pytest.mark.skipif(not (SHARED / "Duplex_A_20110907.ifc").is_file(), reason="shared Duplex not present")
 def test_duplex(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["init", str(SHARED / "Duplex_A_20110907.ifc"), "--out", str(tmp_path / "d")]) == 0
+    code = main(["init", str(SHARED / "Duplex_A_20110907.ifc"), "--out", str(tmp_path / "d")])
     out = capsys.readouterr().out
     assert "walls chosen: 4 of 57; frames: 14" in out
+    planned = [int(n) for n in re.findall(r"plan \(B1-B4\): (\d+) of 14 frames installable", out)]
+    assert len(planned) == 2  # both scenarios planned as `kbplanner plan` plans them
+    failing = 28 - sum(planned)
+    assert code == (1 if failing else 0) and out.count("      fix: ") == failing  # each with its fix
     for name in ("storage-inside", "storage-outside"):
         assert main(["validate", str(tmp_path / "d"), "--scenario", name]) == 0
 
