@@ -31,7 +31,7 @@ def _plan_to(x: float, y: float) -> Plan:
     e = ElementInfo("urn:E", "E", "E", 10.0, (0.7, 0.09, 2.4), Pose6(1.0, 1.0, 0.0), Pose6(x, y, 0.0), None)
     nav = SkillCall(1, e.iri, "urn:a1", "navigate to frame pickup location", 1, "urn:s1", "NV-1",
                     str(KBP.Navigation), inputs={"goal": [x, y, 0.0, 0.0, 0.0, 0.0]},
-                    roles={"DestinationRole": "goal"})
+                    roles={"DestinationRole": "goal"}, base_pose=Pose2(x, y, 0.0))  # as B4 refines it
     pick = SkillCall(2, e.iri, "urn:a2", "pick frame", 2, "urn:s2", "MM-G-1",
                      str(KBP.MoveManipulatorAndGrasp), base_pose=Pose2(x, y, 0.0))
     return Plan("p", None, "T", "", "S", "husky-ur16e", "Husky UR16e", "husky_ur16e.urdf", "rule",

@@ -73,16 +73,18 @@ class ScenarioCheck:
 
 def _unloaded_destinations(plan: Plan) -> list[tuple[str, Pose2]]:
     """(element IRI, destination) of each navigation before the element's first manipulation (the robot
-    holds nothing there: it drives to the pickup location)."""
+    holds nothing there: it drives to the pickup location), and the base pose of that manipulation (the
+    pick), where the navigation ends."""
     out: list[tuple[str, Pose2]] = []
     for e in plan.elements:
         for s in plan.steps_for(e.iri):
-            if s.base_pose is not None:
-                break
             dest = s.by_role("DestinationRole")
-            if isinstance(dest, list) and len(dest) == 6:
+            if isinstance(dest, list) and len(dest) == 6:  # a navigation (B4 may give it a base pose too)
                 x, y, _z, _r, _p, yaw = (float(v) for v in dest)  # type: ignore[arg-type,unused-ignore]
                 out.append((e.iri, Pose2(x, y, yaw)))
+            elif s.base_pose is not None:  # the pick: the navigation drives to its base pose
+                out.append((e.iri, s.base_pose))
+                break
     return out
 
 
