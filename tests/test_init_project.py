@@ -9,6 +9,7 @@ present (skipped otherwise).
 from __future__ import annotations
 
 import hashlib
+import re
 from collections.abc import Callable
 from pathlib import Path
 
@@ -45,7 +46,7 @@ def building(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str, InitR
     ifc = tmp / "house.ifc"
     write_test_building(ifc)
     before = _sha(ifc)
-    result = init_project(ifc, tmp / "proj")
+    result = init_project(ifc, tmp / "proj", check_plan=False)
     return ifc, before, result
 
 
@@ -89,7 +90,7 @@ def test_frames_are_in_the_ifc_copy_with_mass_and_grasp_points(
 
 def test_init_is_deterministic(building: tuple[Path, str, InitResult], tmp_path: Path) -> None:
     ifc, _before, r = building
-    again = init_project(ifc, tmp_path / "again")
+    again = init_project(ifc, tmp_path / "again", check_plan=False)
     assert _files(again.directory) == _files(r.directory)
 
 
@@ -144,7 +145,7 @@ def test_walls_named_in_walls_are_framed_although_pset_says_external(tmp_path: P
     ifc = tmp_path / "one_bay.ifc"
     write_test_building(ifc, bays=1, storeys=1)
     west = _gid("wall-0-west")
-    r = init_project(ifc, tmp_path / "p", walls=[west])
+    r = init_project(ifc, tmp_path / "p", walls=[west], check_plan=False)
     assert r.written and [c.global_id for c in r.chosen] == [west] and r.frames
     assert any(west in n and "named in --walls although external wall" in n for n in r.notes)
 
@@ -161,7 +162,7 @@ def test_walls_named_in_walls_are_framed_although_pset_says_external(tmp_path: P
 def test_traits_give_a_valid_project(tmp_path: Path, writer: Callable[[Path], object]) -> None:
     ifc = tmp_path / "t.ifc"
     writer(ifc)
-    r = init_project(ifc, tmp_path / "p", max_walls=2)
+    r = init_project(ifc, tmp_path / "p", max_walls=2, check_plan=False)
     assert r.written and r.frames and r.scenarios
     name = next(iter(r.scenarios))
     assert main(["validate", str(r.directory), "--scenario", name]) == 0
@@ -178,9 +179,13 @@ def test_traits_give_a_valid_project(tmp_path: Path, writer: Callable[[Path], ob
 @pytest.mark.slow
 @pytest.mark.skipif(not (SHARED / "Duplex_A_20110907.ifc").is_file(), reason="shared Duplex not present")
 def test_duplex(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["init", str(SHARED / "Duplex_A_20110907.ifc"), "--out", str(tmp_path / "d")]) == 0
+    code = main(["init", str(SHARED / "Duplex_A_20110907.ifc"), "--out", str(tmp_path / "d")])
     out = capsys.readouterr().out
     assert "walls chosen: 4 of 57; frames: 14" in out
+    planned = [int(n) for n in re.findall(r"plan \(B1-B4\): (\d+) of 14 frames installable", out)]
+    assert len(planned) == 2  # both scenarios planned as `kbplanner plan` plans them
+    failing = 28 - sum(planned)
+    assert code == (1 if failing else 0) and out.count("      fix: ") == failing  # each with its fix
     for name in ("storage-inside", "storage-outside"):
         assert main(["validate", str(tmp_path / "d"), "--scenario", name]) == 0
 
@@ -203,8 +208,8 @@ def test_an_ifc2x3_copy_is_byte_identical_on_a_rerun(tmp_path: Path) -> None:
     """IFC2X3 needs owner histories: the file's own is reused, none with a time stamp is added."""
     ifc = tmp_path / "x3.ifc"
     write_test_building(ifc, schema="IFC2X3", storeys=1)
-    one = init_project(ifc, tmp_path / "one", max_walls=1)
-    two = init_project(ifc, tmp_path / "two", max_walls=1)
+    one = init_project(ifc, tmp_path / "one", max_walls=1, check_plan=False)
+    two = init_project(ifc, tmp_path / "two", max_walls=1, check_plan=False)
     assert one.frames and _files(one.directory) == _files(two.directory)
     copy = ifcopenshell.open(str(next((one.directory / "model").glob("*.ifc"))))
     assert len(copy.by_type("IfcOwnerHistory")) == len(ifcopenshell.open(str(ifc)).by_type("IfcOwnerHistory"))
@@ -214,7 +219,7 @@ def test_an_upper_storey_gets_a_robot_arrival_and_an_inside_storage(building: tu
                                                                      tmp_path: Path) -> None:
     from kbplanner.world.build import world_of
 
-    r = init_project(building[0], tmp_path / "up", storey="Level 2")
+    r = init_project(building[0], tmp_path / "up", storey="Level 2", check_plan=False)
     assert r.storey == "Level 2" and r.frames and set(r.scenarios) == {"storage-inside"}
     assert any("robot arrival" in n for n in r.notes)
     assert main(["validate", str(r.directory), "--scenario", "storage-inside"]) == 0
@@ -231,7 +236,7 @@ def test_an_ifc_work_schedule_is_named_in_a_note(tmp_path: Path) -> None:
     ws = seq.add_work_schedule(f, name="Construction")
     seq.add_task(f, work_schedule=ws, name="Partitions", identification="P1")
     f.write(str(ifc))
-    r = init_project(ifc, tmp_path / "p", max_walls=1)
+    r = init_project(ifc, tmp_path / "p", max_walls=1, check_plan=False)
     assert r.written and any("work schedule (1 IfcTask)" in n for n in r.notes)
 
 

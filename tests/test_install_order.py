@@ -70,3 +70,15 @@ def test_an_explicit_work_sequence_wins() -> None:
     assert blocked_move(plan, _refined(plan, "C"), {}, 3.0, set()) is None
     plan = _plan({"A": 0.0, "B": 10.0, "C": 1.0}, sequences={"A": 1})
     assert blocked_move(plan, _refined(plan, "C"), {}, 3.0, set()) is None
+
+
+def test_no_move_before_an_element_lying_on_it() -> None:
+    """The element named as closing the carry way, or the only near one, lies on the blocked element at the
+    storage: moving it before that one breaks the stack (it raised ValueError in move_before): no move."""
+    plan = _plan({"A": 10.0, "B": 0.5, "C": 1.0})  # C blocked; only B is near, and B lies on C
+    above = {"urn:C": {"urn:B"}}
+    named = _refined(plan, "C", "carry way walled off: ...; the way is open until B is installed (carry way "
+                                "closed by urn:B): install this element before B")
+    assert blocked_move(plan, named, above, 3.0, set()) is None
+    assert blocked_move(plan, _refined(plan, "C"), above, 3.0, set()) is None
+    assert blocked_move(plan, _refined(plan, "C"), {}, 3.0, set()) == ("urn:C", "urn:B")  # no stack: moves

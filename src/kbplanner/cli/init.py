@@ -4,8 +4,11 @@
 [--max-walls N] [--seed S] [--force]`` derives stud-frame panels for the chosen partition walls (into a
 copy of the IFC), a site layout, workers, jobsite, a schedule scaffold and the scenarios
 ``storage-inside`` / ``storage-outside`` (:mod:`kbplanner.scale.project_init`), and prints which walls
-were chosen and why the others were not. Exit 0 when written; 1 (nothing written) when no wall
-qualifies, with the reason per wall; 2 on bad input.
+were chosen and why the others were not. Each scenario's storage proposals are planned as ``kbplanner
+plan`` plans them (B1-B4; ``--no-plan-check`` skips it) and the best kept. Exit 0 when written and
+every frame is installable; 1 when no wall qualifies (nothing written, the reason per wall) or when
+the kept proposal of a scenario cannot install some frames (written, each such frame with its reason
+and fix); 2 on bad input.
 """
 
 from __future__ import annotations
@@ -51,6 +54,12 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         help="at most this many walls, nearest the entrance first (default 8)",
     )
     p.add_argument("--seed", type=seed_int, default=0, help="the project's simulation seed (default 0)")
+    p.add_argument(
+        "--no-plan-check",
+        action="store_true",
+        help="write the first storage placement of each scenario without planning it (faster; by default "
+        "each proposal is planned as `kbplanner plan` does and the best of up to 3 is kept)",
+    )
     add_force(p)
     p.set_defaults(func=run)
 
@@ -83,7 +92,9 @@ def report(r: InitResult) -> list[str]:
         for reason, n in sorted(rest.items()):
             lines.append(f"    {n} more: {reason}")
     for key, n in r.scenarios.items():
-        lines.append(f"  scenario {key}: {n} frame storage(s)")
+        c = r.checks.get(key)
+        planned = f"; plan (B1-B4): {c.installable} of {c.total} frames installable" if c is not None else ""
+        lines.append(f"  scenario {key}: {n} frame storage(s){planned}")
     lines += [f"  note: {n}" for n in r.notes]
     return lines
 
@@ -110,6 +121,7 @@ def run(args: argparse.Namespace) -> int:
             max_walls=args.max_walls,
             seed=args.seed,
             force=args.force,
+            check_plan=not args.no_plan_check,
             progress=say,
         )
     lines = report(r)
@@ -126,11 +138,19 @@ def run(args: argparse.Namespace) -> int:
         f"  wrote {r.directory} ({len(r.files)} files) in {r.seconds:.1f} s",
         f"  next: kbplanner requirements {r.directory}",
     ]
+    failing = [(key, f) for key, c in r.checks.items() for f in c.failures]
     if r.scenarios:
         first = next(iter(r.scenarios))
         lines += [
             f"        kbplanner validate {r.directory} --scenario {first}",
             f"        kbplanner run {r.directory} --scenario {first}",
         ]
+    if failing:
+        keys = sorted({k for k, _f in failing})
+        lines.append(
+            f"Negative result: the plan of {', '.join(keys)} (the best of the storage proposals tried) "
+            f"cannot install {len(failing)} frame(s); the project is written, each one with its reason:"
+        )
+        lines += [f"  {key}: {f.label}: {f.reason}\n      fix: {f.fix}" for key, f in failing]
     sys.stdout.write("\n".join(lines) + "\n")
-    return 0
+    return 1 if failing else 0

@@ -83,14 +83,15 @@ def blocked_move(plan: Plan, refined: Plan, above: Mapping[str, set[str]], radiu
             continue
         lying_on = above.get(iri, set())
         named = _named_blocker(refined, iri)
-        if named is not None and named in order[:n] and ok.get(named) and (iri, named) not in tried:
+        if (named is not None and named in order[:n] and named not in lying_on and ok.get(named)
+                and (iri, named) not in tried):  # not before an element lying on it: the stack forbids it
             k = order.index(named)
             if info[named].work_sequence is None and not any(
                     info[i].work_sequence is not None for i in order[k:n] if i in lying_on):
                 return iri, named  # the element B4 found closing the carry way
         for k, other in enumerate(order[:n]):
             o = info[other]
-            if not ok.get(other) or o.work_sequence is not None or (iri, other) in tried:
+            if not ok.get(other) or o.work_sequence is not None or (iri, other) in tried or other in lying_on:
                 continue
             if any(info[i].work_sequence is not None for i in order[k:n] if i in lying_on):
                 continue  # an element lying on it that would move with it has a work sequence

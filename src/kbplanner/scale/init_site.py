@@ -197,7 +197,12 @@ def grasp_points(base: str, frames: Sequence[FrameRecord]) -> str:
     return "\n".join(out)
 
 
-def scenario(base: str, name: str, label: str, storages: Sequence[Storage]) -> str:
+def scenario(base: str, name: str, label: str, storages: Sequence[Storage],
+             sequence: Sequence[str] | None = None, note: str = "") -> str:
+    """The scenario's Turtle: storages, pickup locations, stacks (``Storage.panels``: the first installed
+    on top) and the work sequence: ``sequence`` (GlobalIds, first installed first), by default storage by
+    storage in stack order; an empty ``sequence`` writes none (B4 then orders, as init's check does).
+    ``note``: comment lines on how the proposal was checked."""
     out = [
         _PREFIXES,
         f"# Scenario '{name}' proposed by `kbplanner init`: {label}. Frame storages (bearers "
@@ -210,11 +215,27 @@ def scenario(base: str, name: str, label: str, storages: Sequence[Storage]) -> s
         f'    rdfs:label "{label}" .',
         "",
     ]
-    seq = 0
-    sequence = [
-        f"# Work sequence of {FRAME_TASK}: stack by stack (the walls farthest from the entrance first),",
-        "# in a stack the panel farthest from its pickup first (the first installed lies on top).",
-    ]
+    if note:
+        out += [f"# {line}" for line in note.splitlines()] + [""]
+    if sequence is None:
+        sequence = [r.global_id for s in storages for r in s.panels]
+        lines = [
+            f"# Work sequence of {FRAME_TASK}: stack by stack (the walls farthest from the entrance first),",
+            "# in a stack the panel farthest from its pickup first (the first installed lies on top).",
+        ]
+    else:
+        lines = [
+            f"# Work sequence of {FRAME_TASK}: the order `kbplanner plan` (B4) found for these stacks; in a",
+            "# stack the first installed lies on top.",
+        ]
+    labels = {r.global_id: r.panel_id for s in storages for r in s.panels}
+    if sequence:
+        lines += [
+            f"{element(base, gid)} kbp:workSequence {i + 1} .  # {labels.get(gid, gid)}"
+            for i, gid in enumerate(sequence)
+        ]
+    else:
+        lines = []
     for s in storages:
         iri, pose, pickup = f"{base}site/{s.key}", f"{base}site/{s.key}-pose", f"{base}pose/{s.key}-pickup"
         out += [
@@ -230,14 +251,12 @@ def scenario(base: str, name: str, label: str, storages: Sequence[Storage]) -> s
         ]
         n = len(s.panels)
         for i, r in enumerate(s.panels):
-            seq += 1
-            sequence.append(f"{element(base, r.global_id)} kbp:workSequence {seq} .  # {r.panel_id}")
             out.append(
                 f"{element(base, r.global_id)} kbp:storedIn <{iri}> ; kbp:stackIndex {n - 1 - i} .  "
                 f"# {r.panel_id}"
             )
         out.append("")
-    return "\n".join([*out, *sequence, ""])
+    return "\n".join([*out, *lines, ""])
 
 
 def schedule_rows(storey: str, walls: Sequence[str], doors: Sequence[str]) -> list[dict[str, str]]:

@@ -8,7 +8,8 @@ and in the free region of the robot start (4-connected, as :mod:`kbplanner.world
 ``inside`` takes the candidate inside the building's footprint nearest the panels (short carries),
 ``outside`` the one outside it nearest the entrance, but not in the entrance's approach: the stack (with
 its margin) stays :data:`ENTRANCE_KEEP` from the entrance and off the straight line from its pickup to
-the entrance, so that the robot turning in with a frame does not meet it. Each placed storage is marked
+the entrance, so that the robot turning in with a frame does not meet it; no stack stands within
+:data:`START_KEEP` of the robot start. Each placed storage is marked
 occupied before the next is placed. Deterministic: candidates are scanned in a fixed order and ties
 broken by position.
 """
@@ -37,6 +38,8 @@ ENTRANCE_KEEP = 2.0  # m from the entrance door to an outside stack: room to tur
 # (pickup clearance, pickup distance to install locations): first room for the robot to turn with a
 # 2.4 m frame (its half length + margin), else the least that still fits the robot
 TIERS = ((1.3, 1.6), (ROBOT_ROOM, PICKUP_KEEP))
+START_KEEP = 1.5  # m from the robot start to a stack (with its margin): the robot's half length + margin
+AVOID_M = 1.5  # a further proposal's stacks stand this far from the stacks of the ones before
 
 
 @dataclass(frozen=True)
@@ -66,10 +69,14 @@ def place_storages(
     inside: bool,
     near: tuple[float, float],
     entrance: tuple[float, float] | None = None,
+    entrance_keep: float = ENTRANCE_KEEP,
+    avoid: Sequence[tuple[float, float]] = (),
 ) -> list[Spot]:
     """Up to ``count`` storage spots (fewer when the map has no more room; the caller reports it).
 
-    ``entrance``: the door the robot enters by, whose approach the stacks leave free (module docstring).
+    ``entrance``: the door the robot enters by, whose approach the stacks leave free, ``entrance_keep``
+    from it (module docstring); ``avoid``: stack centres of proposals tried before (kbplanner init's
+    next proposal), which a stack keeps :data:`AVOID_M` from.
     """
     occupied = grid.occupied.copy()
     res = grid.resolution
@@ -100,6 +107,8 @@ def place_storages(
         )
         fx, fy = mx.ravel(), my.ravel()
         keep = contains_xy(inner, fx, fy) if inside else ~contains_xy(outer, fx, fy)
+        for ax, ay in avoid:
+            keep &= np.hypot(fx - ax, fy - ay) >= AVOID_M
         gx, gy = fx[keep], fy[keep]
         dist = np.hypot(gx - near[0], gy - near[1])
         best: Spot | None = None
@@ -120,6 +129,8 @@ def place_storages(
                         room,
                         keep,
                         entrance,
+                        entrance_keep,
+                        start,
                     )
                     if best is not None:
                         break
@@ -156,14 +167,18 @@ def _try(
     room: float = ROBOT_ROOM,
     keep: float = PICKUP_KEEP,
     entrance: tuple[float, float] | None = None,
+    entrance_keep: float = ENTRANCE_KEEP,
+    start: tuple[float, float] | None = None,
 ) -> Spot | None:
     hx, hy = (STORAGE[0] / 2, STORAGE[1] / 2) if yaw == 0.0 else (STORAGE[1] / 2, STORAGE[0] / 2)
     cells = _rect_cells(grid, x, y, hx + MARGIN, hy + MARGIN)
     if cells is None or occupied[cells].any() or float(panel_dist[cells].min()) < PANEL_KEEP:
         return None
     stack = box(x - hx - MARGIN, y - hy - MARGIN, x + hx + MARGIN, y + hy + MARGIN)
-    if entrance is not None and stack.distance(Point(entrance)) < ENTRANCE_KEEP:
+    if entrance is not None and stack.distance(Point(entrance)) < entrance_keep:
         return None
+    if start is not None and stack.distance(Point(start)) < START_KEEP:
+        return None  # the robot starts there
     # the pickup side: across the stack (local +y or -y)
     nxv, nyv = -math.sin(yaw), math.cos(yaw)
     for side in (1.0, -1.0):

@@ -26,14 +26,12 @@ import re
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from functools import partial
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from shapely.geometry import Polygon
 
-from kbplanner.core.errors import KbplannerError
 from kbplanner.core.output_dirs import check_output_dir, output_options, run_directory
 from kbplanner.knowledge.robot_selection import SPACE_MARGIN_M, WALL_TOLERANCE_M
 from kbplanner.model.ifc_geometry import build_meshes, model_frame
@@ -42,7 +40,8 @@ from kbplanner.model.project_data import ProjectData
 from kbplanner.scale import init_layout as L
 from kbplanner.scale import init_site as site
 from kbplanner.scale.init_ifc import FrameRecord, write_frames
-from kbplanner.scale.init_storage import place_storages
+from kbplanner.scale.init_plan_check import ScenarioCheck
+from kbplanner.scale.init_proposals import MAX_STACK, Place, propose
 from kbplanner.scale.init_tasks import task_specification
 from kbplanner.scale.init_walls import (
     InitError,
@@ -63,10 +62,8 @@ from kbplanner.scale.init_walls import (
 )
 from kbplanner.world.build import world_of
 from kbplanner.world.maps import storey_map
-from kbplanner.world.site_checks import check_pickup_locations
 
 Say = Callable[[str], None]
-MAX_STACK = 8  # frames per stack: the top one stays within the arm's reach
 
 
 @dataclass
@@ -82,6 +79,7 @@ class InitResult:
     frames: list[FrameRecord] = field(default_factory=list)
     entrance: str = ""
     scenarios: dict[str, int] = field(default_factory=dict)  # name -> storages
+    checks: dict[str, ScenarioCheck] = field(default_factory=dict)  # name -> its plan (B1-B4)
     notes: list[str] = field(default_factory=list)
     files: list[str] = field(default_factory=list)
     written: bool = False
@@ -133,9 +131,14 @@ def init_project(
     max_walls: int = 8,
     seed: int = 0,
     force: bool = False,
+    check_plan: bool = True,
     progress: Say | None = None,
 ) -> InitResult:
-    """Write a complete project for ``ifc_path`` into ``out`` (see the module docstring)."""
+    """Write a complete project for ``ifc_path`` into ``out`` (see the module docstring).
+
+    ``check_plan``: plan each storage proposal as ``kbplanner plan`` does and keep the best of up to
+    :data:`~kbplanner.scale.init_proposals.PROPOSALS` (False: the first placement, unchecked; faster).
+    """
     t0 = time.perf_counter()
     say = progress or (lambda _m: None)
     if not 1 <= max_walls <= 1000:
@@ -310,14 +313,11 @@ def init_project(
         min(ground, task_st.ref.elevation),
         seed,
         force,
+        check_plan,
         say,
     )
     result.seconds = round(time.perf_counter() - t0, 2)
     return result
-
-
-def _far_first(pickup: tuple[float, float, float], r: FrameRecord) -> tuple[float, int]:
-    return (-round(math.hypot(r.spot.x - pickup[0], r.spot.y - pickup[1]), 4), r.sequence)
 
 
 def _same(a: Any, b: Any) -> bool:
@@ -341,6 +341,7 @@ def _write(
     ground: float,
     seed: int,
     force: bool,
+    check_plan: bool,
     say: Say,
 ) -> None:
     stem = _slug(path.stem)
@@ -412,54 +413,28 @@ def _write(
                 "(kbp:robotArrival, e.g. by lift); no storage-outside scenario"
             )
         scenarios: dict[str, tuple[str, str]] = {}
+
+        def listed(key: str, rel: str) -> None:
+            label = dict((k, v[0]) for k, v in proposals.items())[key]
+            scenarios[key] = (label[0].upper() + label[1:], rel)
+            (stage / "project.toml").write_text(
+                L.project_toml(name, base, ifc_rel, seed, sim_date, path, scenarios), encoding="utf-8"
+            )
+
         for key, (label, inside, near) in proposals.items():
             say(f"placing the frame storages of {key}")
-            spots_ = place_storages(
-                grid, stacks, start=start_xy, panels=panels_xy, footprint=hull, inside=inside, near=near,
-                entrance=None if inside or not entrance else door_xy,
+            place = Place(key, label, inside, near, None if inside or not entrance else door_xy)
+            got = propose(
+                stage, base, place, grid=grid, stacks=stacks, start=start_xy, panels=panels_xy, hull=hull,
+                frames=frames, z=st.ref.elevation, seed=seed, check=check_plan, write_toml=listed, say=say,
+                notes=result.notes,
             )
-            if len(spots_) < stacks:
-                result.notes.append(
-                    f"scenario {key} not written: room for {len(spots_)} of {stacks} frame "
-                    f"storages found on the map of {st.ref.name}"
-                )
+            if got is None:
+                scenarios.pop(key, None)
                 continue
-            storages = []
-            for i, sp in enumerate(spots_):
-                # in a stack, the panel farthest from the pickup goes first: the ones installed last
-                # stand nearest the place where the robot turns with the next frame
-                chunk = frames[i * MAX_STACK : (i + 1) * MAX_STACK]
-                chunk = sorted(chunk, key=partial(_far_first, sp.pickup))
-                storages.append(
-                    site.Storage(
-                        f"{key}-{i + 1}",
-                        f"Frame storage {i + 1} ({key})",
-                        sp.x,
-                        sp.y,
-                        st.ref.elevation,
-                        sp.yaw,
-                        (sp.pickup[0], sp.pickup[1], st.ref.elevation, sp.pickup[2]),
-                        tuple(chunk),
-                    )
-                )
-            rel = f"scenarios/{key.replace('-', '_')}.ttl"
-            (stage / "scenarios").mkdir(exist_ok=True)
-            (stage / rel).write_text(site.scenario(base, key, label, storages), encoding="utf-8")
-            scenarios[key] = (label[0].upper() + label[1:], rel)
-            result.scenarios[key] = len(storages)
-        (stage / "project.toml").write_text(
-            L.project_toml(name, base, ifc_rel, seed, sim_date, path, scenarios), encoding="utf-8"
-        )
-        for key in list(scenarios):
-            say(f"checking the pickup locations of {key} on its world")
-            data = ProjectData.load(stage, scenario=key)
-            world = world_of(data, task_id=site.FRAME_TASK)
-            try:
-                check_pickup_locations(world, storey_map(world).grid)
-            except KbplannerError as exc:  # a proposal that does not hold is dropped, with the reason
-                result.notes.append(f"scenario {key} dropped: {exc.problem}")
-                (stage / scenarios.pop(key)[1]).unlink()
-                result.scenarios.pop(key)
+            result.scenarios[key] = len(got.storages)
+            if got.check is not None:
+                result.checks[key] = got.check
         (stage / "project.toml").write_text(
             L.project_toml(name, base, ifc_rel, seed, sim_date, path, scenarios), encoding="utf-8"
         )

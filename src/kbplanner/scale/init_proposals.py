@@ -1,0 +1,228 @@
+"""``kbplanner init`` (issue 10), step 4-5: the storage proposals of a scenario, each checked, the best kept.
+
+For one scenario (``storage-inside`` or ``storage-outside``) up to :data:`PROPOSALS` placements of the
+frame storages are tried (:func:`kbplanner.scale.init_storage.place_storages`): the first as before
+(nearest the panels or the entrance), each next one with its stacks :data:`~.init_storage.AVOID_M`
+away from those tried and, outside, :data:`KEEP_STEP_M` farther from the entrance door (room for the
+robot to turn the frame before the door). Each is written into the staged project, checked with the
+pickup checks of ``kbplanner world`` (:func:`kbplanner.world.site_checks.check_pickup_locations`) and
+planned as ``kbplanner plan`` plans it (:mod:`.init_plan_check`); the first that installs every frame,
+else the one that installs the most, is kept, written with the order B4 found as its
+``kbp:workSequence`` (the stacks follow it: the first installed on top). The elements its plan cannot
+install are returned with reason and fix. When the kept proposal leaves elements blocked by those installed
+before them, B4's install-order feedback (:func:`~kbplanner.planning.install_order.blocked_move`) is
+applied without the stack's limit, as init lays the stacks: the element is moved before them and laid
+higher in its stack, and kept when the plan installs more (:data:`RESTACK_ROUNDS` rounds).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from functools import partial
+from pathlib import Path
+from urllib.parse import quote
+
+from shapely.geometry import Polygon
+
+from kbplanner.core.errors import KbplannerError
+from kbplanner.model.project_data import ProjectData
+from kbplanner.planning.install_order import blocked_move, move_before
+from kbplanner.planning.pose_search import RefineSettings
+from kbplanner.scale import init_site as site
+from kbplanner.scale.init_ifc import FrameRecord
+from kbplanner.scale.init_plan_check import Failure, ScenarioCheck, check_scenario
+from kbplanner.scale.init_storage import ENTRANCE_KEEP, Spot, place_storages
+from kbplanner.world.build import world_of
+from kbplanner.world.maps import storey_map
+from kbplanner.world.occupancy import OccupancyGrid
+from kbplanner.world.site_checks import check_pickup_locations
+
+PROPOSALS = 3  # storage placements tried per scenario when the plan of the first does not hold
+KEEP_STEP_M = 1.5  # each next outside proposal keeps its stacks this much farther from the entrance
+MAX_STACK = 8  # frames per stack: the top one stays within the arm's reach
+RESTACK_ROUNDS = 2  # plans again with a blocked element laid higher in its stack, per proposal
+
+Say = Callable[[str], None]
+
+
+@dataclass(frozen=True)
+class Place:
+    """Where a scenario's storages may go (the arguments of :func:`place_storages` for it)."""
+
+    key: str
+    label: str
+    inside: bool
+    near: tuple[float, float]
+    entrance: tuple[float, float] | None
+
+
+@dataclass
+class Proposal:
+    """The proposal kept for a scenario: its storages, its check (None: not checked), what was tried."""
+
+    storages: list[site.Storage]
+    check: ScenarioCheck | None
+    tried: list[str] = field(default_factory=list)  # one line per proposal tried
+
+
+def _far_first(pickup: tuple[float, float, float], r: FrameRecord) -> tuple[float, int]:
+    return (-round(math.hypot(r.spot.x - pickup[0], r.spot.y - pickup[1]), 4), r.sequence)
+
+
+def storages_at(key: str, spots: Sequence[Spot], frames: Sequence[FrameRecord],
+                z: float) -> list[site.Storage]:
+    """The frames stacked on the storages at ``spots``: :data:`MAX_STACK` each, in init's order; in a
+    stack the panel farthest from its pickup on top (the ones installed last stand nearest the place
+    where the robot turns with the next frame)."""
+    out = []
+    for i, sp in enumerate(spots):
+        chunk = sorted(frames[i * MAX_STACK : (i + 1) * MAX_STACK], key=partial(_far_first, sp.pickup))
+        out.append(site.Storage(f"{key}-{i + 1}", f"Frame storage {i + 1} ({key})", sp.x, sp.y, z, sp.yaw,
+                                (sp.pickup[0], sp.pickup[1], z, sp.pickup[2]), tuple(chunk)))
+    return out
+
+
+def iri_of(base: str, gid: str) -> str:
+    return f"{base}element/{quote(gid, safe='')}"
+
+
+def restacked(storages: Sequence[site.Storage], order: Sequence[str]) -> list[site.Storage]:
+    """``storages`` with each stack in ``order`` (GlobalIds, first installed first: on top)."""
+    pos = {g: i for i, g in enumerate(order)}
+    return [site.Storage(s.key, s.label, s.x, s.y, s.z, s.yaw, s.pickup,
+                         tuple(sorted(s.panels, key=lambda r: pos.get(r.global_id, len(pos)))))
+            for s in storages]
+
+
+def _tell(say: Say, key: str, k: int, _label: str, done: int, total: int) -> None:
+    say(f"B4 of {key}, proposal {k + 1}: {done}/{total}")
+
+
+def _summary(k: int, spots: Sequence[Spot], what: str) -> str:
+    where = ", ".join(f"({s.x:.2f}, {s.y:.2f})" for s in spots)
+    return f"proposal {k + 1} (storages at {where}): {what}"
+
+
+def propose(
+    stage: Path,
+    base: str,
+    place: Place,
+    *,
+    grid: OccupancyGrid,
+    stacks: int,
+    start: tuple[float, float],
+    panels: Sequence[tuple[float, float]],
+    hull: Polygon,
+    frames: Sequence[FrameRecord],
+    z: float,
+    seed: int,
+    check: bool,
+    write_toml: Callable[[str, str], None],
+    say: Say,
+    notes: list[str],
+) -> Proposal | None:
+    """The kept proposal of scenario ``place.key``, written at ``scenarios/<key>.ttl`` in ``stage``
+    (module docstring); None (the file removed, a note why) when no placement has room or passes the
+    pickup checks. ``write_toml(key, rel)`` lists the scenario in the staged project.toml."""
+    rel = f"scenarios/{place.key.replace('-', '_')}.ttl"
+    path = stage / rel
+    path.parent.mkdir(exist_ok=True)
+    gid_of = {iri_of(base, r.global_id): r.global_id for r in frames}
+    tried: list[tuple[float, float]] = []
+    lines: list[str] = []
+    best: tuple[list[site.Storage], ScenarioCheck | None] | None = None
+    last_problem = ""
+    for k in range(PROPOSALS if check else 1):
+        keep = ENTRANCE_KEEP + (0.0 if place.inside else k * KEEP_STEP_M)
+        spots = place_storages(grid, stacks, start=start, panels=panels, footprint=hull,
+                               inside=place.inside, near=place.near, entrance=place.entrance,
+                               entrance_keep=keep, avoid=tried)
+        if len(spots) < stacks:
+            last_problem = f"room for {len(spots)} of {stacks} frame storages found on the task storey's map"
+            if k == 0:
+                break
+            lines.append(f"proposal {k + 1}: {last_problem}")
+            continue
+        tried += [(s.x, s.y) for s in spots]
+        storages = storages_at(place.key, spots, frames, z)
+        path.write_text(site.scenario(base, place.key, place.label, storages, [] if check else None),
+                        encoding="utf-8")
+        write_toml(place.key, rel)
+        say(f"checking the pickup locations of {place.key} (proposal {k + 1}) on its world")
+        data = ProjectData.load(stage, scenario=place.key)
+        world = world_of(data, task_id=site.FRAME_TASK)
+        try:
+            check_pickup_locations(world, storey_map(world).grid)
+        except KbplannerError as exc:  # a proposal that does not hold is dropped, with the reason
+            last_problem = exc.problem
+            lines.append(_summary(k, spots, f"dropped: {exc.problem}"))
+            continue
+        if not check:
+            best = (storages, None)
+            break
+        say(f"planning {place.key} (proposal {k + 1}) as `kbplanner plan` does (B1-B4)")
+        got = check_scenario(stage, place.key, site.FRAME_TASK, seed, partial(_tell, say, place.key, k))
+        lines.append(_summary(k, spots, f"plan installs {got.installable} of {got.total}"))
+        if best is None or best[1] is None or got.installable > best[1].installable:
+            best = (storages, got)
+        if not got.failures:
+            break
+    if best is None:
+        path.unlink(missing_ok=True)
+        notes.append(f"scenario {place.key} not written: {last_problem}")
+        return None
+    storages, kept = best
+    if kept is None:
+        path.write_text(site.scenario(base, place.key, place.label, storages), encoding="utf-8")
+        return Proposal(storages, None, lines)
+    if kept.failures:  # the stacks laid again for the elements blocked by those installed before them
+        storages, kept, what = _restack(stage, base, place, storages, kept, seed, say, path)
+        lines += what
+    got = kept
+    order = [gid_of[i] for i in got.order if i in gid_of]
+    storages = restacked(storages, order)
+    note = "\n".join(["Checked by `kbplanner init` as `kbplanner plan` checks it (B1-B4, and the robot's",
+                      "way to each pickup location):", *lines])
+    path.write_text(site.scenario(base, place.key, place.label, storages, order or None, note),
+                    encoding="utf-8")
+    write_toml(place.key, rel)
+    return Proposal(storages, got, lines)
+
+
+def _restack(stage: Path, base: str, place: Place, storages: list[site.Storage], got: ScenarioCheck,
+             seed: int, say: Say, path: Path) -> tuple[list[site.Storage], ScenarioCheck, list[str]]:
+    """B4's install-order feedback without the stack's limit (init lays the stacks): an element blocked
+    by elements installed before it (:func:`~kbplanner.planning.install_order.blocked_move`) is moved
+    before them and laid higher in its stack; kept when the plan installs more (at most
+    :data:`RESTACK_ROUNDS` rounds)."""
+    tried: set[tuple[str, str]] = set()
+    what: list[str] = []
+    radius = RefineSettings().blocking_radius_m
+    gid_of = {iri_of(base, r.global_id): r.global_id for s in storages for r in s.panels}
+    for n in range(RESTACK_ROUNDS):
+        if not got.failures or got.plan is None:
+            break
+        move = blocked_move(got.plan, got.plan, {}, radius, tried)
+        if move is None:
+            break
+        tried.add(move)
+        order = [gid_of[e.iri] for e in move_before(got.plan, *move).elements if e.iri in gid_of]
+        again = restacked(storages, order)
+        path.write_text(site.scenario(base, place.key, place.label, again, order), encoding="utf-8")
+        say(f"planning {place.key} again with {move[0].rsplit('/', 1)[-1]} laid higher (round {n + 1})")
+        new = check_scenario(stage, place.key, site.FRAME_TASK, seed)
+        labels = {e.iri: e.label for e in got.plan.elements}
+        what.append(f"the kept proposal with {labels.get(move[0], move[0])} installed before "
+                    f"{labels.get(move[1], move[1])} (laid higher in its stack): plan installs "
+                    f"{new.installable} of {new.total}" + ("" if new.installable > got.installable else
+                                                           ", not kept"))
+        if new.installable > got.installable:
+            storages, got = again, new
+    return storages, got, what
+
+
+def failures_text(key: str, failures: Sequence[Failure]) -> list[str]:
+    """One line per element the kept proposal of ``key`` cannot install: label, reason, fix."""
+    return [f"{key}: {f.label}: {f.reason}. Fix: {f.fix}" for f in failures]

@@ -1,0 +1,117 @@
+"""``kbplanner init`` checks its storage proposals as ``kbplanner plan`` does (issue 10, plans that hold).
+
+Fast: the robot's way to a pickup location is judged in its footprint's configuration space
+(scale/init_plan_check.py), not on free cells; the stacks follow the order B4 found
+(scale/init_proposals.py). Slow (B4 on real projects): the test building's storage-outside scenario
+is planned installable, or each frame that is not is reported with its reason and fix, and `plan`
+agrees; the office's inside pickup locations are reached by the robot's footprint.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ifc_factory import write_test_building
+from ifc_office import write_office
+from kbplanner.cli import main
+from kbplanner.core.vocab import KBP
+from kbplanner.planning.plan_model import ElementInfo, Plan, Pose2, Pose6, SkillCall
+from kbplanner.scale import init_site as site
+from kbplanner.scale.init_plan_check import unreached_pickups
+from kbplanner.scale.init_proposals import restacked
+from kbplanner.world.occupancy import OccupancyGrid
+
+
+def _plan_to(x: float, y: float) -> Plan:
+    """One element whose unloaded navigation goes to (x, y), then a pick at a base pose."""
+    e = ElementInfo("urn:E", "E", "E", 10.0, (0.7, 0.09, 2.4), Pose6(1.0, 1.0, 0.0), Pose6(x, y, 0.0), None)
+    nav = SkillCall(1, e.iri, "urn:a1", "navigate to frame pickup location", 1, "urn:s1", "NV-1",
+                    str(KBP.Navigation), inputs={"goal": [x, y, 0.0, 0.0, 0.0, 0.0]},
+                    roles={"DestinationRole": "goal"}, base_pose=Pose2(x, y, 0.0))  # as B4 refines it
+    pick = SkillCall(2, e.iri, "urn:a2", "pick frame", 2, "urn:s2", "MM-G-1",
+                     str(KBP.MoveManipulatorAndGrasp), base_pose=Pose2(x, y, 0.0))
+    return Plan("p", None, "T", "", "S", "husky-ur16e", "Husky UR16e", "husky_ur16e.urdf", "rule",
+                elements=[e], steps=[nav, pick])
+
+
+@pytest.mark.parametrize(("gap_m", "reached"), [(0.5, False), (1.4, True)])
+def test_a_pickup_behind_a_gap_narrower_than_the_robot_is_not_reached(gap_m: float, reached: bool) -> None:
+    """Free cells join both sides of a 0.5 m gap; the robot (0.99 x 0.67 m) does not pass it."""
+    res = 0.05
+    occ = np.zeros((120, 200), dtype=bool)  # 10 x 6 m
+    occ[:, 100] = True  # a wall at x = 5 m
+    lo = round((3.0 - gap_m / 2) / res)
+    occ[lo:lo + round(gap_m / res), 100] = False
+    grid = OccupancyGrid(occ, origin=(0.0, 0.0), resolution=res)
+    out = unreached_pickups(_plan_to(8.0, 3.0), grid, Pose2(2.0, 3.0, 0.0))
+    assert (out == {}) is reached
+    if not reached:
+        assert "cannot drive from its start (2.00, 3.00) to the pickup location (8.00, 3.00)" in out["urn:E"]
+    occ[50:70, 30:50] = True  # a storage over the start: the navigation does not start
+    out = unreached_pickups(_plan_to(8.0, 3.0), grid, Pose2(2.0, 3.0, 0.0))
+    assert "at its start (2.00, 3.00) stands in collision" in out["urn:E"]
+
+
+def test_stacks_follow_the_order_b4_found() -> None:
+    from kbplanner.scale.init_ifc import FrameRecord
+
+    frames = [FrameRecord(f"F00{i}", f"G{i}", None, "Level 1", i, 5, 10.0, (0.0, 0.0, 1.2))  # type: ignore[arg-type]
+              for i in range(3)]
+    s = site.Storage("s-1", "S", 0.0, 0.0, 0.0, 0.0, (1.0, 0.0, 0.0, 0.0), tuple(frames))
+    (again,) = restacked([s], ["G2", "G0", "G1"])
+    assert [r.global_id for r in again.panels] == ["G2", "G0", "G1"]  # the first installed on top
+    text = site.scenario("urn:b/", "x", "X", [again], ["G2", "G0", "G1"])
+    assert "element/G2> kbp:storedIn <urn:b/site/s-1> ; kbp:stackIndex 2" in text
+    assert "element/G2> kbp:workSequence 1" in text and "element/G1> kbp:workSequence 3" in text
+    assert "kbp:workSequence" not in site.scenario("urn:b/", "x", "X", [again], [])  # B4 orders
+
+
+@pytest.mark.slow
+def test_the_test_building_outside_is_planned_installable_or_each_frame_reported(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    ifc = tmp_path / "house.ifc"
+    write_test_building(ifc)
+    code = main(["init", str(ifc), "--out", str(tmp_path / "p")])
+    out = capsys.readouterr().out
+    found = dict(re.findall(r"scenario (storage-\w+): 1 frame storage\(s\); plan \(B1-B4\): (\d+) of 7", out))
+    assert set(found) == {"storage-inside", "storage-outside"}
+    failing = 14 - sum(int(n) for n in found.values())
+    assert code == (1 if failing else 0)
+    assert out.count("      fix: ") == failing  # each frame the plan cannot install, with reason and fix
+    assert main(["plan", str(tmp_path / "p"), "--scenario", "storage-outside"]) == (
+        0 if found["storage-outside"] == "7" else 1)
+    planned = capsys.readouterr().out
+    assert f"feasibility (B4): {found['storage-outside']} of 7 elements installable" in planned
+    assert found["storage-outside"] == "7"  # measured: the second placement, F007 laid higher
+
+
+@pytest.mark.slow
+def test_the_office_inside_pickups_are_reached_by_the_robots_footprint(tmp_path: Path) -> None:
+    from kbplanner.model.project_data import ProjectData
+    from kbplanner.planning.carry_reach import CarryReach
+    from kbplanner.robot.robot_table import load_robot_specs
+    from kbplanner.scale.project_init import init_project
+    from kbplanner.world.build import world_of
+    from kbplanner.world.maps import storey_map
+
+    office = write_office(tmp_path / "office.ifc", schema="IFC2X3", rooms_per_side=2, storeys=1)
+    r = init_project(office.path, tmp_path / "p", max_walls=1)
+    assert "storage-inside" in r.checks
+    assert not [f for f in r.checks["storage-inside"].failures if "pickup location" in f.reason]
+    world = world_of(ProjectData.load(r.directory, scenario="storage-inside"), task_id=site.FRAME_TASK)
+    grid = storey_map(world).grid
+    assert world.robot_start is not None
+    start = Pose2(world.robot_start.x, world.robot_start.y, world.robot_start.yaw)
+    fp = load_robot_specs()["husky_ur16e"].footprint()
+    storages = {e.storage for e in world.task_elements}
+    pickups = [o.pickup for o in world.site_objects if o.iri in storages]
+    assert pickups
+    for p in pickups:
+        assert p is not None
+        goal = Pose2(p.x, p.y, p.yaw)
+        assert CarryReach(grid, (fp,), start, (p.x, p.y)).reaches(goal)
