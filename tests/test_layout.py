@@ -34,6 +34,10 @@ def test_every_subpackage_says_its_step(name: str) -> None:
 
 @pytest.mark.parametrize(("old", "new"), sorted(kbplanner.MOVED_MODULES.items()))
 def test_old_flat_module_paths_are_the_new_modules(old: str, new: str) -> None:
+    if "." in old:  # the old parent package's own warning comes first when it was not imported yet
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            importlib.import_module(f"kbplanner.{old.rsplit('.', 1)[0]}")
     sys.modules.pop(f"kbplanner.{old}", None)  # an alias only: the module itself stays loaded
     with warnings.catch_warnings(record=True) as seen:
         warnings.simplefilter("always")
