@@ -48,19 +48,24 @@ ELECTRICIAN = f"""@prefix kbp: <https://w3id.org/kbplanner/ontology#> .
 @pytest.fixture(scope="module")
 def building(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The generated 2 x 1 building with a second scenario that adds the electrician."""
-    root = generate_building(tmp_path_factory.mktemp("up") / "b2x1", storeys=2, units_per_storey=1, seed=0).directory
+    built = generate_building(tmp_path_factory.mktemp("up") / "b2x1", storeys=2, units_per_storey=1, seed=0)
+    root = built.directory
     (root / "site" / "electrician.ttl").write_text(ELECTRICIAN, encoding="utf-8")
     toml = (root / "project.toml").read_text(encoding="utf-8")
     old = 'overlays = ["scenarios/storage_in_units.ttl", "augmentation/grasp_points.ttl"]'
     assert old in toml
-    toml += ('\n[scenarios.with-electrician]\ndescription = "storage in units, an electrician on the ground floor"\n'
+    toml += ('\n[scenarios.with-electrician]\n'
+             'description = "storage in units, an electrician on the ground floor"\n'
              'overlays = ["scenarios/storage_in_units.ttl", "augmentation/grasp_points.ttl", '
              '"site/electrician.ttl"]\n')
     (root / "project.toml").write_text(toml, encoding="utf-8")
     return root
 
 
-def _simulate(root: Path, out: Path, scenario: str, task: str, n: int) -> tuple[int, dict, list[dict[str, str]]]:  # type: ignore[type-arg]
+Run = tuple[int, dict, list[dict[str, str]]]  # type: ignore[type-arg]
+
+
+def _simulate(root: Path, out: Path, scenario: str, task: str, n: int) -> Run:
     code = main(["simulate", str(root), "--scenario", scenario, "--task", task, "--max-elements", str(n),
                  "--no-keyframes", "--seed", "3", "--out", str(out)])
     metrics = json.loads((out / "metrics.json").read_text(encoding="utf-8"))
@@ -70,7 +75,8 @@ def _simulate(root: Path, out: Path, scenario: str, task: str, n: int) -> tuple[
 
 
 def _events(out: Path) -> list[str]:
-    return [json.loads(line)["kind"] for line in (out / "events.jsonl").read_text(encoding="utf-8").splitlines()]
+    lines = (out / "events.jsonl").read_text(encoding="utf-8").splitlines()
+    return [json.loads(line)["kind"] for line in lines]
 
 
 def test_workers_on_the_ground_walk_the_ground_floor_map_while_the_robot_frames_level_2(
@@ -98,7 +104,8 @@ def test_workers_on_the_ground_walk_the_ground_floor_map_while_the_robot_frames_
     at_spot = [r for r in rows if (float(r["electrician_x"]) - SPOT_XY[0]) ** 2
                + (float(r["electrician_y"]) - SPOT_XY[1]) ** 2 < 0.5 ** 2]
     assert at_spot
-    assert min((float(r["x"]) - SPOT_XY[0]) ** 2 + (float(r["y"]) - SPOT_XY[1]) ** 2 for r in at_spot) < 0.5 ** 2
+    assert min((float(r["x"]) - SPOT_XY[0]) ** 2 + (float(r["y"]) - SPOT_XY[1]) ** 2
+               for r in at_spot) < 0.5 ** 2
 
     # the robot drives exactly as without him
     code, _without, rows_without = _simulate(building, tmp_path / "n", "storage-in-units", "T-FRAME-L02", 2)
