@@ -28,7 +28,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections import deque
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -41,6 +41,7 @@ from kbplanner.simulation.workers import WorkerSpec, _rng_for, _Router
 from kbplanner.world.occupancy import OccupancyGrid
 
 FloatArray = npt.NDArray[np.float64]
+_hypot = np.hypot  # on two floats: the numbers of np.hypot on numpy rows
 
 STUCK_SPEED_MPS = 0.2  # a walking worker slower than this for STUCK_S looks for a way round the robot
 STUCK_S = 2.0
@@ -104,6 +105,13 @@ class _Agent:
     way_to: tuple[float, float] = (math.nan, math.nan)  # the anchor ``way`` leads to
     way_slow_s: float = 0.0  # how long they have made little headway on it
     way_best_m: float = math.inf  # the shortest walk left along ``way`` so far
+    _points: tuple[FloatArray, list[list[float]]] | None = None  # ``path`` as floats, and of which array
+
+    def points(self) -> list[list[float]]:
+        """``path`` as lists of floats (the same numbers; converted once per path)."""
+        if self._points is None or self._points[0] is not self.path:
+            self._points = (self.path, self.path.tolist())
+        return self._points[1]
 
 
 class Crowd:
@@ -150,36 +158,51 @@ class Crowd:
 
     # ---- route following ---------------------------------------------------------------------------
     def _desired(self) -> FloatArray:
-        out = np.zeros_like(self.pos)
+        """The desired velocity (n, 2) of every worker: along their route, or back to their anchor.
+
+        (In plain floats: the same subtractions, divisions and products as on numpy rows, ``math.hypot``
+        where the former code took it and ``np.hypot`` where it did, so the numbers are identical.)"""
+        rows: list[tuple[float, float]] = []
+        pos = self.pos.tolist()
         for i, a in enumerate(self.agents):
-            p = self.pos[i]
+            px, py = pos[i]
             if not a.walking and self.t >= a.until and a.yielding is None:
                 a.making_way = False
-                here, there = a.spec.stops[a.k], a.spec.stops[(a.k + 1) % len(a.spec.stops)]
-                a.path = self.router.path((float(p[0]), float(p[1])), (there.x, there.y))
+                there = a.spec.stops[(a.k + 1) % len(a.spec.stops)]
+                a.path = self.router.path((px, py), (there.x, there.y))
                 a.wp, a.walking = 1, True
-                del here
             if a.walking:
-                while a.wp < len(a.path) - 1 and math.hypot(*(a.path[a.wp] - p)) < WAYPOINT_REACHED_M:
+                pts = a.points()
+                last = len(pts) - 1
+                while a.wp < last and math.hypot(pts[a.wp][0] - px, pts[a.wp][1] - py) < WAYPOINT_REACHED_M:
                     a.wp += 1
-                goal = a.path[a.wp]
-                d = math.hypot(*(goal - p))
-                if a.wp == len(a.path) - 1 and d < ARRIVED_M:
+                gx, gy = pts[a.wp]
+                d = math.hypot(gx - px, gy - py)
+                if a.wp == last and d < ARRIVED_M:
                     a.walking = False
                     a.k = (a.k + 1) % len(a.spec.stops)
                     stop = a.spec.stops[a.k]
                     a.anchor = (stop.x, stop.y)
                     a.until = self.t + stop.dwell_s * float(a.rng.uniform(0.8, 1.2))
                 else:
-                    out[i] = (goal - p) / max(d, 1e-9) * a.v0
+                    m = max(d, 1e-9)
+                    rows.append(((gx - px) / m * a.v0, (gy - py) / m * a.v0))
                     continue
             # waiting: back to the stop (or the spot where they make way), at walking pace at most
-            target = self._way_target(a, p)
-            d_vec = target - p
-            d = float(np.hypot(*d_vec))
+            ax, ay = a.anchor
+            if float(_hypot(ax - px, ay - py)) <= WAY_ROUTED_M:  # near the anchor: straight there
+                a.way, a.way_slow_s, a.way_best_m = None, 0.0, math.inf
+                tx, ty = ax, ay
+            else:
+                tx, ty = self._way_target(a, self.pos[i]).tolist()
+            dx, dy = tx - px, ty - py
+            d = float(_hypot(dx, dy))
             if d > 0.05:
-                out[i] = d_vec / d * min(a.v0, d / a.params.relaxation_time_s)
-        return out
+                f = min(a.v0, d / a.params.relaxation_time_s)
+                rows.append((dx / d * f, dy / d * f))
+            else:
+                rows.append((0.0, 0.0))
+        return np.array(rows, dtype=np.float64).reshape(-1, 2)
 
     def _way_target(self, a: _Agent, p: FloatArray) -> FloatArray:
         """Where a waiting worker heads for: their anchor, along a walking path (the router's) when it is
@@ -240,8 +263,24 @@ class Crowd:
                 acc[mask] = a_all[mask]
         vel = cap_speed(self.vel + acc * self.dt, v0, params)
         new = self.pos + vel * self.dt
-        for i, a in enumerate(self.agents):
-            new[i], vel[i] = self._constrain(self.pos[i], new[i], vel[i], robot)
+        near_m = WORKER_RADIUS_M + CONTACT_MARGIN_M + 1e-6  # maybe_within's bound
+        reach = reach_m(robot.rects) if robot is not None else 0.0
+        rx, ry = (robot.pose[0], robot.pose[1]) if robot is not None else (0.0, 0.0)
+        walk = self._free_cell_check()
+        dt = self.dt
+        for i, ((ox, oy), (qx, qy)) in enumerate(zip(self.pos.tolist(), new.tolist(), strict=True)):
+            if robot is not None and math.hypot(qx - rx, qy - ry) - reach <= near_m:
+                new[i], vel[i] = self._constrain(self.pos[i], new[i], vel[i], robot)
+            elif walk is not None and not walk(qx, qy) and walk(ox, oy):
+                # certainly clear of the robot, out of the walkable cells: :meth:`_constrain`'s wall
+                # rule in plain floats (the same numbers): slide along one axis, else stay
+                if walk(qx, oy):
+                    new[i], vel[i] = (qx, oy), ((qx - ox) / dt, (oy - oy) / dt)
+                elif walk(ox, qy):
+                    new[i], vel[i] = (ox, qy), ((ox - ox) / dt, (qy - oy) / dt)
+                else:
+                    new[i], vel[i] = (ox, oy), (0.0, 0.0)
+            a = self.agents[i]
             if a.making_way and desired[i].any() and (not vel[i].any() or a.way_slow_s >= STUCK_S):
                 # pinned (the robot's push against a wall) or held in place by its push for STUCK_S: making
                 # way, the worker walks the way they want (still never into the robot or a wall)
@@ -251,6 +290,22 @@ class Crowd:
         self.heading = np.where(moving, np.arctan2(vel[:, 1], vel[:, 0]), self.heading)
         self.pos, self.vel = new, vel
         self.t += self.dt
+
+    def _free_cell_check(self) -> Callable[[float, float], bool] | None:
+        """Whether a point (two floats) lies in a free cell of the walking map (no map: None), as
+        :meth:`_walkable` tests it."""
+        free, g = self.router.free, self.router.grid
+        if free is None or g is None:
+            return None
+        ox, oy, res = g.origin[0], g.origin[1], g.resolution
+        ny, nx = free.shape
+
+        def ok(x: float, y: float) -> bool:
+            ix = math.floor((x - ox) / res)
+            iy = math.floor((y - oy) / res)
+            return 0 <= iy < ny and 0 <= ix < nx and bool(free[iy, ix])
+
+        return ok
 
     def _detours(self, robot: Obstacle) -> None:
         """A walking worker held up by the robot for STUCK_S walks round it: a via point beside the
