@@ -51,9 +51,10 @@ import numpy as np
 from kbplanner.core.errors import KbplannerError
 from kbplanner.core.iris import slug
 from kbplanner.planning.base_poses import element_polygon, mark_polygon
-from kbplanner.planning.carry import Matrix, from_pos_quat, quat_of
+from kbplanner.planning.carry import Matrix
 from kbplanner.robot.robot_model import RobotModel
 from kbplanner.simulation.crowd import Crowd
+from kbplanner.simulation.held_pose import matrix_of, quat_of
 from kbplanner.simulation.sim_world import SimWorld, element_frame, load_world
 from kbplanner.simulation.social_force import Obstacle
 from kbplanner.simulation.workers import WORKER_RADIUS_M, WorkerMotion, WorkerSpec
@@ -78,6 +79,7 @@ class Held:
     constraint: int
     tool_in_element: Matrix
     element_in_tool: Matrix | None = None  # inv(tool_in_element), computed once
+    com_in_element: Matrix | None = None  # the body's centre of mass frame in the element's, once
 
     def __post_init__(self) -> None:
         if self.element_in_tool is None:
@@ -241,7 +243,7 @@ class SimEnv:
     def tool_frame(self) -> Matrix:
         """The tool frame (site) now."""
         pos, orn = self.robot.tool_pose()
-        return from_pos_quat(pos, orn)
+        return matrix_of(pos, orn)
 
     def element(self, iri: str) -> WorldElement:
         """A task element of the world."""
@@ -257,12 +259,15 @@ class SimEnv:
 
     def set_element_frame(self, iri: str, frame: Matrix) -> None:
         """Put a task element's own frame at ``frame`` (site), kinematically."""
-        import pybullet as p
 
         e = self.element(iri)
         assert e.local_bounds is not None
-        com = frame @ _translation(e.local_bounds.center)
-        body = self.world_bodies.task_bodies[iri]
+        self._place(self.world_bodies.task_bodies[iri], frame @ _translation(e.local_bounds.center))
+
+    def _place(self, body: int, com: Matrix) -> None:
+        """Put a body's centre of mass frame at ``com`` (site), kinematically."""
+        import pybullet as p
+
         p.resetBasePositionAndOrientation(body, com[:3, 3].tolist(), quat_of(com),
                                           physicsClientId=self.client)
 
@@ -326,8 +331,10 @@ class SimEnv:
                 self._followed[2] == p.getBasePositionAndOrientation(body, physicsClientId=self.client):
             return
         pos, orn = tool
-        frame = from_pos_quat(pos, orn) @ held.element_in_tool
-        self.set_element_frame(held.element.iri, frame)
+        if held.com_in_element is None:
+            assert held.element.local_bounds is not None
+            held.com_in_element = _translation(held.element.local_bounds.center)
+        self._place(body, matrix_of(pos, orn) @ held.element_in_tool @ held.com_in_element)
         self._followed = (held, tool, p.getBasePositionAndOrientation(body, physicsClientId=self.client))
 
     def detach(self) -> WorldElement:
