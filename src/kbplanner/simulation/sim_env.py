@@ -132,6 +132,7 @@ class SimEnv:
         self.workers: tuple[WorkerBody, ...] = ()
         self._worker_placed: list[tuple[float, float, float] | None] = []  # where each body was put last
         self._followed: tuple[Held, Any, Any] | None = None  # follow(): what, the tool, the body's pose
+        self._xy: tuple[np.ndarray | None, int, np.ndarray] | None = None  # worker_xy(): of what, tick, xy
         self.tick = 0
         self.held: Held | None = None
         self.installed: list[str] = []
@@ -168,6 +169,7 @@ class SimEnv:
         self._followed = None
         self.installed = []
         self.grid = self.base_grid
+        self._xy = None
         self._move_workers()
 
     def step(self) -> float:
@@ -282,8 +284,16 @@ class SimEnv:
         return [(w.slug, x, y) for w, (x, y, _) in zip(self.workers, self.worker_poses(), strict=True)]
 
     def worker_xy(self) -> np.ndarray:
-        """(n, 2) positions of every worker now."""
-        return np.array([(x, y) for x, y, _ in self.worker_poses()], dtype=np.float64).reshape(-1, 2)
+        """(n, 2) positions of every worker now (read only; the same array until a worker moves)."""
+        crowd_pos = self.crowd.pos if self.crowd is not None else None
+        tick = self.tick if self.worker_motions else -1
+        cached = self._xy
+        if cached is not None and cached[0] is crowd_pos and cached[1] == tick:
+            return cached[2]
+        xy = np.array([(x, y) for x, y, _ in self.worker_poses()], dtype=np.float64).reshape(-1, 2)
+        xy.flags.writeable = False
+        self._xy = (crowd_pos, tick, xy)
+        return xy
 
     # ---- holding ----------------------------------------------------------------------------------
     def attach(self, iri: str) -> Held:
