@@ -8,7 +8,9 @@ import math
 import numpy as np
 
 from kbplanner.planning import carry
-from kbplanner.simulation import held_pose
+from kbplanner.simulation import held_pose, separation, social_force
+from kbplanner.simulation.social_force import Obstacle, SocialForceParams
+from kbplanner.world.footprint import Rect
 
 
 def _random_quat(rng: np.random.Generator, k: int) -> list[float]:
@@ -42,3 +44,50 @@ def test_held_element_quaternion_is_bit_identical_to_scipys() -> None:
         kinds["off orthogonal" if np.abs(gram - np.eye(3)).max() > 1e-13 else "orthogonal"] += 1
         assert held_pose.quat_of(m) == carry.quat_of(m), m
     assert min(kinds.values()) > 100, kinds
+
+
+def test_points_distance_at_once_is_bit_identical_to_point_by_point() -> None:
+    rng = np.random.default_rng(13)
+    rects = [Rect(0.0, 0.0, 0.99, 0.67), Rect(0.4, 0.1, 1.2, 0.3, 0.3), Rect(-0.2, 0.0, 0.5, 2.0, 1.2)]
+    for _ in range(400):
+        pose = (float(rng.uniform(-3, 3)), float(rng.uniform(-3, 3)), float(rng.uniform(-4, 4)))
+        n = int(rng.integers(0, 9))
+        xs, ys = rng.uniform(-4, 4, n).tolist(), rng.uniform(-4, 4, n).tolist()
+        if n and rng.random() < 0.3:
+            xs[0], ys[0] = pose[0], pose[1]  # inside: distance 0, no direction
+        some = rects[: int(rng.integers(1, 4))]
+        former = [separation._point_rects_distance(x, y, pose, some) for x, y in zip(xs, ys, strict=True)]
+        assert separation.points_rects_distance(xs, ys, pose, some) == former
+
+
+def _numpy_accelerations(*args: object) -> np.ndarray:
+    """social_force.accelerations by its array code (the former code for every crowd size)."""
+    old = social_force.SMALL_CROWD
+    social_force.SMALL_CROWD = -1
+    try:
+        return social_force.accelerations(*args)  # type: ignore[arg-type]
+    finally:
+        social_force.SMALL_CROWD = old
+
+
+def test_accelerations_of_a_few_workers_in_floats_are_bit_identical_to_the_array_code() -> None:
+    rng = np.random.default_rng(14)
+    rects = [Rect(0, 0, 0.99, 0.67), Rect(0.3, 0.1, 1.5, 0.4)]
+    for trial in range(1500):
+        n = int(rng.integers(0, social_force.SMALL_CROWD + 1))
+        pos = rng.uniform(0, 4, (n, 2))
+        if n > 2 and rng.random() < 0.2:
+            pos[1] = pos[0]  # two workers on one spot
+        vel = rng.normal(0, 1, (n, 2)) * (rng.random((n, 1)) > 0.2)
+        desired = rng.normal(0, 1, (n, 2))
+        params = [SocialForceParams(anisotropy=float(rng.uniform(0, 1)),
+                                    b_people=float(rng.uniform(0.1, 0.5)),
+                                    comfort_distance_m=float(rng.uniform(0.5, 1.5))) for _ in range(n)]
+        seen = None if rng.random() < 0.2 else Obstacle(
+            (float(rng.uniform(0, 4)), float(rng.uniform(0, 4)), float(rng.uniform(-3, 3))), rects)
+        if seen is not None and n and rng.random() < 0.2:
+            pos[0] = seen.pose[:2]  # a worker inside the footprint
+        active = rng.random(n) > 0.2 if rng.random() < 0.3 else np.ones(n, dtype=bool)
+        got = social_force.accelerations(pos, vel, desired, params, seen, active)
+        want = _numpy_accelerations(pos, vel, desired, params, seen, active)
+        assert got.shape == want.shape and got.tobytes() == want.tobytes(), trial
