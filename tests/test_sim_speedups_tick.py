@@ -8,7 +8,7 @@ import math
 import numpy as np
 
 from kbplanner.planning import carry
-from kbplanner.simulation import held_pose, separation, social_force
+from kbplanner.simulation import held_pose, recorder, separation, social_force
 from kbplanner.simulation.social_force import Obstacle, SocialForceParams
 from kbplanner.world.footprint import Rect
 
@@ -91,3 +91,23 @@ def test_accelerations_of_a_few_workers_in_floats_are_bit_identical_to_the_array
         got = social_force.accelerations(pos, vel, desired, params, seen, active)
         want = _numpy_accelerations(pos, vel, desired, params, seen, active)
         assert got.shape == want.shape and got.tobytes() == want.tobytes(), trial
+
+
+def test_recorded_rows_are_the_cells_of_the_former_formatting() -> None:
+    def former(v: float, nd: int) -> str:  # recorder._f
+        text = f"{v:.{nd}f}"
+        return "0." + "0" * nd if text.lstrip("-").strip("0.") == "" else text
+
+    rng = np.random.default_rng(15)
+    robot_format = ",".join(["%.2f", *["%.4f"] * 9])
+    for _ in range(3000):
+        scale = 10.0 ** rng.uniform(-6, 3)
+        values = (rng.normal(size=14) * scale).tolist()
+        values[int(rng.integers(14))] = -0.0
+        values[int(rng.integers(14))] = -0.00004999
+        values[0] = abs(values[0])
+        want = ",".join([former(values[0], 2), *(former(v, 4) for v in values[1:10])]) + "," + ",".join(
+            former(v, 3) for v in values[10:])
+        got = recorder._fixed(robot_format % tuple(values[:10])) + recorder._fixed(
+            "".join(",%.3f" for _ in values[10:]) % tuple(values[10:]))
+        assert got == want

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import struct
 from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -152,6 +153,10 @@ class Crowd:
         self._masks = [np.array([round(a.params.reaction_time_s / self.dt) == delay for a in self.agents])
                        for delay in delays]
         self._history: deque[Obstacle | None] = deque(maxlen=(delays[-1] if delays else 0) + 1)
+        self._active = np.ones(len(self.agents), dtype=bool)
+        self._active.flags.writeable = False
+        self._one_delay = len(self._masks) == 1 and bool(self._masks[0].all())
+        self._no_detour: dict[int, tuple[bytes, tuple[object, ...]]] = {}  # detours looked for in vain
 
     def __len__(self) -> int:
         return len(self.agents)
@@ -253,14 +258,18 @@ class Crowd:
         desired = self._desired()
         params = self._params
         v0 = self._v0
-        active = np.ones(len(self.agents), dtype=bool)
-        acc = np.zeros_like(self.pos)
-        for delay, mask in zip(self._delays, self._masks, strict=True):
-            idx = len(self._history) - 1 - delay
-            seen = self._history[max(idx, 0)]
-            if mask.any():
-                a_all = accelerations(self.pos, self.vel, desired, params, seen, active)
-                acc[mask] = a_all[mask]
+        active = self._active
+        if len(self._delays) == 1 and self._one_delay:  # everyone sees the robot with the same delay
+            idx = len(self._history) - 1 - self._delays[0]
+            acc = accelerations(self.pos, self.vel, desired, params, self._history[max(idx, 0)], active)
+        else:
+            acc = np.zeros_like(self.pos)
+            for delay, mask in zip(self._delays, self._masks, strict=True):
+                idx = len(self._history) - 1 - delay
+                seen = self._history[max(idx, 0)]
+                if mask.any():
+                    a_all = accelerations(self.pos, self.vel, desired, params, seen, active)
+                    acc[mask] = a_all[mask]
         vel = cap_speed(self.vel + acc * self.dt, v0, params)
         new = self.pos + vel * self.dt
         near_m = WORKER_RADIUS_M + CONTACT_MARGIN_M + 1e-6  # maybe_within's bound
@@ -324,6 +333,12 @@ class Crowd:
             p = self.pos[i]
             goal = a.path[min(a.wp, len(a.path) - 1)]
             radius = reach_m(robot.rects) + WORKER_RADIUS_M + a.params.comfort_distance_m
+            # the same look (bit for bit: where, whereto, the robot's pose and footprint) found no way
+            # round last time: it finds none again
+            key = (struct.pack("5d", p[0], p[1], goal[0], goal[1], radius) + struct.pack("3d", *robot.pose),
+                   tuple(robot.rects))
+            if self._no_detour.get(i) == key:
+                continue
             vias = [
                 np.array([robot.pose[0] + radius * math.cos(j * math.pi / 8),
                           robot.pose[1] + radius * math.sin(j * math.pi / 8)])
@@ -341,6 +356,9 @@ class Crowd:
                     best = (cost, via)
             if best is not None:
                 a.path = np.vstack([a.path[: a.wp], best[1][None, :], a.path[a.wp :]])
+                self._no_detour.pop(i, None)
+            else:
+                self._no_detour[i] = key
 
     def make_way(self, i: int, path: FloatArray, clear_m: float) -> tuple[float, float] | None:
         """Worker ``i`` makes way for the robot, whose remaining ``path`` (n, 2, base centre) must pass

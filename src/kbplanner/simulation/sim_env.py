@@ -131,6 +131,7 @@ class SimEnv:
         self._robot: RobotModel | None = None
         self.workers: tuple[WorkerBody, ...] = ()
         self._worker_placed: list[tuple[float, float, float] | None] = []  # where each body was put last
+        self._worker_orn: dict[int, Any] = {}  # the quaternion of each body's last heading
         self._followed: tuple[Held, Any, Any] | None = None  # follow(): what, the tool, the body's pose
         self._xy: tuple[np.ndarray | None, int, np.ndarray] | None = None  # worker_xy(): of what, tick, xy
         self.tick = 0
@@ -164,6 +165,7 @@ class SimEnv:
             if self.reactive else None
         self.workers = self._make_workers()
         self._worker_placed = [None] * len(self.workers)
+        self._worker_orn = {}
         self.tick = 0
         self.held = None
         self._followed = None
@@ -432,10 +434,16 @@ class SimEnv:
         z = self.world.ground_z + WORKER_HEIGHT_M / 2
         placed = self._worker_placed
         for k, (w, pose) in enumerate(zip(self.workers, self.worker_poses(), strict=True)):
-            if placed[k] == pose:  # standing where the body already is (kinematic, mass 0)
+            last = placed[k]
+            if last == pose:  # standing where the body already is (kinematic, mass 0)
                 continue
             x, y, heading = pose
-            orn = p.getQuaternionFromEuler([0.0, 0.0, heading])
+            if last is not None and last[2] == heading and math.copysign(1.0, last[2]) == \
+                    math.copysign(1.0, heading) and k in self._worker_orn:
+                orn = self._worker_orn[k]  # the same heading (bit for bit): the same quaternion
+            else:
+                orn = p.getQuaternionFromEuler([0.0, 0.0, heading])
+                self._worker_orn[k] = orn
             p.resetBasePositionAndOrientation(w.body, [x, y, z], orn,
                                               physicsClientId=self.client)
             placed[k] = pose
