@@ -36,7 +36,13 @@ import numpy as np
 import numpy.typing as npt
 
 from kbplanner.simulation.separation import WORKER_RADIUS_M, reach_m, rects_distance
-from kbplanner.simulation.social_force import Obstacle, SocialForceParams, accelerations, cap_speed
+from kbplanner.simulation.social_force import (
+    Obstacle,
+    SocialForceParams,
+    accelerations,
+    cap_speed,
+    constants_of,
+)
 from kbplanner.simulation.walk_checks import free_cells, maybe_within, unit_steps
 from kbplanner.simulation.workers import WorkerSpec, _rng_for, _Router
 from kbplanner.world.occupancy import OccupancyGrid
@@ -154,6 +160,8 @@ class Crowd:
                        for delay in delays]
         self._history: deque[Obstacle | None] = deque(maxlen=(delays[-1] if delays else 0) + 1)
         self._active = np.ones(len(self.agents), dtype=bool)
+        self._k = constants_of(self._params)
+        self._vmax = self._v0 * self._k["vmax_factor"]  # cap_speed's limits: the same product
         self._active.flags.writeable = False
         self._one_delay = len(self._masks) == 1 and bool(self._masks[0].all())
         self._no_detour: dict[int, tuple[bytes, tuple[object, ...]]] = {}  # detours looked for in vain
@@ -261,16 +269,18 @@ class Crowd:
         active = self._active
         if len(self._delays) == 1 and self._one_delay:  # everyone sees the robot with the same delay
             idx = len(self._history) - 1 - self._delays[0]
-            acc = accelerations(self.pos, self.vel, desired, params, self._history[max(idx, 0)], active)
+            acc = accelerations(self.pos, self.vel, desired, params, self._history[max(idx, 0)], active,
+                                constants=self._k)
         else:
             acc = np.zeros_like(self.pos)
             for delay, mask in zip(self._delays, self._masks, strict=True):
                 idx = len(self._history) - 1 - delay
                 seen = self._history[max(idx, 0)]
                 if mask.any():
-                    a_all = accelerations(self.pos, self.vel, desired, params, seen, active)
+                    a_all = accelerations(self.pos, self.vel, desired, params, seen, active,
+                                          constants=self._k)
                     acc[mask] = a_all[mask]
-        vel = cap_speed(self.vel + acc * self.dt, v0, params)
+        vel = cap_speed(self.vel + acc * self.dt, v0, params, vmax=self._vmax)
         new = self.pos + vel * self.dt
         near_m = WORKER_RADIUS_M + CONTACT_MARGIN_M + 1e-6  # maybe_within's bound
         reach = reach_m(robot.rects) if robot is not None else 0.0

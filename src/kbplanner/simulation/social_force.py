@@ -113,14 +113,16 @@ def _constants(params: tuple[SocialForceParams, ...]) -> dict[str, FloatArray]:
 
 
 def accelerations(pos: FloatArray, vel: FloatArray, desired: FloatArray, params: Sequence[SocialForceParams],
-                  seen: Obstacle | None, active: BoolArray) -> FloatArray:
-    """The social-force acceleration (n, 2) of every worker (inactive ones: none).
+                  seen: Obstacle | None, active: BoolArray, *, constants: dict[str, FloatArray] | None = None
+                  ) -> FloatArray:
+    """The social-force acceleration (n, 2) of every worker (inactive ones: none); ``constants``: those
+    of ``params`` (:func:`constants_of`) when the caller keeps them.
 
     (Written for few workers, where each numpy call's fixed cost dominates: constants derived once
     per crowd, shared terms computed once; ``-x / b`` as ``x / -b`` and ``x * 1.0`` left out are the
     same numbers.)"""
     n = len(pos)
-    k = _constants(tuple(params))
+    k = constants if constants is not None else _constants(tuple(params))
     if n <= SMALL_CROWD:
         return _accelerations_few(pos, vel, desired, k, seen, active)
     acc = (desired - vel) / k["tau"][:, None]
@@ -185,16 +187,19 @@ def _accelerations_few(pos: FloatArray, vel: FloatArray, desired: FloatArray, k:
         e = np.exp(np.array(expo, dtype=np.float64)).tolist()
         fx: list[list[float]] = []
         fy: list[list[float]] = []
+        inf = math.inf
         for i in range(n):
-            xi, yi, vx, vy, spi = xs[i], ys[i], vxs[i], vys[i], sp[i]
+            xi, yi, vx, vy = xs[i], ys[i], vxs[i], vys[i]
+            moving, m = sp[i] > 1e-9, max(sp[i], 1e-9)
+            li, oi, ai, dli, ei = lam[i], oml[i], a_over_b_p[i], dl[i], e[i]
             rx, ry = [], []
             for j in range(n):
-                dij = dl[i][j]
+                dij = dli[j]
                 norm = dij if dij > 0 else 1.0
                 nx, ny = (xi - xs[j]) / norm, (yi - ys[j]) / norm
-                mag = a_over_b_p[i] * e[i][j] if math.isfinite(dij) and on[j] else 0.0
-                cos_phi = -(nx * vx + ny * vy) / max(spi, 1e-9) if spi > 1e-9 else 1.0
-                mw = mag * (lam[i] + oml[i] * (1 + cos_phi) / 2)
+                mag = ai * ei[j] if dij < inf and on[j] else 0.0  # (a distance is never -inf)
+                cos_phi = -(nx * vx + ny * vy) / m if moving else 1.0
+                mw = mag * (li + oi * (1 + cos_phi) / 2)
                 rx.append(mw * nx)
                 ry.append(mw * ny)
             fx.append(rx)
@@ -240,9 +245,17 @@ def _lists(k: dict[str, FloatArray]) -> dict[str, list[float]]:
     return hit[1]
 
 
-def cap_speed(vel: FloatArray, v0: FloatArray, params: Sequence[SocialForceParams]) -> FloatArray:
-    """Velocities limited to ``max_speed_factor`` times each worker's walking speed."""
-    vmax = v0 * _constants(tuple(params))["vmax_factor"]
+def constants_of(params: Sequence[SocialForceParams]) -> dict[str, FloatArray]:
+    """The per-worker constants of ``params`` as read-only arrays (for :func:`accelerations`)."""
+    return _constants(tuple(params))
+
+
+def cap_speed(vel: FloatArray, v0: FloatArray, params: Sequence[SocialForceParams], *,
+              vmax: FloatArray | None = None) -> FloatArray:
+    """Velocities limited to ``max_speed_factor`` times each worker's walking speed (``vmax``: that
+    product, when the caller keeps it)."""
+    if vmax is None:
+        vmax = v0 * _constants(tuple(params))["vmax_factor"]
     sp = np.hypot(vel[:, 0], vel[:, 1])
     f = np.where(sp > vmax, vmax / np.maximum(sp, 1e-12), 1.0)
     return np.asarray(vel * f[:, None], dtype=np.float64)
