@@ -96,6 +96,7 @@ def run_variant(task: VariantTask) -> VariantResult:
     from kbplanner.planning.manipulation import refine_plan
     from kbplanner.planning.planner import plan_task
     from kbplanner.simulation.executor import WORKER_HORIZON_S_PER_STEP, simulate
+    from kbplanner.simulation.floors import walk_grid
     from kbplanner.simulation.skills import ExecSettings
     from kbplanner.world.build import world_of
     from kbplanner.world.maps import storey_map
@@ -123,7 +124,8 @@ def run_variant(task: VariantTask) -> VariantResult:
             plan.keep_first(task.max_elements)
         refined = refine_plan(plan, world, seed=v.seed, grid=grid)
         horizon = 1800.0 + WORKER_HORIZON_S_PER_STEP * len(refined.steps)
-        workers = shifted_workers(project, grid, seed=v.seed, horizon_s=horizon, offset_s=v.start_offset_s)
+        workers = shifted_workers(project, walk_grid(world, grid), seed=v.seed, horizon_s=horizon,
+                                  offset_s=v.start_offset_s)
         with tempfile.TemporaryDirectory(prefix="kbplanner-sweep-") as tmp:
             out = Path(task.run_dir) if task.run_dir else Path(tmp) / "run"
             simulate(project, refined, seed=v.seed, out_dir=out, world=world, grid=grid,

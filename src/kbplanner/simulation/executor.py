@@ -455,6 +455,7 @@ def simulate(
         KbplannerError: no robot in the plan, no [simulation] date for the world, a robot whose URDF
             cannot be loaded.
     """
+    from kbplanner.simulation.floors import walk_grid
     from kbplanner.simulation.workers import WorkerSpec, load_workers, plan_workers
     from kbplanner.world.maps import storey_map
 
@@ -467,14 +468,15 @@ def simulate(
     cpu_started = time.process_time()
     world = world or _world(project, plan)
     grid = grid if grid is not None else storey_map(world).grid
+    ground_grid = walk_grid(world, grid)  # the workers' map: the ground floor's when the robot is upstairs
     reactive: list[WorkerSpec] = []
     if workers is None and settings.reactive_workers:
         reactive, workers = load_workers(project.model), []
     elif workers is None:
         horizon = 1800.0 + WORKER_HORIZON_S_PER_STEP * len(plan.steps)  # past it workers hold their last pose
-        workers = plan_workers(project.model, grid, seed=seed, horizon_s=horizon)
-    env = SimEnv(world, robot_name(plan), grid=grid, workers=workers, reactive=reactive,
-                 control_hz=settings.control_hz, gui=gui, visuals=settings.keyframes)
+        workers = plan_workers(project.model, ground_grid, seed=seed, horizon_s=horizon)
+    env = SimEnv(world, robot_name(plan), grid=grid, walk_grid=ground_grid, workers=workers,
+                 reactive=reactive, control_hz=settings.control_hz, gui=gui, visuals=settings.keyframes)
     loaded = time.perf_counter()
     try:
         env.reset(seed=seed)

@@ -20,7 +20,9 @@ physics is not stepped except by :meth:`SimEnv.settle` where it matters.
   (:attr:`SimEnv.robot_floor_z`). When the two are more than :data:`FLOOR_GAP_M` apart
   (:attr:`SimEnv.workers_on_robot_floor` false: the robot works upstairs, or below ground), the
   workers are out of the robot's hazard scope: the crowd steps them without the robot's footprint
-  (no yielding, no making way), and the separation monitor and the contact check pass them by.
+  (no yielding, no making way), and the separation monitor and the contact check pass them by. They
+  then walk on the ground storey's map (``walk_grid``, :func:`kbplanner.simulation.floors.walk_grid`),
+  not on the robot's.
 - Holding: :meth:`SimEnv.attach` ties the element to the tool link with a ``p.JOINT_FIXED``
   constraint at the grasp and filters collisions between the element and every robot link off; as
   the robot moves kinematically, :meth:`SimEnv.step` also puts the element where the constraint
@@ -54,6 +56,7 @@ from kbplanner.planning.base_poses import element_polygon, mark_polygon
 from kbplanner.planning.carry import Matrix
 from kbplanner.robot.robot_model import RobotModel
 from kbplanner.simulation.crowd import Crowd
+from kbplanner.simulation.floors import FLOOR_GAP_M, robot_floor_z
 from kbplanner.simulation.held_pose import matrix_of, quat_of
 from kbplanner.simulation.sim_world import SimWorld, element_frame, load_world
 from kbplanner.simulation.social_force import Obstacle
@@ -64,9 +67,6 @@ from kbplanner.world.world_types import World, WorldElement
 log = logging.getLogger(__name__)
 
 WORKER_HEIGHT_M = 1.7
-#: A worker whose floor is more than this above or below the robot's floor is out of its hazard scope:
-#: half a storey of 3 m, well above a raised ground floor (``GROUND_STOREY_TOLERANCE_M`` 0.5 m).
-FLOOR_GAP_M = 1.5
 _RGBA_WORKER = (0.1, 0.6, 0.2, 1.0)
 
 
@@ -105,6 +105,7 @@ class SimEnv:
         robot: str,
         *,
         grid: OccupancyGrid,
+        walk_grid: OccupancyGrid | None = None,
         workers: Sequence[WorkerMotion] = (),
         reactive: Sequence[WorkerSpec] = (),
         control_hz: float = 10.0,
@@ -118,6 +119,7 @@ class SimEnv:
         self.robot_name = robot
         self.base_grid = grid
         self.grid = grid
+        self.walk_grid = walk_grid if walk_grid is not None else grid  # where the reactive workers walk
         self.worker_motions = tuple(workers)
         self.reactive = tuple(reactive)
         self.crowd: Crowd | None = None
@@ -161,7 +163,7 @@ class SimEnv:
         start = self.world.robot_start
         self._robot.set_base_pose(start.x if start else 0.0, start.y if start else 0.0,
                                   start.yaw if start else 0.0)
-        self.crowd = Crowd(self.reactive, self.base_grid, seed=self.seed, control_hz=self.control_hz) \
+        self.crowd = Crowd(self.reactive, self.walk_grid, seed=self.seed, control_hz=self.control_hz) \
             if self.reactive else None
         self.workers = self._make_workers()
         self._worker_placed = [None] * len(self.workers)
@@ -227,8 +229,7 @@ class SimEnv:
     @property
     def robot_floor_z(self) -> float:
         """Elevation of the floor the robot works on: the task storey's, else the site's ground."""
-        storey = self.world.storey(self.world.task_storey)
-        return float(storey.elevation_m) if storey is not None else float(self.world.ground_z)
+        return robot_floor_z(self.world)
 
     @property
     def workers_on_robot_floor(self) -> bool:
