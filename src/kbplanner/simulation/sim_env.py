@@ -134,6 +134,7 @@ class SimEnv:
         self.workers: tuple[WorkerBody, ...] = ()
         self._worker_placed: list[tuple[float, float, float] | None] = []  # where each body was put last
         self._worker_orn: dict[int, Any] = {}  # the quaternion of each body's last heading
+        self._on_floor: tuple[World, str | None, float, bool] | None = None  # workers_on_robot_floor
         self._followed: tuple[Held, Any, Any] | None = None  # follow(): what, the tool, the body's pose
         self._xy: tuple[np.ndarray | None, int, np.ndarray] | None = None  # worker_xy(): of what, tick, xy
         self.tick = 0
@@ -234,8 +235,16 @@ class SimEnv:
     @property
     def workers_on_robot_floor(self) -> bool:
         """Whether the workers' ground is within :data:`FLOOR_GAP_M` of the robot's floor (in its hazard
-        scope); else they are on another floor: no yielding, monitoring or contact with the robot."""
-        return abs(self.robot_floor_z - float(self.world.ground_z)) <= FLOOR_GAP_M
+        scope); else they are on another floor: no yielding, monitoring or contact with the robot.
+        (Asked several times per period: kept while the world, its task storey and ground stay.)"""
+        w = self.world
+        key = (w, w.task_storey, w.ground_z)
+        last = self._on_floor
+        if last is None or last[0] is not w or last[1] != key[1] or last[2] != key[2]:
+            last = (w, w.task_storey, w.ground_z,
+                    abs(self.robot_floor_z - float(w.ground_z)) <= FLOOR_GAP_M)
+            self._on_floor = last
+        return last[3]
 
     def set_base_pose(self, x: float, y: float, yaw: float) -> None:
         """Place the robot base (kinematically) on its floor."""
