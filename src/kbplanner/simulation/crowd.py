@@ -25,11 +25,10 @@ a fixed order; the same inputs and seed give the same motion.
 
 from __future__ import annotations
 
-import itertools
 import math
 import struct
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -43,7 +42,16 @@ from kbplanner.simulation.social_force import (
     cap_speed,
     constants_of,
 )
-from kbplanner.simulation.walk_checks import free_cells, maybe_within, unit_steps
+from kbplanner.simulation.walk_checks import (
+    clear_legs,
+    free_at,
+    free_cell_check,
+    legs_clear_of,
+    maybe_within,
+    stretch,
+    walkable_along,
+    walkable_step,
+)
 from kbplanner.simulation.workers import WorkerSpec, _rng_for, _Router
 from kbplanner.world.occupancy import OccupancyGrid
 
@@ -63,21 +71,6 @@ CONTACT_MARGIN_M = 0.01  # a worker's own step keeps at least this much clear of
 MAKE_WAY_MAX_HOLD_S = 300.0  # a worker who made way goes back after this even if the robot has not passed
 OFF_PATH_M = 1.0  # a robot this far from the path it asked for has left it (replanned, gave up)
 MAKE_WAY_RINGS_M = tuple(0.5 * k for k in range(1, 13))  # where a worker looks for a spot to make way
-
-
-def _stretch(pts: FloatArray, length_m: float, step_m: float = 0.25) -> FloatArray:
-    """The first ``length_m`` of a polyline, sampled every ``step_m`` (n, 2)."""
-    out = [pts[0]]
-    walked = 0.0
-    for p, q in itertools.pairwise(pts):
-        seg = float(np.hypot(*(q - p)))
-        n = max(1, math.ceil(seg / step_m))
-        for k in range(1, n + 1):
-            if walked + seg * k / n > length_m:
-                return np.array(out)
-            out.append(p + (q - p) * k / n)
-        walked += seg
-    return np.array(out)
 
 
 @dataclass
@@ -285,7 +278,7 @@ class Crowd:
         near_m = WORKER_RADIUS_M + CONTACT_MARGIN_M + 1e-6  # maybe_within's bound
         reach = reach_m(robot.rects) if robot is not None else 0.0
         rx, ry = (robot.pose[0], robot.pose[1]) if robot is not None else (0.0, 0.0)
-        walk = self._free_cell_check()
+        walk = free_cell_check(self.router.free, self.router.grid)
         dt = self.dt
         for i, ((ox, oy), (qx, qy)) in enumerate(zip(self.pos.tolist(), new.tolist(), strict=True)):
             if robot is not None and math.hypot(qx - rx, qy - ry) - reach <= near_m:
@@ -309,22 +302,6 @@ class Crowd:
         self.heading = np.where(moving, np.arctan2(vel[:, 1], vel[:, 0]), self.heading)
         self.pos, self.vel = new, vel
         self.t += self.dt
-
-    def _free_cell_check(self) -> Callable[[float, float], bool] | None:
-        """Whether a point (two floats) lies in a free cell of the walking map (no map: None), as
-        :meth:`_walkable` tests it."""
-        free, g = self.router.free, self.router.grid
-        if free is None or g is None:
-            return None
-        ox, oy, res = g.origin[0], g.origin[1], g.resolution
-        ny, nx = free.shape
-
-        def ok(x: float, y: float) -> bool:
-            ix = math.floor((x - ox) / res)
-            iy = math.floor((y - oy) / res)
-            return 0 <= iy < ny and 0 <= ix < nx and bool(free[iy, ix])
-
-        return ok
 
     def _detours(self, robot: Obstacle) -> None:
         """A walking worker held up by the robot for STUCK_S walks round it: a via point beside the
@@ -399,8 +376,8 @@ class Crowd:
                      for j in range(16)]
             f = np.linspace(0.0, 1.0, max(2, int(r / step) + 1))[:, None]  # no wall skipped
             legs = [p[None, :] + f * (q - p)[None, :] for q in cands]
-            by_it = self._legs_clear_of(legs, robot, LEG_CLEAR_M)
-            away = self._legs_clear_of(legs, robot, math.inf)  # never closer to the robot than now
+            by_it = legs_clear_of(legs, robot, LEG_CLEAR_M)
+            away = legs_clear_of(legs, robot, math.inf)  # never closer to the robot than now
             for q, leg, ok, aw in zip(cands, legs, by_it, away, strict=True):
                 if not ok or not self._free_at(q) or not self._walkable_along(leg):
                     continue
@@ -421,7 +398,7 @@ class Crowd:
         if a.yielding is not None:
             home, walking = a.yielding.home, a.yielding.walking
         elif a.walking:  # they will walk on along their route: the robot must have passed its next stretch
-            home, walking = _stretch(np.vstack([p[None, :], a.path[a.wp :]]), HOME_STRETCH_M), True
+            home, walking = stretch(np.vstack([p[None, :], a.path[a.wp :]]), HOME_STRETCH_M), True
         else:
             stop = a.spec.stops[a.k]
             home, walking = np.array([[stop.x, stop.y]]), False
@@ -432,22 +409,6 @@ class Crowd:
             a.walking, a.slow_s, a.until = False, 0.0, math.inf
         a.anchor = spot
         return spot
-
-    def _legs_clear_of(self, legs: Sequence[FloatArray], robot: Obstacle | None, clear_m: float
-                       ) -> list[bool]:
-        """Per leg (sampled points): whether it keeps ``clear_m`` from the robot's footprint, or never
-        comes closer to it than where it starts (one distance query for all legs)."""
-        if robot is None or not legs:
-            return [True] * len(legs)
-        pts = np.concatenate(legs)
-        d_all, _, _ = rects_distance(pts[:, 0], pts[:, 1], robot.pose, robot.rects)
-        out = []
-        start = 0
-        for leg in legs:
-            d = d_all[start : start + len(leg)]
-            start += len(leg)
-            out.append(bool(d.min() >= min(clear_m, float(d[0])) - 1e-9))
-        return out
 
     def _release(self, robot: Obstacle | None) -> None:
         """Workers who made way go back once the robot has passed: the robot's centre is ``clear_m``
@@ -481,45 +442,16 @@ class Crowd:
                 a.anchor = (stop.x, stop.y)
 
     def _clear_many(self, legs: Sequence[tuple[FloatArray, FloatArray]], robot: Obstacle) -> list[bool]:
-        """Per leg (p, q): sampled every 0.1 m, clear of the footprint and walkable. All legs at once
-        (element-wise the same numbers as one query per leg and :meth:`_walkable_along` per leg)."""
-        if not legs:
-            return []
-        ps = np.array([p for p, _ in legs], dtype=np.float64).reshape(-1, 2)
-        dq = np.array([q for _, q in legs], dtype=np.float64).reshape(-1, 2) - ps
-        counts = np.maximum((np.hypot(dq[:, 0], dq[:, 1]) / 0.1).astype(np.int64) + 1, 2)
-        leg = np.repeat(np.arange(len(legs)), counts)
-        f = np.concatenate([unit_steps(int(n)) for n in counts])[:, None]
-        pts = ps[leg] + f * dq[leg]
-        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-        d_all, _, _ = rects_distance(pts[:, 0], pts[:, 1], robot.pose, robot.rects)
-        clear = np.minimum.reduceat(d_all, starts) >= WORKER_RADIUS_M + 0.3
-        free, g = self.router.free, self.router.grid
-        if free is None or g is None:
-            return [bool(c) for c in clear]
-        ok = free_cells(pts, free, g)
-        leaves = ok[:-1] & ~ok[1:]  # a step out of the walkable cells
-        leaves[starts[1:] - 1] = False  # (not between one leg's last sample and the next one's first)
-        left = np.add.reduceat(np.append(leaves, False), starts) > 0
-        return [bool(c and not lv) for c, lv in zip(clear, left, strict=True)]
+        """Per leg (p, q): sampled every 0.1 m, clear of the footprint and walkable (:func:`clear_legs`)."""
+        return clear_legs(legs, robot, self.router.free, self.router.grid)
 
     def _free_at(self, q: FloatArray) -> bool:
         """Whether a worker may stand at ``q`` (a free cell of the walking map; no map: anywhere)."""
-        free, g = self.router.free, self.router.grid
-        if free is None or g is None:
-            return True
-        ix = math.floor((q[0] - g.origin[0]) / g.resolution)
-        iy = math.floor((q[1] - g.origin[1]) / g.resolution)
-        return 0 <= iy < free.shape[0] and 0 <= ix < free.shape[1] and bool(free[iy, ix])
+        return free_at(q, self.router.free, self.router.grid)
 
     def _walkable_along(self, pts: FloatArray) -> bool:
         """:meth:`_walkable` for every step between consecutive points, vectorised."""
-        free = self.router.free
-        g = self.router.grid
-        if free is None or g is None:
-            return True
-        ok = free_cells(pts, free, g)
-        return bool(np.all(ok[1:] | ~ok[:-1]))
+        return walkable_along(pts, self.router.free, self.router.grid)
 
     def _constrain(
         self, old: FloatArray, new: FloatArray, vel: FloatArray, robot: Obstacle | None
@@ -546,17 +478,7 @@ class Crowd:
         return new, vel
 
     def _walkable(self, old: FloatArray, new: FloatArray) -> bool:
-        free = self.router.free
-        g = self.router.grid
-        if free is None or g is None:
-            return True
-
-        def ok(p: FloatArray) -> bool:
-            ix = math.floor((p[0] - g.origin[0]) / g.resolution)
-            iy = math.floor((p[1] - g.origin[1]) / g.resolution)
-            return 0 <= iy < free.shape[0] and 0 <= ix < free.shape[1] and bool(free[iy, ix])
-
-        return ok(new) or not ok(old)
+        return walkable_step(old, new, self.router.free, self.router.grid)
 
     def positions(self) -> list[tuple[float, float, float]]:
         """(x, y, heading) of every worker now."""
