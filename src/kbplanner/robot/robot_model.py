@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import logging
 import math
+import struct
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -107,6 +108,10 @@ class RobotModel:
         dyn = p.getDynamicsInfo(body, -1, physicsClientId=client)
         self._com_pos: Vec3 = tuple(float(v) for v in dyn[3])  # type: ignore[assignment]
         self._com_orn: Quat = tuple(float(v) for v in dyn[4])  # type: ignore[assignment]
+        # the link frame in the centre of mass frame (constant), and the last base pose read: the raw
+        # pose's bytes (signed zeros told apart) and the base frame's (x, y, yaw) computed from it
+        self._inv_com = p.invertTransform(self._com_pos, self._com_orn)
+        self._base_read: tuple[bytes, tuple[float, float, float]] | None = None
 
     @classmethod
     def load(
@@ -174,12 +179,22 @@ class RobotModel:
         p.resetBasePositionAndOrientation(self.body, pos, orn, physicsClientId=self.client)
 
     def base_pose(self) -> tuple[float, float, float]:
-        """(x, y, yaw) of the base frame in the site frame."""
+        """(x, y, yaw) of the base frame in the site frame.
+
+        (Computed again only when PyBullet's pose of the body differs, bit for bit, from the last one
+        read: the same numbers, a fraction of the calls.)"""
         import pybullet as p
 
-        pos, orn = self.link_pose(-1)
+        com_pos, com_orn = p.getBasePositionAndOrientation(self.body, physicsClientId=self.client)
+        key = struct.pack("7d", *com_pos, *com_orn)
+        if self._base_read is not None and self._base_read[0] == key:
+            return self._base_read[1]
+        pos, orn = p.multiplyTransforms(com_pos, com_orn, self._inv_com[0], self._inv_com[1])
+        orn = (float(orn[0]), float(orn[1]), float(orn[2]), float(orn[3]))
         yaw = p.getEulerFromQuaternion(orn)[2]
-        return (float(pos[0]), float(pos[1]), float(yaw))
+        out = (float(pos[0]), float(pos[1]), float(yaw))
+        self._base_read = (key, out)
+        return out
 
     # --- arm ----------------------------------------------------------------------------------
 
@@ -203,8 +218,10 @@ class RobotModel:
         """The six arm joint angles (radians)."""
         import pybullet as p
 
-        return tuple(float(p.getJointState(self.body, j, physicsClientId=self.client)[0])
-                     for j in self.arm_joints)
+        if not self.arm_joints:
+            return ()
+        return tuple(float(st[0]) for st in p.getJointStates(self.body, self.arm_joints,
+                                                               physicsClientId=self.client))
 
     def named_pose(self, name: str) -> tuple[float, ...]:
         """Joint angles of a named arm pose of the robot table (``stow``, ``carry``, ``pre_grasp``, ...)."""

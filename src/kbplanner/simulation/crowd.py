@@ -25,8 +25,8 @@ a fixed order; the same inputs and seed give the same motion.
 
 from __future__ import annotations
 
-import itertools
 import math
+import struct
 from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -35,12 +35,28 @@ import numpy as np
 import numpy.typing as npt
 
 from kbplanner.simulation.separation import WORKER_RADIUS_M, reach_m, rects_distance
-from kbplanner.simulation.social_force import Obstacle, SocialForceParams, accelerations, cap_speed
-from kbplanner.simulation.walk_checks import free_cells, maybe_within, unit_steps
+from kbplanner.simulation.social_force import (
+    Obstacle,
+    SocialForceParams,
+    accelerations,
+    cap_speed,
+    constants_of,
+)
+from kbplanner.simulation.walk_checks import (
+    clear_legs,
+    free_at,
+    free_cell_check,
+    legs_clear_of,
+    maybe_within,
+    stretch,
+    walkable_along,
+    walkable_step,
+)
 from kbplanner.simulation.workers import WorkerSpec, _rng_for, _Router
 from kbplanner.world.occupancy import OccupancyGrid
 
 FloatArray = npt.NDArray[np.float64]
+_hypot = np.hypot  # on two floats: the numbers of np.hypot on numpy rows
 
 STUCK_SPEED_MPS = 0.2  # a walking worker slower than this for STUCK_S looks for a way round the robot
 STUCK_S = 2.0
@@ -55,21 +71,6 @@ CONTACT_MARGIN_M = 0.01  # a worker's own step keeps at least this much clear of
 MAKE_WAY_MAX_HOLD_S = 300.0  # a worker who made way goes back after this even if the robot has not passed
 OFF_PATH_M = 1.0  # a robot this far from the path it asked for has left it (replanned, gave up)
 MAKE_WAY_RINGS_M = tuple(0.5 * k for k in range(1, 13))  # where a worker looks for a spot to make way
-
-
-def _stretch(pts: FloatArray, length_m: float, step_m: float = 0.25) -> FloatArray:
-    """The first ``length_m`` of a polyline, sampled every ``step_m`` (n, 2)."""
-    out = [pts[0]]
-    walked = 0.0
-    for p, q in itertools.pairwise(pts):
-        seg = float(np.hypot(*(q - p)))
-        n = max(1, math.ceil(seg / step_m))
-        for k in range(1, n + 1):
-            if walked + seg * k / n > length_m:
-                return np.array(out)
-            out.append(p + (q - p) * k / n)
-        walked += seg
-    return np.array(out)
 
 
 @dataclass
@@ -104,6 +105,13 @@ class _Agent:
     way_to: tuple[float, float] = (math.nan, math.nan)  # the anchor ``way`` leads to
     way_slow_s: float = 0.0  # how long they have made little headway on it
     way_best_m: float = math.inf  # the shortest walk left along ``way`` so far
+    _points: tuple[FloatArray, list[list[float]]] | None = None  # ``path`` as floats, and of which array
+
+    def points(self) -> list[list[float]]:
+        """``path`` as lists of floats (the same numbers; converted once per path)."""
+        if self._points is None or self._points[0] is not self.path:
+            self._points = (self.path, self.path.tolist())
+        return self._points[1]
 
 
 class Crowd:
@@ -144,42 +152,63 @@ class Crowd:
         self._masks = [np.array([round(a.params.reaction_time_s / self.dt) == delay for a in self.agents])
                        for delay in delays]
         self._history: deque[Obstacle | None] = deque(maxlen=(delays[-1] if delays else 0) + 1)
+        self._active = np.ones(len(self.agents), dtype=bool)
+        self._k = constants_of(self._params)
+        self._vmax = self._v0 * self._k["vmax_factor"]  # cap_speed's limits: the same product
+        self._active.flags.writeable = False
+        self._one_delay = len(self._masks) == 1 and bool(self._masks[0].all())
+        self._no_detour: dict[int, tuple[bytes, tuple[object, ...]]] = {}  # detours looked for in vain
 
     def __len__(self) -> int:
         return len(self.agents)
 
     # ---- route following ---------------------------------------------------------------------------
     def _desired(self) -> FloatArray:
-        out = np.zeros_like(self.pos)
+        """The desired velocity (n, 2) of every worker: along their route, or back to their anchor.
+
+        (In plain floats: the same subtractions, divisions and products as on numpy rows, ``math.hypot``
+        where the former code took it and ``np.hypot`` where it did, so the numbers are identical.)"""
+        rows: list[tuple[float, float]] = []
+        pos = self.pos.tolist()
         for i, a in enumerate(self.agents):
-            p = self.pos[i]
+            px, py = pos[i]
             if not a.walking and self.t >= a.until and a.yielding is None:
                 a.making_way = False
-                here, there = a.spec.stops[a.k], a.spec.stops[(a.k + 1) % len(a.spec.stops)]
-                a.path = self.router.path((float(p[0]), float(p[1])), (there.x, there.y))
+                there = a.spec.stops[(a.k + 1) % len(a.spec.stops)]
+                a.path = self.router.path((px, py), (there.x, there.y))
                 a.wp, a.walking = 1, True
-                del here
             if a.walking:
-                while a.wp < len(a.path) - 1 and math.hypot(*(a.path[a.wp] - p)) < WAYPOINT_REACHED_M:
+                pts = a.points()
+                last = len(pts) - 1
+                while a.wp < last and math.hypot(pts[a.wp][0] - px, pts[a.wp][1] - py) < WAYPOINT_REACHED_M:
                     a.wp += 1
-                goal = a.path[a.wp]
-                d = math.hypot(*(goal - p))
-                if a.wp == len(a.path) - 1 and d < ARRIVED_M:
+                gx, gy = pts[a.wp]
+                d = math.hypot(gx - px, gy - py)
+                if a.wp == last and d < ARRIVED_M:
                     a.walking = False
                     a.k = (a.k + 1) % len(a.spec.stops)
                     stop = a.spec.stops[a.k]
                     a.anchor = (stop.x, stop.y)
                     a.until = self.t + stop.dwell_s * float(a.rng.uniform(0.8, 1.2))
                 else:
-                    out[i] = (goal - p) / max(d, 1e-9) * a.v0
+                    m = max(d, 1e-9)
+                    rows.append(((gx - px) / m * a.v0, (gy - py) / m * a.v0))
                     continue
             # waiting: back to the stop (or the spot where they make way), at walking pace at most
-            target = self._way_target(a, p)
-            d_vec = target - p
-            d = float(np.hypot(*d_vec))
+            ax, ay = a.anchor
+            if float(_hypot(ax - px, ay - py)) <= WAY_ROUTED_M:  # near the anchor: straight there
+                a.way, a.way_slow_s, a.way_best_m = None, 0.0, math.inf
+                tx, ty = ax, ay
+            else:
+                tx, ty = self._way_target(a, self.pos[i]).tolist()
+            dx, dy = tx - px, ty - py
+            d = float(_hypot(dx, dy))
             if d > 0.05:
-                out[i] = d_vec / d * min(a.v0, d / a.params.relaxation_time_s)
-        return out
+                f = min(a.v0, d / a.params.relaxation_time_s)
+                rows.append((dx / d * f, dy / d * f))
+            else:
+                rows.append((0.0, 0.0))
+        return np.array(rows, dtype=np.float64).reshape(-1, 2)
 
     def _way_target(self, a: _Agent, p: FloatArray) -> FloatArray:
         """Where a waiting worker heads for: their anchor, along a walking path (the router's) when it is
@@ -230,18 +259,40 @@ class Crowd:
         desired = self._desired()
         params = self._params
         v0 = self._v0
-        active = np.ones(len(self.agents), dtype=bool)
-        acc = np.zeros_like(self.pos)
-        for delay, mask in zip(self._delays, self._masks, strict=True):
-            idx = len(self._history) - 1 - delay
-            seen = self._history[max(idx, 0)]
-            if mask.any():
-                a_all = accelerations(self.pos, self.vel, desired, params, seen, active)
-                acc[mask] = a_all[mask]
-        vel = cap_speed(self.vel + acc * self.dt, v0, params)
+        active = self._active
+        if len(self._delays) == 1 and self._one_delay:  # everyone sees the robot with the same delay
+            idx = len(self._history) - 1 - self._delays[0]
+            acc = accelerations(self.pos, self.vel, desired, params, self._history[max(idx, 0)], active,
+                                constants=self._k)
+        else:
+            acc = np.zeros_like(self.pos)
+            for delay, mask in zip(self._delays, self._masks, strict=True):
+                idx = len(self._history) - 1 - delay
+                seen = self._history[max(idx, 0)]
+                if mask.any():
+                    a_all = accelerations(self.pos, self.vel, desired, params, seen, active,
+                                          constants=self._k)
+                    acc[mask] = a_all[mask]
+        vel = cap_speed(self.vel + acc * self.dt, v0, params, vmax=self._vmax)
         new = self.pos + vel * self.dt
-        for i, a in enumerate(self.agents):
-            new[i], vel[i] = self._constrain(self.pos[i], new[i], vel[i], robot)
+        near_m = WORKER_RADIUS_M + CONTACT_MARGIN_M + 1e-6  # maybe_within's bound
+        reach = reach_m(robot.rects) if robot is not None else 0.0
+        rx, ry = (robot.pose[0], robot.pose[1]) if robot is not None else (0.0, 0.0)
+        walk = free_cell_check(self.router.free, self.router.grid)
+        dt = self.dt
+        for i, ((ox, oy), (qx, qy)) in enumerate(zip(self.pos.tolist(), new.tolist(), strict=True)):
+            if robot is not None and math.hypot(qx - rx, qy - ry) - reach <= near_m:
+                new[i], vel[i] = self._constrain(self.pos[i], new[i], vel[i], robot)
+            elif walk is not None and not walk(qx, qy) and walk(ox, oy):
+                # certainly clear of the robot, out of the walkable cells: :meth:`_constrain`'s wall
+                # rule in plain floats (the same numbers): slide along one axis, else stay
+                if walk(qx, oy):
+                    new[i], vel[i] = (qx, oy), ((qx - ox) / dt, (oy - oy) / dt)
+                elif walk(ox, qy):
+                    new[i], vel[i] = (ox, qy), ((ox - ox) / dt, (qy - oy) / dt)
+                else:
+                    new[i], vel[i] = (ox, oy), (0.0, 0.0)
+            a = self.agents[i]
             if a.making_way and desired[i].any() and (not vel[i].any() or a.way_slow_s >= STUCK_S):
                 # pinned (the robot's push against a wall) or held in place by its push for STUCK_S: making
                 # way, the worker walks the way they want (still never into the robot or a wall)
@@ -269,6 +320,12 @@ class Crowd:
             p = self.pos[i]
             goal = a.path[min(a.wp, len(a.path) - 1)]
             radius = reach_m(robot.rects) + WORKER_RADIUS_M + a.params.comfort_distance_m
+            # the same look (bit for bit: where, whereto, the robot's pose and footprint) found no way
+            # round last time: it finds none again
+            key = (struct.pack("5d", p[0], p[1], goal[0], goal[1], radius) + struct.pack("3d", *robot.pose),
+                   tuple(robot.rects))
+            if self._no_detour.get(i) == key:
+                continue
             vias = [
                 np.array([robot.pose[0] + radius * math.cos(j * math.pi / 8),
                           robot.pose[1] + radius * math.sin(j * math.pi / 8)])
@@ -286,6 +343,9 @@ class Crowd:
                     best = (cost, via)
             if best is not None:
                 a.path = np.vstack([a.path[: a.wp], best[1][None, :], a.path[a.wp :]])
+                self._no_detour.pop(i, None)
+            else:
+                self._no_detour[i] = key
 
     def make_way(self, i: int, path: FloatArray, clear_m: float) -> tuple[float, float] | None:
         """Worker ``i`` makes way for the robot, whose remaining ``path`` (n, 2, base centre) must pass
@@ -316,8 +376,8 @@ class Crowd:
                      for j in range(16)]
             f = np.linspace(0.0, 1.0, max(2, int(r / step) + 1))[:, None]  # no wall skipped
             legs = [p[None, :] + f * (q - p)[None, :] for q in cands]
-            by_it = self._legs_clear_of(legs, robot, LEG_CLEAR_M)
-            away = self._legs_clear_of(legs, robot, math.inf)  # never closer to the robot than now
+            by_it = legs_clear_of(legs, robot, LEG_CLEAR_M)
+            away = legs_clear_of(legs, robot, math.inf)  # never closer to the robot than now
             for q, leg, ok, aw in zip(cands, legs, by_it, away, strict=True):
                 if not ok or not self._free_at(q) or not self._walkable_along(leg):
                     continue
@@ -338,7 +398,7 @@ class Crowd:
         if a.yielding is not None:
             home, walking = a.yielding.home, a.yielding.walking
         elif a.walking:  # they will walk on along their route: the robot must have passed its next stretch
-            home, walking = _stretch(np.vstack([p[None, :], a.path[a.wp :]]), HOME_STRETCH_M), True
+            home, walking = stretch(np.vstack([p[None, :], a.path[a.wp :]]), HOME_STRETCH_M), True
         else:
             stop = a.spec.stops[a.k]
             home, walking = np.array([[stop.x, stop.y]]), False
@@ -349,22 +409,6 @@ class Crowd:
             a.walking, a.slow_s, a.until = False, 0.0, math.inf
         a.anchor = spot
         return spot
-
-    def _legs_clear_of(self, legs: Sequence[FloatArray], robot: Obstacle | None, clear_m: float
-                       ) -> list[bool]:
-        """Per leg (sampled points): whether it keeps ``clear_m`` from the robot's footprint, or never
-        comes closer to it than where it starts (one distance query for all legs)."""
-        if robot is None or not legs:
-            return [True] * len(legs)
-        pts = np.concatenate(legs)
-        d_all, _, _ = rects_distance(pts[:, 0], pts[:, 1], robot.pose, robot.rects)
-        out = []
-        start = 0
-        for leg in legs:
-            d = d_all[start : start + len(leg)]
-            start += len(leg)
-            out.append(bool(d.min() >= min(clear_m, float(d[0])) - 1e-9))
-        return out
 
     def _release(self, robot: Obstacle | None) -> None:
         """Workers who made way go back once the robot has passed: the robot's centre is ``clear_m``
@@ -398,45 +442,16 @@ class Crowd:
                 a.anchor = (stop.x, stop.y)
 
     def _clear_many(self, legs: Sequence[tuple[FloatArray, FloatArray]], robot: Obstacle) -> list[bool]:
-        """Per leg (p, q): sampled every 0.1 m, clear of the footprint and walkable. All legs at once
-        (element-wise the same numbers as one query per leg and :meth:`_walkable_along` per leg)."""
-        if not legs:
-            return []
-        ps = np.array([p for p, _ in legs], dtype=np.float64).reshape(-1, 2)
-        dq = np.array([q for _, q in legs], dtype=np.float64).reshape(-1, 2) - ps
-        counts = np.maximum((np.hypot(dq[:, 0], dq[:, 1]) / 0.1).astype(np.int64) + 1, 2)
-        leg = np.repeat(np.arange(len(legs)), counts)
-        f = np.concatenate([unit_steps(int(n)) for n in counts])[:, None]
-        pts = ps[leg] + f * dq[leg]
-        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-        d_all, _, _ = rects_distance(pts[:, 0], pts[:, 1], robot.pose, robot.rects)
-        clear = np.minimum.reduceat(d_all, starts) >= WORKER_RADIUS_M + 0.3
-        free, g = self.router.free, self.router.grid
-        if free is None or g is None:
-            return [bool(c) for c in clear]
-        ok = free_cells(pts, free, g)
-        leaves = ok[:-1] & ~ok[1:]  # a step out of the walkable cells
-        leaves[starts[1:] - 1] = False  # (not between one leg's last sample and the next one's first)
-        left = np.add.reduceat(np.append(leaves, False), starts) > 0
-        return [bool(c and not lv) for c, lv in zip(clear, left, strict=True)]
+        """Per leg (p, q): sampled every 0.1 m, clear of the footprint and walkable (:func:`clear_legs`)."""
+        return clear_legs(legs, robot, self.router.free, self.router.grid)
 
     def _free_at(self, q: FloatArray) -> bool:
         """Whether a worker may stand at ``q`` (a free cell of the walking map; no map: anywhere)."""
-        free, g = self.router.free, self.router.grid
-        if free is None or g is None:
-            return True
-        ix = math.floor((q[0] - g.origin[0]) / g.resolution)
-        iy = math.floor((q[1] - g.origin[1]) / g.resolution)
-        return 0 <= iy < free.shape[0] and 0 <= ix < free.shape[1] and bool(free[iy, ix])
+        return free_at(q, self.router.free, self.router.grid)
 
     def _walkable_along(self, pts: FloatArray) -> bool:
         """:meth:`_walkable` for every step between consecutive points, vectorised."""
-        free = self.router.free
-        g = self.router.grid
-        if free is None or g is None:
-            return True
-        ok = free_cells(pts, free, g)
-        return bool(np.all(ok[1:] | ~ok[:-1]))
+        return walkable_along(pts, self.router.free, self.router.grid)
 
     def _constrain(
         self, old: FloatArray, new: FloatArray, vel: FloatArray, robot: Obstacle | None
@@ -463,17 +478,7 @@ class Crowd:
         return new, vel
 
     def _walkable(self, old: FloatArray, new: FloatArray) -> bool:
-        free = self.router.free
-        g = self.router.grid
-        if free is None or g is None:
-            return True
-
-        def ok(p: FloatArray) -> bool:
-            ix = math.floor((p[0] - g.origin[0]) / g.resolution)
-            iy = math.floor((p[1] - g.origin[1]) / g.resolution)
-            return 0 <= iy < free.shape[0] and 0 <= ix < free.shape[1] and bool(free[iy, ix])
-
-        return ok(new) or not ok(old)
+        return walkable_step(old, new, self.router.free, self.router.grid)
 
     def positions(self) -> list[tuple[float, float, float]]:
         """(x, y, heading) of every worker now."""

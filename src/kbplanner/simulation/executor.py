@@ -190,21 +190,32 @@ class _Run:
         self.total_steps = len(plan.steps)
         self._element_rects: dict[str, dict[str, Rect]] = {}
         self._robot_rects = list(env.robot.spec.footprint().rects)
+        self._hazard: tuple[tuple[float, float, float], Any, str, Obstacle] | None = None
         env.hazard = self.hazard
         self.contact = ContactMonitor(env, self.hazard, self.emit,
                                       lambda: env.held.element.global_id if env.held is not None else "")
 
     def hazard(self) -> Obstacle:
-        """The robot's hazard footprint now: base + the held element's carry-mode rectangle."""
+        """The robot's hazard footprint now: base + the held element's carry-mode rectangle (the same
+        object while the base pose - the very tuple the robot gives -, the held element and the carry
+        mode stay; nobody changes it)."""
         env = self.env
         held = env.held
+        pose = env.base_pose()
+        mode = self.ctx.carry_mode if held is not None else ""
+        last = self._hazard
+        if last is not None and last[0] is pose and last[1] is held and last[2] == mode:
+            return last[3]
         if held is None:
-            return Obstacle(env.base_pose(), self._robot_rects)
-        gid = held.element.global_id
-        if gid not in self._element_rects:
-            self._element_rects[gid] = self._carry_rects(held.element.iri, gid)
-        return Obstacle(env.base_pose(), hazard_rects(self._robot_rects, self._element_rects[gid] or None,
-                                                      self.ctx.carry_mode))
+            obs = Obstacle(pose, self._robot_rects)
+        else:
+            gid = held.element.global_id
+            if gid not in self._element_rects:
+                self._element_rects[gid] = self._carry_rects(held.element.iri, gid)
+            obs = Obstacle(pose, hazard_rects(self._robot_rects, self._element_rects[gid] or None,
+                                              self.ctx.carry_mode))
+        self._hazard = (pose, held, mode, obs)
+        return obs
 
     def _carry_rects(self, iri: str, gid: str) -> dict[str, Rect]:
         """The held element's normal/narrow carry rectangles, from the plan's NV-2 carry poses."""

@@ -70,7 +70,8 @@ def render_png(env: SimEnv, size: tuple[int, int] = (640, 480)) -> bytes:
                                       [0.0, 0.0, 0.0, 1.0], physicsClientId=env.client)
     try:
         _, _, rgba, _, _ = p.getCameraImage(width, height, viewMatrix=view, projectionMatrix=proj,
-                                            renderer=p.ER_TINY_RENDERER, physicsClientId=env.client)
+                                            renderer=p.ER_TINY_RENDERER, flags=p.ER_NO_SEGMENTATION_MASK,
+                                            physicsClientId=env.client)
     finally:
         p.resetBasePositionAndOrientation(ground, [0.0, 0.0, env.world.ground_z], [0.0, 0.0, 0.0, 1.0],
                                           physicsClientId=env.client)

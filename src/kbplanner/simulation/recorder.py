@@ -16,6 +16,7 @@ the same bytes.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 from typing import Any
 
@@ -26,6 +27,15 @@ from kbplanner.simulation.sim_env import SimEnv
 def _f(v: float, nd: int) -> str:
     text = f"{v:.{nd}f}"
     return "0." + "0" * nd if text.lstrip("-").strip("0.") == "" else text
+
+
+_NEGATIVE_ZERO = re.compile(r"-(0\.0+)(?=,|$)")
+
+
+def _fixed(text: str) -> str:
+    """Comma-separated fixed-decimal numbers with a rounded-off negative zero written as zero, as
+    :func:`_f` writes each cell (a cell is ``-0.0...`` only for a negative number that rounds to 0)."""
+    return _NEGATIVE_ZERO.sub(r"\1", text) if "-0." in text else text
 
 
 def clean(value: Any) -> Any:
@@ -51,6 +61,9 @@ class Recorder:
         for w in env.workers:
             self.header += [f"{w.slug}_x", f"{w.slug}_y"]
         self.rows: list[str] = [",".join(self.header)]
+        # one format per row part (the cells of _f: t in 10 ms, robot in 0.1 mm / mrad, workers in mm)
+        self._robot_format = ",".join(["%.2f", *["%.4f"] * (3 + n)])
+        self._worker_format = "".join(",%.3f,%.3f" for _ in env.workers)
         self.events: list[dict[str, Any]] = []
         self._last_tick = -1
 
@@ -62,11 +75,10 @@ class Recorder:
         self._last_tick = env.tick
         x, y, yaw = env.base_pose()
         q = env.robot.arm_positions()
-        cells = [_f(env.t, 2), _f(x, 4), _f(y, 4), _f(yaw, 4), *(_f(v, 4) for v in q), carried, carry_mode,
-                 "" if step is None else str(step)]
-        for _slug, wx, wy in env.worker_positions():
-            cells += [_f(wx, 3), _f(wy, 3)]
-        self.rows.append(",".join(cells))
+        robot = _fixed(self._robot_format % (env.t, x, y, yaw, *q))
+        workers = [v for _slug, wx, wy in env.worker_positions() for v in (wx, wy)]
+        tail = "".join([",", carried, ",", carry_mode, ",", "" if step is None else str(step)])
+        self.rows.append(robot + tail + (_fixed(self._worker_format % tuple(workers)) if workers else ""))
 
     def event(self, kind: str, *, step: int | None, element: str, action: str,
               details: dict[str, Any]) -> None:

@@ -53,10 +53,11 @@ import numpy as np
 from kbplanner.core.errors import KbplannerError
 from kbplanner.core.iris import slug
 from kbplanner.planning.base_poses import element_polygon, mark_polygon
-from kbplanner.planning.carry import Matrix, from_pos_quat, quat_of
+from kbplanner.planning.carry import Matrix
 from kbplanner.robot.robot_model import RobotModel
 from kbplanner.simulation.crowd import Crowd
 from kbplanner.simulation.floors import FLOOR_GAP_M, robot_floor_z
+from kbplanner.simulation.held_pose import matrix_of, quat_of
 from kbplanner.simulation.sim_world import SimWorld, element_frame, load_world
 from kbplanner.simulation.social_force import Obstacle
 from kbplanner.simulation.workers import WORKER_RADIUS_M, WorkerMotion, WorkerSpec
@@ -78,6 +79,7 @@ class Held:
     constraint: int
     tool_in_element: Matrix
     element_in_tool: Matrix | None = None  # inv(tool_in_element), computed once
+    com_in_element: Matrix | None = None  # the body's centre of mass frame in the element's, once
 
     def __post_init__(self) -> None:
         if self.element_in_tool is None:
@@ -131,7 +133,10 @@ class SimEnv:
         self._robot: RobotModel | None = None
         self.workers: tuple[WorkerBody, ...] = ()
         self._worker_placed: list[tuple[float, float, float] | None] = []  # where each body was put last
+        self._worker_orn: dict[int, Any] = {}  # the quaternion of each body's last heading
+        self._on_floor: tuple[World, str | None, float, bool] | None = None  # workers_on_robot_floor
         self._followed: tuple[Held, Any, Any] | None = None  # follow(): what, the tool, the body's pose
+        self._xy: tuple[np.ndarray | None, int, np.ndarray] | None = None  # worker_xy(): of what, tick, xy
         self.tick = 0
         self.held: Held | None = None
         self.installed: list[str] = []
@@ -163,11 +168,13 @@ class SimEnv:
             if self.reactive else None
         self.workers = self._make_workers()
         self._worker_placed = [None] * len(self.workers)
+        self._worker_orn = {}
         self.tick = 0
         self.held = None
         self._followed = None
         self.installed = []
         self.grid = self.base_grid
+        self._xy = None
         self._move_workers()
 
     def step(self) -> float:
@@ -228,8 +235,16 @@ class SimEnv:
     @property
     def workers_on_robot_floor(self) -> bool:
         """Whether the workers' ground is within :data:`FLOOR_GAP_M` of the robot's floor (in its hazard
-        scope); else they are on another floor: no yielding, monitoring or contact with the robot."""
-        return abs(self.robot_floor_z - float(self.world.ground_z)) <= FLOOR_GAP_M
+        scope); else they are on another floor: no yielding, monitoring or contact with the robot.
+        (Asked several times per period: kept while the world, its task storey and ground stay.)"""
+        w = self.world
+        key = (w, w.task_storey, w.ground_z)
+        last = self._on_floor
+        if last is None or last[0] is not w or last[1] != key[1] or last[2] != key[2]:
+            last = (w, w.task_storey, w.ground_z,
+                    abs(self.robot_floor_z - float(w.ground_z)) <= FLOOR_GAP_M)
+            self._on_floor = last
+        return last[3]
 
     def set_base_pose(self, x: float, y: float, yaw: float) -> None:
         """Place the robot base (kinematically) on its floor."""
@@ -242,7 +257,7 @@ class SimEnv:
     def tool_frame(self) -> Matrix:
         """The tool frame (site) now."""
         pos, orn = self.robot.tool_pose()
-        return from_pos_quat(pos, orn)
+        return matrix_of(pos, orn)
 
     def element(self, iri: str) -> WorldElement:
         """A task element of the world."""
@@ -258,12 +273,15 @@ class SimEnv:
 
     def set_element_frame(self, iri: str, frame: Matrix) -> None:
         """Put a task element's own frame at ``frame`` (site), kinematically."""
-        import pybullet as p
 
         e = self.element(iri)
         assert e.local_bounds is not None
-        com = frame @ _translation(e.local_bounds.center)
-        body = self.world_bodies.task_bodies[iri]
+        self._place(self.world_bodies.task_bodies[iri], frame @ _translation(e.local_bounds.center))
+
+    def _place(self, body: int, com: Matrix) -> None:
+        """Put a body's centre of mass frame at ``com`` (site), kinematically."""
+        import pybullet as p
+
         p.resetBasePositionAndOrientation(body, com[:3, 3].tolist(), quat_of(com),
                                           physicsClientId=self.client)
 
@@ -278,8 +296,16 @@ class SimEnv:
         return [(w.slug, x, y) for w, (x, y, _) in zip(self.workers, self.worker_poses(), strict=True)]
 
     def worker_xy(self) -> np.ndarray:
-        """(n, 2) positions of every worker now."""
-        return np.array([(x, y) for x, y, _ in self.worker_poses()], dtype=np.float64).reshape(-1, 2)
+        """(n, 2) positions of every worker now (read only; the same array until a worker moves)."""
+        crowd_pos = self.crowd.pos if self.crowd is not None else None
+        tick = self.tick if self.worker_motions else -1
+        cached = self._xy
+        if cached is not None and cached[0] is crowd_pos and cached[1] == tick:
+            return cached[2]
+        xy = np.array([(x, y) for x, y, _ in self.worker_poses()], dtype=np.float64).reshape(-1, 2)
+        xy.flags.writeable = False
+        self._xy = (crowd_pos, tick, xy)
+        return xy
 
     # ---- holding ----------------------------------------------------------------------------------
     def attach(self, iri: str) -> Held:
@@ -327,8 +353,10 @@ class SimEnv:
                 self._followed[2] == p.getBasePositionAndOrientation(body, physicsClientId=self.client):
             return
         pos, orn = tool
-        frame = from_pos_quat(pos, orn) @ held.element_in_tool
-        self.set_element_frame(held.element.iri, frame)
+        if held.com_in_element is None:
+            assert held.element.local_bounds is not None
+            held.com_in_element = _translation(held.element.local_bounds.center)
+        self._place(body, matrix_of(pos, orn) @ held.element_in_tool @ held.com_in_element)
         self._followed = (held, tool, p.getBasePositionAndOrientation(body, physicsClientId=self.client))
 
     def detach(self) -> WorldElement:
@@ -416,10 +444,16 @@ class SimEnv:
         z = self.world.ground_z + WORKER_HEIGHT_M / 2
         placed = self._worker_placed
         for k, (w, pose) in enumerate(zip(self.workers, self.worker_poses(), strict=True)):
-            if placed[k] == pose:  # standing where the body already is (kinematic, mass 0)
+            last = placed[k]
+            if last == pose:  # standing where the body already is (kinematic, mass 0)
                 continue
             x, y, heading = pose
-            orn = p.getQuaternionFromEuler([0.0, 0.0, heading])
+            if last is not None and last[2] == heading and math.copysign(1.0, last[2]) == \
+                    math.copysign(1.0, heading) and k in self._worker_orn:
+                orn = self._worker_orn[k]  # the same heading (bit for bit): the same quaternion
+            else:
+                orn = p.getQuaternionFromEuler([0.0, 0.0, heading])
+                self._worker_orn[k] = orn
             p.resetBasePositionAndOrientation(w.body, [x, y, z], orn,
                                               physicsClientId=self.client)
             placed[k] = pose

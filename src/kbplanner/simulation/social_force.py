@@ -49,14 +49,16 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from kbplanner.simulation.separation import WORKER_RADIUS_M, rects_distance
+from kbplanner.simulation.separation import WORKER_RADIUS_M, points_rects_distance, rects_distance
 from kbplanner.world.footprint import Rect
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
+_hypot = np.hypot  # on two floats: the numbers of np.hypot on arrays
 
 _RIGHT = math.radians(-20.0)
 _COS_R, _SIN_R = math.cos(_RIGHT), math.sin(_RIGHT)
+SMALL_CROWD = 8  # up to this many workers, accelerations() works on plain floats (the same numbers)
 
 
 @dataclass(frozen=True)
@@ -111,14 +113,18 @@ def _constants(params: tuple[SocialForceParams, ...]) -> dict[str, FloatArray]:
 
 
 def accelerations(pos: FloatArray, vel: FloatArray, desired: FloatArray, params: Sequence[SocialForceParams],
-                  seen: Obstacle | None, active: BoolArray) -> FloatArray:
-    """The social-force acceleration (n, 2) of every worker (inactive ones: none).
+                  seen: Obstacle | None, active: BoolArray, *, constants: dict[str, FloatArray] | None = None
+                  ) -> FloatArray:
+    """The social-force acceleration (n, 2) of every worker (inactive ones: none); ``constants``: those
+    of ``params`` (:func:`constants_of`) when the caller keeps them.
 
     (Written for few workers, where each numpy call's fixed cost dominates: constants derived once
     per crowd, shared terms computed once; ``-x / b`` as ``x / -b`` and ``x * 1.0`` left out are the
     same numbers.)"""
     n = len(pos)
-    k = _constants(tuple(params))
+    k = constants if constants is not None else _constants(tuple(params))
+    if n <= SMALL_CROWD:
+        return _accelerations_few(pos, vel, desired, k, seen, active)
     acc = (desired - vel) / k["tau"][:, None]
     if n > 1:
         d = pos[:, None, :] - pos[None, :, :]
@@ -154,9 +160,102 @@ def accelerations(pos: FloatArray, vel: FloatArray, desired: FloatArray, params:
     return acc if active.all() else np.where(active[:, None], acc, 0.0)
 
 
-def cap_speed(vel: FloatArray, v0: FloatArray, params: Sequence[SocialForceParams]) -> FloatArray:
-    """Velocities limited to ``max_speed_factor`` times each worker's walking speed."""
-    vmax = v0 * _constants(tuple(params))["vmax_factor"]
+def _accelerations_few(pos: FloatArray, vel: FloatArray, desired: FloatArray, k: dict[str, FloatArray],
+                       seen: Obstacle | None, active: BoolArray) -> FloatArray:
+    """:func:`accelerations` for a few workers in plain floats: the same operations in the same order,
+    element by element, with numpy's ``hypot``, ``exp`` and row sums where the array code takes them
+    (Python's ``math.hypot`` and ``math.exp`` may differ in the last bit), so the results are
+    bit-identical; a few dozen microseconds less per step than some fifty numpy calls on tiny arrays."""
+    n = len(pos)
+    c = _lists(k)
+    tau, lam, oml = c["tau"], c["lam"], c["one_minus_lam"]
+    xs, ys = pos[:, 0].tolist(), pos[:, 1].tolist()
+    vxs, vys = vel[:, 0].tolist(), vel[:, 1].tolist()
+    des = desired.tolist()
+    ax = [(des[i][0] - vxs[i]) / tau[i] for i in range(n)]
+    ay = [(des[i][1] - vys[i]) / tau[i] for i in range(n)]
+    on = active.tolist()
+    if n > 1:
+        d = pos[:, None, :] - pos[None, :, :]
+        dist = np.hypot(d[..., 0], d[..., 1])
+        np.fill_diagonal(dist, np.inf)
+        dl = dist.tolist()
+        sp = np.hypot(vel[:, 0:1], vel[:, 1:2])[:, 0].tolist()
+        s_p, neg_s_p, neg_b_p, a_over_b_p = c["s_p"], c["neg_s_p"], c["neg_b_p"], c["a_over_b_p"]
+        expo = [[max(dl[i][j] - 2 * WORKER_RADIUS_M - s_p[i], neg_s_p[i]) / neg_b_p[i] for j in range(n)]
+                for i in range(n)]
+        e = np.exp(np.array(expo, dtype=np.float64)).tolist()
+        fx: list[list[float]] = []
+        fy: list[list[float]] = []
+        inf = math.inf
+        for i in range(n):
+            xi, yi, vx, vy = xs[i], ys[i], vxs[i], vys[i]
+            moving, m = sp[i] > 1e-9, max(sp[i], 1e-9)
+            li, oi, ai, dli, ei = lam[i], oml[i], a_over_b_p[i], dl[i], e[i]
+            rx, ry = [], []
+            for j in range(n):
+                dij = dli[j]
+                norm = dij if dij > 0 else 1.0
+                nx, ny = (xi - xs[j]) / norm, (yi - ys[j]) / norm
+                mag = ai * ei[j] if dij < inf and on[j] else 0.0  # (a distance is never -inf)
+                cos_phi = -(nx * vx + ny * vy) / m if moving else 1.0
+                mw = mag * (li + oi * (1 + cos_phi) / 2)
+                rx.append(mw * nx)
+                ry.append(mw * ny)
+            fx.append(rx)
+            fy.append(ry)
+        sx = np.array(fx, dtype=np.float64).sum(axis=1).tolist()
+        sy = np.array(fy, dtype=np.float64).sum(axis=1).tolist()
+        ax = [ax[i] + sx[i] for i in range(n)]
+        ay = [ay[i] + sy[i] for i in range(n)]
+    if seen is not None:
+        px, py = seen.pose[0], seen.pose[1]
+        s_c, neg_s_c, neg_b_r, a_over_b_r = c["s_c"], c["neg_s_c"], c["neg_b_r"], c["a_over_b_r"]
+        near = points_rects_distance(xs, ys, seen.pose, seen.rects)
+        expo_r = [max(near[i][0] - WORKER_RADIUS_M - s_c[i], neg_s_c[i]) / neg_b_r[i] for i in range(n)]
+        er = np.exp(np.array(expo_r, dtype=np.float64)).tolist()
+        for i in range(n):
+            _, ux, uy = near[i]
+            if ux == 0 and uy == 0:  # inside the footprint: away from the robot's centre
+                cx, cy = xs[i] - px, ys[i] - py
+                cn = max(float(_hypot(cx, cy)), 1e-9)
+                ux, uy = cx / cn, cy / cn
+            mag = a_over_b_r[i] * er[i]
+            if -(ux * vxs[i] + uy * vys[i]) > 0:
+                ax[i] += mag * (_COS_R * ux - _SIN_R * uy)
+                ay[i] += mag * (_SIN_R * ux + _COS_R * uy)
+            else:
+                ax[i] += mag * ux
+                ay[i] += mag * uy
+    acc = np.array([ax, ay], dtype=np.float64).T.reshape(n, 2)
+    return acc if all(on) else np.where(active[:, None], acc, 0.0)
+
+
+_LISTS: dict[int, tuple[dict[str, FloatArray], dict[str, list[float]]]] = {}
+
+
+def _lists(k: dict[str, FloatArray]) -> dict[str, list[float]]:
+    """The constants of :func:`_constants` as lists of floats (the same numbers; once per crowd)."""
+    hit = _LISTS.get(id(k))
+    if hit is None or hit[0] is not k:
+        if len(_LISTS) >= 64:
+            _LISTS.clear()
+        hit = (k, {name: np.asarray(a, dtype=np.float64).ravel().tolist() for name, a in k.items()})
+        _LISTS[id(k)] = hit
+    return hit[1]
+
+
+def constants_of(params: Sequence[SocialForceParams]) -> dict[str, FloatArray]:
+    """The per-worker constants of ``params`` as read-only arrays (for :func:`accelerations`)."""
+    return _constants(tuple(params))
+
+
+def cap_speed(vel: FloatArray, v0: FloatArray, params: Sequence[SocialForceParams], *,
+              vmax: FloatArray | None = None) -> FloatArray:
+    """Velocities limited to ``max_speed_factor`` times each worker's walking speed (``vmax``: that
+    product, when the caller keeps it)."""
+    if vmax is None:
+        vmax = v0 * _constants(tuple(params))["vmax_factor"]
     sp = np.hypot(vel[:, 0], vel[:, 1])
     f = np.where(sp > vmax, vmax / np.maximum(sp, 1e-12), 1.0)
     return np.asarray(vel * f[:, None], dtype=np.float64)
