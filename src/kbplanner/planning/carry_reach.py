@@ -61,6 +61,7 @@ from kbplanner.planning.base_poses import N_YAW_BINS, PoseChecker, mark_polygon,
 from kbplanner.planning.carry import NARROW, NORMAL, CarryGeometry
 from kbplanner.planning.plan_model import Pose2
 from kbplanner.world.cspace_cache import configuration_space
+from kbplanner.world.cspace_join import PartJoin
 from kbplanner.world.footprint import ConfigurationSpace, Footprint
 from kbplanner.world.occupancy import OccupancyGrid
 
@@ -76,6 +77,12 @@ WHOLE_MAP_MAX_CELLS = 250_000
 #: as the bisection builds it several times (a hint for the reason and the install order, which B4
 #: checks again; the verdict is :class:`CarryReach`'s).
 BLOCKER_MARGINS_M: tuple[float | None, ...] = WINDOW_MARGINS_M[:1]
+#: Whether a footprint joins two poses is first asked of the part of the window around them, grown by
+#: this many cells (:class:`~kbplanner.world.cspace_join.PartJoin`: the same answer where it decides,
+#: without building and labelling the whole window); at most :data:`PARTS_PER_SPACE` parts per window
+#: and footprint, then the whole window.
+PART_MARGIN_CELLS = 30
+PARTS_PER_SPACE = 2
 
 
 @dataclass
@@ -170,6 +177,8 @@ class CarryReach:
         self._levels: dict[int, _Level] = {}
         self.reason: str | None = None  # the caller's reason once no goal was reachable (kept with it)
         self._spaces: dict[tuple[int, int], ConfigurationSpace] = {}
+        self._windows: dict[int, tuple[OccupancyGrid, PoseChecker]] = {}
+        self._parts: dict[tuple[int, int], list[PartJoin]] = {}
         n_cells = grid.shape[0] * grid.shape[1]
         # the whole map only where it is small enough to label quickly; else the largest window is final
         self.capped = self.margins[-1] is None and n_cells > WHOLE_MAP_MAX_CELLS and len(self.margins) > 1
@@ -177,7 +186,16 @@ class CarryReach:
             self.margins = self.margins[:-1]
 
     def _window(self, i: int) -> OccupancyGrid:
-        return window(self.grid, [(self.start.x, self.start.y), self.around], self.margins[i])
+        return self._window_checker(i)[0]
+
+    def _window_checker(self, i: int) -> tuple[OccupancyGrid, PoseChecker]:
+        """Window ``i`` and a pose checker on it (each made once)."""
+        got = self._windows.get(i)
+        if got is None:
+            win = window(self.grid, [(self.start.x, self.start.y), self.around], self.margins[i])
+            got = (win, PoseChecker(win, self.n_bins))
+            self._windows[i] = got
+        return got
 
     def _space(self, i: int, k: int) -> ConfigurationSpace:
         """Footprint ``k``'s configuration space on window ``i`` (built once; its labels, 26-connected,
@@ -192,8 +210,30 @@ class CarryReach:
         return cs
 
     def _joins(self, i: int, k: int, a: Pose2, b: Pose2) -> bool:
-        """Whether footprint ``k`` joins ``a`` and ``b`` on window ``i`` (26-connected, the yaw ring)."""
-        return self._space(i, k).joined((a.x, a.y, a.yaw), (b.x, b.y, b.yaw), diagonal=True)
+        """Whether footprint ``k`` joins ``a`` and ``b`` on window ``i`` (26-connected, the yaw ring).
+
+        The same answer as the window's configuration space gives
+        (:meth:`~kbplanner.world.footprint.ConfigurationSpace.joined`), without building it where a
+        pose is blocked for the footprint (the kernel test on the window's cells) or a part of the
+        window around the poses decides (:class:`~kbplanner.world.cspace_join.PartJoin`).
+        """
+        pa, pb = (a.x, a.y, a.yaw), (b.x, b.y, b.yaw)
+        cs = self._spaces.get((i, k))
+        if cs is None or True not in cs.memo:
+            win, checker = self._window_checker(i)
+            fp = self.footprints[k]
+            if not (checker.free(fp, *pa) and checker.free(fp, *pb)):
+                return False
+            parts = self._parts.setdefault((i, k), [])
+            part = next((p for p in parts if p.holds(pa) and p.holds(pb)), None)
+            if part is None and len(parts) < PARTS_PER_SPACE:
+                part = PartJoin(win, fp, [pa[:2], pb[:2]], margin_cells=PART_MARGIN_CELLS, diagonal=True,
+                                n_bins=self.n_bins)
+                parts.append(part)
+            got = part.joined(pa, pb) if part is not None else None
+            if got is not None:
+                return got
+        return self._space(i, k).joined(pa, pb, diagonal=True)
 
     def _first_joins(self, goal: Pose2) -> bool:
         """Whether the first footprint alone (the normal carry: the navigation's first try) joins the
