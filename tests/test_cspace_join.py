@@ -62,7 +62,7 @@ def test_a_part_decides_as_the_whole_space(seed: int, diagonal: bool) -> None:
         free = np.argwhere(whole.free)  # pairs of free poses, most questions are about those
         for _ in range(25):
             picks = free[rng.integers(0, len(free), 2)]
-            pair = [g.center_of(int(c[2]), int(c[1])) + (float(c[0]) * 2 * math.pi / BINS,) for c in picks]
+            pair = [(*g.center_of(int(c[2]), int(c[1])), float(c[0]) * 2 * math.pi / BINS) for c in picks]
             pair += _poses(g, rng, 1)  # and now and then a blocked one
             a, b = pair[0], pair[int(rng.integers(1, 3))]
             part = PartJoin(g, fp, [a[:2], b[:2]], margin_cells=int(rng.integers(0, 25)), diagonal=diagonal,
@@ -82,7 +82,8 @@ def test_the_carry_reach_joins_as_the_window_spaces(seed: int) -> None:
     g = _rooms(seed + 20)
     rng = np.random.default_rng(seed)
     poses = [Pose2(*p) for p in _poses(g, rng, 12)]
-    reach = CarryReach(g, FOOTPRINTS, poses[0], (poses[1].x, poses[1].y), margins=(1.0, 2.0, None), n_bins=BINS)
+    reach = CarryReach(g, FOOTPRINTS, poses[0], (poses[1].x, poses[1].y), margins=(1.0, 2.0, None),
+                       n_bins=BINS)
     for i, margin in enumerate(reach.margins):
         win = reach._window(i)
         for k, fp in enumerate(FOOTPRINTS):
@@ -98,10 +99,30 @@ def test_the_box_test_is_kept_per_cell() -> None:
     cs = ConfigurationSpace.build(g, FOOTPRINTS[0], BINS)
     free = np.argwhere(cs.free)
     rng = np.random.default_rng(0)
-    pairs = [tuple(g.center_of(int(c[2]), int(c[1])) + (float(c[0]) * 2 * math.pi / BINS,)
+    pairs = [tuple((*g.center_of(int(c[2]), int(c[1])), float(c[0]) * 2 * math.pi / BINS)
                    for c in free[rng.integers(0, len(free), 2)]) for _ in range(10)]
     first = [cs.joined(a, b, diagonal=True) for a, b in pairs]
     assert cs.near_memo or cs.memo
     again = ConfigurationSpace.build(g, FOOTPRINTS[0], BINS)
     assert first == [again.joined(a, b, diagonal=True) for a, b in pairs]
     assert first == [cs.joined(a, b, diagonal=True) for a, b in pairs]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_carry_reach_reaches_as_with_whole_windows(seed: int) -> None:
+    """Reachability by changing footprint on the way (joint components): parts first, as the levels."""
+    cspace_cache.clear()
+    g = _rooms(seed + 40)
+    rng = np.random.default_rng(seed)
+    poses = [Pose2(*p) for p in _poses(g, rng, 16)]
+    around = (poses[1].x, poses[1].y)
+    fast = CarryReach(g, FOOTPRINTS, poses[0], around, margins=(1.5, None), n_bins=BINS)
+    for goal in poses[1:]:
+        whole = CarryReach(g, FOOTPRINTS, poses[0], around, margins=(1.5, None), n_bins=BINS)
+        whole._part_reaches = lambda _goal: False  # type: ignore[method-assign]
+        whole._parts = {(i, k): [] for i in range(2) for k in range(2)}
+        for i in range(2):  # no parts: every join on the whole windows
+            for k in range(2):
+                whole._space(i, k).labels_and_roots(True)
+        assert fast.reaches(goal) == whole.reaches(goal), goal
+        assert fast.way(goal) == whole.way(goal), goal

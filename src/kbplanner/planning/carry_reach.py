@@ -61,7 +61,7 @@ from kbplanner.planning.base_poses import N_YAW_BINS, PoseChecker, mark_polygon,
 from kbplanner.planning.carry import NARROW, NORMAL, CarryGeometry
 from kbplanner.planning.plan_model import Pose2
 from kbplanner.world.cspace_cache import configuration_space
-from kbplanner.world.cspace_join import PartJoin
+from kbplanner.world.cspace_join import PartJoin, part_region
 from kbplanner.world.footprint import ConfigurationSpace, Footprint
 from kbplanner.world.occupancy import OccupancyGrid
 
@@ -220,16 +220,13 @@ class CarryReach:
         pa, pb = (a.x, a.y, a.yaw), (b.x, b.y, b.yaw)
         cs = self._spaces.get((i, k))
         if cs is None or True not in cs.memo:
-            win, checker = self._window_checker(i)
+            _win, checker = self._window_checker(i)
             fp = self.footprints[k]
             if not (checker.free(fp, *pa) and checker.free(fp, *pb)):
                 return False
-            parts = self._parts.setdefault((i, k), [])
-            part = next((p for p in parts if p.holds(pa) and p.holds(pb)), None)
-            if part is None and len(parts) < PARTS_PER_SPACE:
-                part = PartJoin(win, fp, [pa[:2], pb[:2]], margin_cells=PART_MARGIN_CELLS, diagonal=True,
-                                n_bins=self.n_bins)
-                parts.append(part)
+            part = next((p for p in self._parts.get((i, k), []) if p.holds(pa) and p.holds(pb)), None)
+            if part is None:
+                part = self._part(i, k, [pa[:2], pb[:2]])
             got = part.joined(pa, pb) if part is not None else None
             if got is not None:
                 return got
@@ -279,6 +276,42 @@ class CarryReach:
         if iy0 + sy < ny:
             band[-k:, :] = True
         return band
+
+    def _part(self, i: int, k: int, points: list[tuple[float, float]]) -> PartJoin | None:
+        """Footprint ``k``'s part of window ``i`` around ``points`` (kept; None once
+        :data:`PARTS_PER_SPACE` other parts were made for it)."""
+        win = self._window(i)
+        region = part_region(win, points, PART_MARGIN_CELLS)
+        parts = self._parts.setdefault((i, k), [])
+        part = next((p for p in parts if p.region == region), None)
+        if part is None and len(parts) < PARTS_PER_SPACE:
+            part = PartJoin(win, self.footprints[k], points, margin_cells=PART_MARGIN_CELLS, diagonal=True,
+                            n_bins=self.n_bins)
+            parts.append(part)
+        return part
+
+    def _part_reaches(self, goal: Pose2) -> bool:
+        """Whether the start and ``goal`` share a joint component on the part of the first window around
+        them (then they do on the window: :meth:`reaches` is True), without labelling the window."""
+        points = [(self.start.x, self.start.y), (goal.x, goal.y)]
+        parts: list[tuple[npt.NDArray[np.int32], npt.NDArray[np.int64], PartJoin]] = []
+        for k in range(len(self.footprints)):
+            part = self._part(0, k, points)
+            if part is None or part.labels is None or part.roots is None:
+                return False
+            parts.append((part.labels, part.roots, part))
+        offsets, joint = joint_components([(lab, roots) for lab, roots, _p in parts])
+
+        def component(pose: Pose2) -> int:
+            q = (pose.x, pose.y, pose.yaw)
+            for (_lab, _roots, p), off in zip(parts, offsets, strict=True):
+                c = p.component(q) if p.holds(q) else 0
+                if c:
+                    return int(joint[off + c]) + 1
+            return 0
+
+        there = component(goal)
+        return there > 0 and there == component(self.start)
 
     def start_blocked(self) -> bool:
         """Whether the robot holding the element fits neither way at (or near) the start."""
@@ -342,6 +375,8 @@ class CarryReach:
     def reaches(self, goal: Pose2) -> bool:
         """Whether ``goal`` lies in the start's joint component (on the smallest window that joins them)."""
         if self._first_joins(goal):
+            return True
+        if 0 not in self._levels and self._part_reaches(goal):
             return True
         for i in range(len(self.margins)):
             level = self._level(i)

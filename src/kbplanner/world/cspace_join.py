@@ -46,6 +46,16 @@ from kbplanner.world.occupancy import OccupancyGrid
 Pose = tuple[float, float, float]
 
 
+def part_region(grid: OccupancyGrid, points: list[tuple[float, float]], margin_cells: int
+                ) -> tuple[int, int, int, int]:
+    """(y0, y1, x0, x1): the cells of ``grid`` around ``points`` grown by ``margin_cells``, clipped."""
+    ny, nx = grid.shape
+    cells = [grid.cell_of(x, y) for x, y in points]
+    ys, xs = [c[1] for c in cells], [c[0] for c in cells]
+    return (max(0, min(ys) - margin_cells), min(ny, max(ys) + margin_cells + 1),
+            max(0, min(xs) - margin_cells), min(nx, max(xs) + margin_cells + 1))
+
+
 class PartJoin:
     """The components of ``footprint``'s configuration space on the part of ``grid`` around ``points``
     (module docstring): ``joined(a, b)`` is True, False, or None where the part does not decide."""
@@ -54,11 +64,7 @@ class PartJoin:
                  margin_cells: int, diagonal: bool, n_bins: int = 72) -> None:
         self.grid = grid
         ny, nx = grid.shape
-        cells = [grid.cell_of(x, y) for x, y in points]
-        self.y0 = max(0, min(c[1] for c in cells) - margin_cells)
-        self.y1 = min(ny, max(c[1] for c in cells) + margin_cells + 1)
-        self.x0 = max(0, min(c[0] for c in cells) - margin_cells)
-        self.x1 = min(nx, max(c[0] for c in cells) + margin_cells + 1)
+        self.region = self.y0, self.y1, self.x0, self.x1 = part_region(grid, points, margin_cells)
         self.n_bins = n_bins
         self.labels: npt.NDArray[np.int32] | None = None
         self.roots: npt.NDArray[np.int64] | None = None
