@@ -61,7 +61,7 @@ from kbplanner.planning.base_poses import N_YAW_BINS, PoseChecker, mark_polygon,
 from kbplanner.planning.carry import NARROW, NORMAL, CarryGeometry
 from kbplanner.planning.plan_model import Pose2
 from kbplanner.world.cspace_cache import configuration_space
-from kbplanner.world.cspace_join import PartJoin, part_region
+from kbplanner.world.cspace_join import PartJoin
 from kbplanner.world.footprint import ConfigurationSpace, Footprint
 from kbplanner.world.occupancy import OccupancyGrid
 
@@ -77,10 +77,10 @@ WHOLE_MAP_MAX_CELLS = 250_000
 #: as the bisection builds it several times (a hint for the reason and the install order, which B4
 #: checks again; the verdict is :class:`CarryReach`'s).
 BLOCKER_MARGINS_M: tuple[float | None, ...] = WINDOW_MARGINS_M[:1]
-#: Whether a footprint joins two poses is first asked of the part of the window around them, grown by
+#: Whether a footprint joins two poses is first asked of a part of the window around them, grown by
 #: this many cells (:class:`~kbplanner.world.cspace_join.PartJoin`: the same answer where it decides,
-#: without building and labelling the whole window); at most :data:`PARTS_PER_SPACE` parts per window
-#: and footprint, then the whole window.
+#: without building and labelling the whole window); a second part, twice as wide, also around the
+#: goals' centre; at most :data:`PARTS_PER_SPACE` parts per window and footprint, then the whole window.
 PART_MARGIN_CELLS = 30
 PARTS_PER_SPACE = 2
 
@@ -224,9 +224,7 @@ class CarryReach:
             fp = self.footprints[k]
             if not (checker.free(fp, *pa) and checker.free(fp, *pb)):
                 return False
-            part = next((p for p in self._parts.get((i, k), []) if p.holds(pa) and p.holds(pb)), None)
-            if part is None:
-                part = self._part(i, k, [pa[:2], pb[:2]])
+            part = self._part(i, k, a, b)
             got = part.joined(pa, pb) if part is not None else None
             if got is not None:
                 return got
@@ -277,27 +275,40 @@ class CarryReach:
             band[-k:, :] = True
         return band
 
-    def _part(self, i: int, k: int, points: list[tuple[float, float]]) -> PartJoin | None:
-        """Footprint ``k``'s part of window ``i`` around ``points`` (kept; None once
-        :data:`PARTS_PER_SPACE` other parts were made for it)."""
-        win = self._window(i)
-        region = part_region(win, points, PART_MARGIN_CELLS)
+    def _part(self, i: int, k: int, a: Pose2, b: Pose2) -> PartJoin | None:
+        """A part of window ``i`` holding ``a`` and ``b`` for footprint ``k``: one kept, else a new one
+        (the first around them, the second wider and around the goals' centre too, so that later goals
+        fall in it); None once :data:`PARTS_PER_SPACE` were made."""
+        pa, pb = (a.x, a.y, a.yaw), (b.x, b.y, b.yaw)
         parts = self._parts.setdefault((i, k), [])
-        part = next((p for p in parts if p.region == region), None)
+        part = next((p for p in parts if p.holds(pa) and p.holds(pb)), None)
         if part is None and len(parts) < PARTS_PER_SPACE:
-            part = PartJoin(win, self.footprints[k], points, margin_cells=PART_MARGIN_CELLS, diagonal=True,
-                            n_bins=self.n_bins)
+            points = [(a.x, a.y), (b.x, b.y)] + ([self.around] if parts else [])
+            part = PartJoin(self._window(i), self.footprints[k], points, diagonal=True, n_bins=self.n_bins,
+                            margin_cells=PART_MARGIN_CELLS * (1 + len(parts)))
+            parts.append(part)
+        return part
+
+    def _part_like(self, i: int, k: int, like: PartJoin) -> PartJoin:
+        """Footprint ``k``'s part of window ``i`` on the cells of ``like`` (kept)."""
+        parts = self._parts.setdefault((i, k), [])
+        part = next((p for p in parts if p.region == like.region), None)
+        if part is None:
+            part = PartJoin(self._window(i), self.footprints[k], [], margin_cells=0, diagonal=True,
+                            n_bins=self.n_bins, region=like.region)
             parts.append(part)
         return part
 
     def _part_reaches(self, goal: Pose2) -> bool:
-        """Whether the start and ``goal`` share a joint component on the part of the first window around
+        """Whether the start and ``goal`` share a joint component on a part of the first window around
         them (then they do on the window: :meth:`reaches` is True), without labelling the window."""
-        points = [(self.start.x, self.start.y), (goal.x, goal.y)]
+        first = self._part(0, 0, self.start, goal)
+        if first is None:
+            return False
         parts: list[tuple[npt.NDArray[np.int32], npt.NDArray[np.int64], PartJoin]] = []
         for k in range(len(self.footprints)):
-            part = self._part(0, k, points)
-            if part is None or part.labels is None or part.roots is None:
+            part = first if k == 0 else self._part_like(0, k, first)
+            if part.labels is None or part.roots is None:
                 return False
             parts.append((part.labels, part.roots, part))
         offsets, joint = joint_components([(lab, roots) for lab, roots, _p in parts])

@@ -58,13 +58,18 @@ def part_region(grid: OccupancyGrid, points: list[tuple[float, float]], margin_c
 
 class PartJoin:
     """The components of ``footprint``'s configuration space on the part of ``grid`` around ``points``
-    (module docstring): ``joined(a, b)`` is True, False, or None where the part does not decide."""
+    (module docstring): ``joined(a, b)`` is True, False, or None where the part does not decide.
+    ``region`` (y0, y1, x0, x1), when given, is the part instead (that of another footprint's part).
+    """
 
     def __init__(self, grid: OccupancyGrid, footprint: Footprint, points: list[tuple[float, float]], *,
-                 margin_cells: int, diagonal: bool, n_bins: int = 72) -> None:
+                 margin_cells: int, diagonal: bool, n_bins: int = 72,
+                 region: tuple[int, int, int, int] | None = None) -> None:
         self.grid = grid
         ny, nx = grid.shape
-        self.region = self.y0, self.y1, self.x0, self.x1 = part_region(grid, points, margin_cells)
+        if region is None:
+            region = part_region(grid, points, margin_cells)
+        self.region = self.y0, self.y1, self.x0, self.x1 = region
         self.n_bins = n_bins
         self.labels: npt.NDArray[np.int32] | None = None
         self.roots: npt.NDArray[np.int64] | None = None
