@@ -179,6 +179,8 @@ class CarryReach:
         self._spaces: dict[tuple[int, int], ConfigurationSpace] = {}
         self._windows: dict[int, tuple[OccupancyGrid, PoseChecker]] = {}
         self._parts: dict[tuple[int, int], list[PartJoin]] = {}
+        # joint components of the parts of the first window on the same cells, per (y0, y1, x0, x1)
+        self._part_joints: dict[tuple[int, int, int, int], tuple[tuple[int, ...], npt.NDArray[np.int64]]] = {}
         n_cells = grid.shape[0] * grid.shape[1]
         # the whole map only where it is small enough to label quickly; else the largest window is final
         self.capped = self.margins[-1] is None and n_cells > WHOLE_MAP_MAX_CELLS and len(self.margins) > 1
@@ -311,7 +313,12 @@ class CarryReach:
             if part.labels is None or part.roots is None:
                 return False
             parts.append((part.labels, part.roots, part))
-        offsets, joint = joint_components([(lab, roots) for lab, roots, _p in parts])
+        key = first.region
+        got = self._part_joints.get(key)
+        if got is None:
+            got = joint_components([(lab, roots) for lab, roots, _p in parts])
+            self._part_joints[key] = got
+        offsets, joint = got
 
         def component(pose: Pose2) -> int:
             q = (pose.x, pose.y, pose.yaw)

@@ -38,6 +38,7 @@ Example:
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import math
 from collections import OrderedDict
@@ -191,6 +192,12 @@ def _cropped(key: _Key, grid: OccupancyGrid, footprint: Footprint) -> Configurat
 
 def kernel_reach(footprint: Footprint, res: float, n_bins: int, margin_m: float) -> int:
     """The largest kernel half-size in cells: how far an occupied cell changes the free maps."""
+    return _kernel_reach(footprint.rects, float(res), int(n_bins), float(margin_m))
+
+
+@functools.lru_cache(maxsize=1024)
+def _kernel_reach(rects: tuple[Rect, ...], res: float, n_bins: int, margin_m: float) -> int:
+    footprint = Footprint(rects)
     width = 2 * math.pi / n_bins
     return max(footprint.kernel(res, k * width - width / 2, k * width + width / 2, margin_m).shape[0] // 2
                for k in range(n_bins))
