@@ -16,7 +16,13 @@ tree's ``data/case_study``, as the outputs name the project folder). Ratios are
 baseline / this tree (> 1: faster now), from the median over rounds; the load average is recorded
 before and after (on a shared machine CPU seconds are the steadier figure).
 
+With ``--generated SxU`` (e.g. ``1x2``) it also plans a generated building (``kbplanner
+generate-building --storeys S --units-per-storey U``, by this tree's generator, into the temporary
+folder; both trees plan that same folder) with its scenario (``storage-in-units``): a storey of
+another layout, the pickup locations inside the units.
+
 Usage: .venv/bin/python benchmarks/bench_refine.py [--before REF] [--scenario S ...] [--rounds N]
+       [--generated SxU]
 Prints a table and writes benchmarks/results/refine.json (or --out); ``bench_refine.py --table FILE``
 prints the docs/scale.md table of a written result.
 """
@@ -67,11 +73,11 @@ def _export(ref: str, into: Path) -> Path:
     return into / "src"
 
 
-def _run(src: Path, scenario: str, seed: int, out: Path, log: Path) -> dict[str, Any]:
+def _run(src: Path, scenario: str, seed: int, out: Path, log: Path, project: Path) -> dict[str, Any]:
     env = dict(os.environ, PYTHONPATH=str(src))
     step_file = log.with_suffix(".b4.json")
     # the same project folder for both trees: the outputs name it
-    cmd = [sys.executable, "-c", _TIMED, str(step_file), "plan", str(REPO / "data" / "case_study"),
+    cmd = [sys.executable, "-c", _TIMED, str(step_file), "plan", str(project),
            "--scenario", scenario, "--seed", str(seed), "--out", str(out)]
     measured = run_measured(cmd, log=log, timeout_s=1800.0, env=env)
     if not step_file.is_file():
@@ -96,18 +102,19 @@ def _files(root: Path) -> dict[str, bytes]:
             if p.is_file() and p.name != MARKER}
 
 
-def bench(before_src: Path, after_src: Path, scenario: str, seed: int, rounds: int, tmp: Path
-          ) -> dict[str, Any]:
+def bench(before_src: Path, after_src: Path, scenario: str, seed: int, rounds: int, tmp: Path,
+          project: Path = REPO / "data" / "case_study", name: str = "case study") -> dict[str, Any]:
     runs: dict[str, list[dict[str, Any]]] = {"before": [], "after": []}
     identical = True
+    tag = f"{project.name}-{scenario}"
     for k in range(rounds):
         outs = {}
         for label, src in (("before", before_src), ("after", after_src)):
-            out = tmp / f"{scenario}-{label}-{k}"
-            runs[label].append(_run(src, scenario, seed, out, tmp / f"{scenario}-{label}-{k}.log"))
+            out = tmp / f"{tag}-{label}-{k}"
+            runs[label].append(_run(src, scenario, seed, out, tmp / f"{tag}-{label}-{k}.log", project))
             outs[label] = out
         identical = identical and _files(outs["before"]) == _files(outs["after"])
-    row: dict[str, Any] = {"scenario": scenario, "seed": seed, "rounds": rounds,
+    row: dict[str, Any] = {"project": name, "scenario": scenario, "seed": seed, "rounds": rounds,
                            "outputs_identical": identical}
     for label in ("before", "after"):
         rs = runs[label]
@@ -127,7 +134,9 @@ def table(result: dict[str, Any]) -> str:
              "| --- | ---: | ---: | ---: | ---: | ---: | --- |"]
     for r in result["scenarios"]:
         b, a = r["before"], r["after"]
-        lines.append(f"| {r['scenario']} | {b['cpu_s']:.1f} / {a['cpu_s']:.1f} s (x{r['speedup_cpu_s']}) | "
+        where = r["scenario"] if r.get("project", "case study") == "case study" else \
+            f"{r['project']}, {r['scenario']}"
+        lines.append(f"| {where} | {b['cpu_s']:.1f} / {a['cpu_s']:.1f} s (x{r['speedup_cpu_s']}) | "
                      f"{b['b4_cpu_s']:.1f} / {a['b4_cpu_s']:.1f} s (x{r['speedup_b4_cpu_s']}) | "
                      f"{b['b4_s']:.1f} / {a['b4_s']:.1f} s (x{r['speedup_b4_s']}) | "
                      f"{b['b4_builds']:.0f} / {a['b4_builds']:.0f} | "
@@ -146,6 +155,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rounds", type=int, default=1, help="before/after pairs per scenario (median)")
     ap.add_argument("--out", type=Path, default=RESULTS_DIR / "refine.json")
     ap.add_argument("--table", type=Path, help="print the docs table of this written result and stop")
+    ap.add_argument("--generated", metavar="SxU", help="also plan a generated building, S storeys x U units")
     args = ap.parse_args(argv)
     if args.table:
         sys.stdout.write(table(json.loads(args.table.read_text(encoding="utf-8"))))
@@ -156,6 +166,14 @@ def main(argv: list[str] | None = None) -> int:
         tmp = Path(tmp_name)
         before_src = _export(args.before, tmp)
         rows = [bench(before_src, REPO / "src", s, args.seed, args.rounds, tmp) for s in scenarios]
+        if args.generated:
+            storeys, units = (int(v) for v in args.generated.lower().split("x"))
+            project = tmp / f"generated-{storeys}x{units}"
+            subprocess.run([sys.executable, "-m", "kbplanner", "generate-building", "--storeys", str(storeys),
+                            "--units-per-storey", str(units), "--out", str(project)], check=True,
+                           capture_output=True, env=dict(os.environ, PYTHONPATH=str(REPO / "src")))
+            rows.append(bench(before_src, REPO / "src", "storage-in-units", args.seed, args.rounds, tmp,
+                              project, f"generated {storeys} x {units}"))
     out = {"machine": machine_info(("python", "cpus", "platform")), "before": args.before,
            "load_average_start": load_before, "load_average_end": list(os.getloadavg()), "scenarios": rows}
     write_json(args.out, out)
@@ -164,6 +182,8 @@ def main(argv: list[str] | None = None) -> int:
       f"{'peak MB':>11} {'same':>5}\n")
     for r in rows:
         b, a = r["before"], r["after"]
+        if r["project"] != "case study":
+            w(f"{r['project']}:\n")
         w(f"{r['scenario']:16} {b['command_s']:6.1f} / {a['command_s']:6.1f} "
           f"{b['cpu_s']:6.1f} / {a['cpu_s']:6.1f} "
           f"{b['b4_s']:6.1f} / {a['b4_s']:6.1f} {b['b4_cpu_s']:6.1f} / {a['b4_cpu_s']:6.1f} "
