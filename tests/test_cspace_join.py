@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from kbplanner.planning.base_poses import escapes
 from kbplanner.planning.carry_reach import CarryReach
 from kbplanner.planning.plan_model import Pose2
 from kbplanner.world import cspace_cache
@@ -126,3 +127,43 @@ def test_the_carry_reach_reaches_as_with_whole_windows(seed: int) -> None:
                 whole._space(i, k).labels_and_roots(True)
         assert fast.reaches(goal) == whole.reaches(goal), goal
         assert fast.way(goal) == whole.way(goal), goal
+
+
+def _escapes_by_labels(grid: OccupancyGrid, fp: Footprint, pose: Pose2, radius_m: float) -> bool:
+    """:func:`escapes` as it was: the whole window labelled, the pose's component against the band."""
+    res = grid.resolution
+    ny, nx = grid.shape
+    ix0 = max(0, math.floor((pose.x - radius_m - grid.origin[0]) / res))
+    iy0 = max(0, math.floor((pose.y - radius_m - grid.origin[1]) / res))
+    ix1 = min(nx, math.ceil((pose.x + radius_m - grid.origin[0]) / res))
+    iy1 = min(ny, math.ceil((pose.y + radius_m - grid.origin[1]) / res))
+    sub = OccupancyGrid(grid.occupied[iy0:iy1, ix0:ix1], origin=(grid.origin[0] + ix0 * res,
+                        grid.origin[1] + iy0 * res), resolution=res)
+    cs = ConfigurationSpace.build(sub, fp, BINS)
+    labels = cs.components()
+    root = cs.component_of(labels, pose.x, pose.y, pose.yaw)
+    if root == 0:
+        return False
+    band = math.ceil((fp.radius_m + 2 * res) / res)
+    border = np.zeros(labels.shape[1:], dtype=bool)
+    border[:, :band] |= ix0 > 0
+    border[:, -band:] |= ix1 < nx
+    border[:band, :] |= iy0 > 0
+    border[-band:, :] |= iy1 < ny
+    return bool((labels[:, border] == root).any())
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_escapes_straight_out_as_by_labels(seed: int) -> None:
+    cspace_cache.clear()
+    g = _rooms(seed + 60)
+    rng = np.random.default_rng(seed)
+    seen = set()
+    for fp in FOOTPRINTS:
+        for x, y, yaw in _poses(g, rng, 30):
+            pose = Pose2(x, y, yaw)
+            radius = float(rng.uniform(0.6, 2.5))
+            want = _escapes_by_labels(g, fp, pose, radius)
+            assert escapes(g, fp, pose, radius_m=radius, n_bins=BINS) == want, (fp.name, pose, radius)
+            seen.add(want)
+    assert seen == {True, False}
