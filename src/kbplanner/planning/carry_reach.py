@@ -50,7 +50,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -226,10 +226,10 @@ class CarryReach:
             fp = self.footprints[k]
             if not (checker.free(fp, *pa) and checker.free(fp, *pb)):
                 return False
-            part = self._part(i, k, a, b)
-            got = part.joined(pa, pb) if part is not None else None
-            if got is not None:
-                return got
+            for part in self._parts_for(i, k, a, b):
+                got = part.joined(pa, pb)
+                if got is not None:
+                    return got
         return self._space(i, k).joined(pa, pb, diagonal=True)
 
     def _first_joins(self, goal: Pose2) -> bool:
@@ -277,19 +277,19 @@ class CarryReach:
             band[-k:, :] = True
         return band
 
-    def _part(self, i: int, k: int, a: Pose2, b: Pose2) -> PartJoin | None:
-        """A part of window ``i`` holding ``a`` and ``b`` for footprint ``k``: one kept, else a new one
-        (the first around them, the second wider and around the goals' centre too, so that later goals
-        fall in it); None once :data:`PARTS_PER_SPACE` were made."""
+    def _parts_for(self, i: int, k: int, a: Pose2, b: Pose2) -> Iterator[PartJoin]:
+        """Parts of window ``i`` holding ``a`` and ``b`` for footprint ``k``: those kept, then new ones
+        while fewer than :data:`PARTS_PER_SPACE` were made (the first around them, the next wider and
+        around the goals' centre too, so that later goals fall in it)."""
         pa, pb = (a.x, a.y, a.yaw), (b.x, b.y, b.yaw)
         parts = self._parts.setdefault((i, k), [])
-        part = next((p for p in parts if p.holds(pa) and p.holds(pb)), None)
-        if part is None and len(parts) < PARTS_PER_SPACE:
+        yield from [p for p in parts if p.holds(pa) and p.holds(pb)]
+        while len(parts) < PARTS_PER_SPACE:
             points = [(a.x, a.y), (b.x, b.y)] + ([self.around] if parts else [])
             part = PartJoin(self._window(i), self.footprints[k], points, diagonal=True, n_bins=self.n_bins,
                             margin_cells=PART_MARGIN_CELLS * (1 + len(parts)))
             parts.append(part)
-        return part
+            yield part
 
     def _part_like(self, i: int, k: int, like: PartJoin) -> PartJoin:
         """Footprint ``k``'s part of window ``i`` on the cells of ``like`` (kept)."""
@@ -304,9 +304,10 @@ class CarryReach:
     def _part_reaches(self, goal: Pose2) -> bool:
         """Whether the start and ``goal`` share a joint component on a part of the first window around
         them (then they do on the window: :meth:`reaches` is True), without labelling the window."""
-        first = self._part(0, 0, self.start, goal)
-        if first is None:
-            return False
+        return any(self._part_pair_joins(first, goal) for first in self._parts_for(0, 0, self.start, goal))
+
+    def _part_pair_joins(self, first: PartJoin, goal: Pose2) -> bool:
+        """Whether the start and ``goal`` share a joint component on the cells of part ``first``."""
         parts: list[tuple[npt.NDArray[np.int32], npt.NDArray[np.int64], PartJoin]] = []
         for k in range(len(self.footprints)):
             part = first if k == 0 else self._part_like(0, k, first)
