@@ -120,8 +120,8 @@ def test_the_carry_reach_reaches_as_with_whole_windows(seed: int) -> None:
     fast = CarryReach(g, FOOTPRINTS, poses[0], around, margins=(1.5, None), n_bins=BINS)
     for goal in poses[1:]:
         whole = CarryReach(g, FOOTPRINTS, poses[0], around, margins=(1.5, None), n_bins=BINS)
-        whole._part_reaches = lambda _goal: False  # type: ignore[method-assign]
-        whole._parts = {(i, k): [] for i in range(2) for k in range(2)}
+        whole._parts.reaches = lambda _start, _goal: False  # type: ignore[method-assign]
+        whole._parts.joins = lambda _i, _k, _a, _b: None  # type: ignore[method-assign]
         for i in range(2):  # no parts: every join on the whole windows
             for k in range(2):
                 whole._space(i, k).labels_and_roots(True)

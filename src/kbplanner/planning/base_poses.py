@@ -147,7 +147,9 @@ def escapes(grid: OccupancyGrid, footprint: Footprint, pose: Pose2, *, radius_m:
     The configuration space of ``footprint`` is built on the grid around the pose; free
     (x, y, yaw-bin) cells are labelled with face connectivity only (6 neighbours, the yaw axis closed
     into a ring), which under-connects, so "reaches the window border" means the robot can get out
-    of the neighbourhood (a 26-connected labelling would let it squeeze through diagonal gaps).
+    of the neighbourhood (a 26-connected labelling would let it squeeze through diagonal gaps). A
+    straight row of free cells from the pose to the border (:func:`straight_out`) decides it first,
+    without the build and the labels (the same answer).
 
     Example:
         >>> occ = np.zeros((80, 80), dtype=bool); occ[20:60, [20, 59]] = True; occ[[20, 59], 20:60] = True

@@ -19,7 +19,10 @@ window is reachable, one that is not is judged on a larger window, and is unreac
 whole map, unless the start's or the goal's component stays clear of the window's edges (then it
 is the same on the map, and final). Where the robot starts in cells its configuration space calls
 blocked, it starts from the nearest free pose, as the navigation does
-(:func:`~kbplanner.planning.base_poses.nearest_free_pose`).
+(:func:`~kbplanner.planning.base_poses.nearest_free_pose`). Each question is first asked of a part of
+the window around the poses (:class:`~kbplanner.world.cspace_join.PartJoin`, its own labels; joined
+there is joined on the window), so that most are answered without building and labelling the whole
+window: the same answers, cheaper.
 
 :func:`carry_leg_reason` says why no candidate was reachable, with figures: how wide the robot is with
 the element carried each way, whether the robot alone gets there (then the load, not the walls, is
@@ -50,7 +53,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -59,9 +62,9 @@ import shapely
 
 from kbplanner.planning.base_poses import N_YAW_BINS, PoseChecker, mark_polygon, nearest_free_pose, window
 from kbplanner.planning.carry import NARROW, NORMAL, CarryGeometry
+from kbplanner.planning.carry_parts import WindowParts, joint_components
 from kbplanner.planning.plan_model import Pose2
 from kbplanner.world.cspace_cache import configuration_space
-from kbplanner.world.cspace_join import PartJoin
 from kbplanner.world.footprint import ConfigurationSpace, Footprint
 from kbplanner.world.occupancy import OccupancyGrid
 
@@ -77,12 +80,6 @@ WHOLE_MAP_MAX_CELLS = 250_000
 #: as the bisection builds it several times (a hint for the reason and the install order, which B4
 #: checks again; the verdict is :class:`CarryReach`'s).
 BLOCKER_MARGINS_M: tuple[float | None, ...] = WINDOW_MARGINS_M[:1]
-#: Whether a footprint joins two poses is first asked of a part of the window around them, grown by
-#: this many cells (:class:`~kbplanner.world.cspace_join.PartJoin`: the same answer where it decides,
-#: without building and labelling the whole window); a second part, twice as wide, also around the
-#: goals' centre; at most :data:`PARTS_PER_SPACE` parts per window and footprint, then the whole window.
-PART_MARGIN_CELLS = 30
-PARTS_PER_SPACE = 2
 
 
 @dataclass
@@ -110,40 +107,6 @@ class _Level:
             if label:
                 return int(self.joint[off + int(roots[label])]) + 1
         return 0
-
-
-def joint_components(parts: Sequence[tuple[npt.NDArray[np.int32], npt.NDArray[np.int64]]]
-                     ) -> tuple[tuple[int, ...], npt.NDArray[np.int64]]:
-    """Components of free cells of several footprints on one grid, joined where a cell is free for two.
-
-    ``parts``: per footprint, the 26-connected labels with the yaw ring and their roots
-    (:meth:`~kbplanner.world.footprint.ConfigurationSpace.labels_and_roots`, the navigation's "walled
-    off" test). A graph whose nodes are every footprint's labels and whose edges join the labels of two
-    footprints that share a free cell (the robot may change from one footprint to the other standing
-    still there). Returns (node offset per footprint, joint component per node).
-    """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    offsets = []
-    n_nodes = 0
-    for _lab, root in parts:
-        offsets.append(n_nodes)
-        n_nodes += len(root)
-    edges = [np.zeros((0, 2), dtype=np.int64)]
-    for i in range(len(parts)):
-        for j in range(i + 1, len(parts)):
-            (li, ri), (lj, rj) = parts[i], parts[j]
-            both = (li > 0) & (lj > 0)
-            # the distinct label pairs (one int64 key each: a 1-D unique, far faster than rows)
-            keys = np.unique(li[both].astype(np.int64) * len(rj) + lj[both])
-            a = ri[keys // len(rj)] + offsets[i]
-            b = rj[keys % len(rj)] + offsets[j]
-            edges.append(np.stack([a, b], axis=1))
-    e = np.concatenate(edges)
-    graph = coo_matrix((np.ones(len(e), dtype=np.int8), (e[:, 0], e[:, 1])), shape=(n_nodes, n_nodes))
-    _, joint = connected_components(graph, directed=False)
-    return tuple(offsets), np.asarray(joint, dtype=np.int64)
 
 
 def carry_footprints(geo: CarryGeometry) -> tuple[Footprint, ...]:
@@ -178,9 +141,7 @@ class CarryReach:
         self.reason: str | None = None  # the caller's reason once no goal was reachable (kept with it)
         self._spaces: dict[tuple[int, int], ConfigurationSpace] = {}
         self._windows: dict[int, tuple[OccupancyGrid, PoseChecker]] = {}
-        self._parts: dict[tuple[int, int], list[PartJoin]] = {}
-        # joint components of the parts of the first window on the same cells, per (y0, y1, x0, x1)
-        self._part_joints: dict[tuple[int, int, int, int], tuple[tuple[int, ...], npt.NDArray[np.int64]]] = {}
+        self._parts = WindowParts(self._window, self.footprints, around, n_bins)
         n_cells = grid.shape[0] * grid.shape[1]
         # the whole map only where it is small enough to label quickly; else the largest window is final
         self.capped = self.margins[-1] is None and n_cells > WHOLE_MAP_MAX_CELLS and len(self.margins) > 1
@@ -226,10 +187,9 @@ class CarryReach:
             fp = self.footprints[k]
             if not (checker.free(fp, *pa) and checker.free(fp, *pb)):
                 return False
-            for part in self._parts_for(i, k, a, b):
-                got = part.joined(pa, pb)
-                if got is not None:
-                    return got
+            got = self._parts.joins(i, k, a, b)
+            if got is not None:
+                return got
         return self._space(i, k).joined(pa, pb, diagonal=True)
 
     def _first_joins(self, goal: Pose2) -> bool:
@@ -276,61 +236,6 @@ class CarryReach:
         if iy0 + sy < ny:
             band[-k:, :] = True
         return band
-
-    def _parts_for(self, i: int, k: int, a: Pose2, b: Pose2) -> Iterator[PartJoin]:
-        """Parts of window ``i`` holding ``a`` and ``b`` for footprint ``k``: those kept, then new ones
-        while fewer than :data:`PARTS_PER_SPACE` were made (the first around them, the next wider and
-        around the goals' centre too, so that later goals fall in it)."""
-        pa, pb = (a.x, a.y, a.yaw), (b.x, b.y, b.yaw)
-        parts = self._parts.setdefault((i, k), [])
-        yield from [p for p in parts if p.holds(pa) and p.holds(pb)]
-        while len(parts) < PARTS_PER_SPACE:
-            points = [(a.x, a.y), (b.x, b.y)] + ([self.around] if parts else [])
-            part = PartJoin(self._window(i), self.footprints[k], points, diagonal=True, n_bins=self.n_bins,
-                            margin_cells=PART_MARGIN_CELLS * (1 + len(parts)))
-            parts.append(part)
-            yield part
-
-    def _part_like(self, i: int, k: int, like: PartJoin) -> PartJoin:
-        """Footprint ``k``'s part of window ``i`` on the cells of ``like`` (kept)."""
-        parts = self._parts.setdefault((i, k), [])
-        part = next((p for p in parts if p.region == like.region), None)
-        if part is None:
-            part = PartJoin(self._window(i), self.footprints[k], [], margin_cells=0, diagonal=True,
-                            n_bins=self.n_bins, region=like.region)
-            parts.append(part)
-        return part
-
-    def _part_reaches(self, goal: Pose2) -> bool:
-        """Whether the start and ``goal`` share a joint component on a part of the first window around
-        them (then they do on the window: :meth:`reaches` is True), without labelling the window."""
-        return any(self._part_pair_joins(first, goal) for first in self._parts_for(0, 0, self.start, goal))
-
-    def _part_pair_joins(self, first: PartJoin, goal: Pose2) -> bool:
-        """Whether the start and ``goal`` share a joint component on the cells of part ``first``."""
-        parts: list[tuple[npt.NDArray[np.int32], npt.NDArray[np.int64], PartJoin]] = []
-        for k in range(len(self.footprints)):
-            part = first if k == 0 else self._part_like(0, k, first)
-            if part.labels is None or part.roots is None:
-                return False
-            parts.append((part.labels, part.roots, part))
-        key = first.region
-        got = self._part_joints.get(key)
-        if got is None:
-            got = joint_components([(lab, roots) for lab, roots, _p in parts])
-            self._part_joints[key] = got
-        offsets, joint = got
-
-        def component(pose: Pose2) -> int:
-            q = (pose.x, pose.y, pose.yaw)
-            for (_lab, _roots, p), off in zip(parts, offsets, strict=True):
-                c = p.component(q) if p.holds(q) else 0
-                if c:
-                    return int(joint[off + c]) + 1
-            return 0
-
-        there = component(goal)
-        return there > 0 and there == component(self.start)
 
     def start_blocked(self) -> bool:
         """Whether the robot holding the element fits neither way at (or near) the start."""
@@ -395,7 +300,7 @@ class CarryReach:
         """Whether ``goal`` lies in the start's joint component (on the smallest window that joins them)."""
         if self._first_joins(goal):
             return True
-        if 0 not in self._levels and self._part_reaches(goal):
+        if 0 not in self._levels and self._parts.reaches(self.start, goal):
             return True
         for i in range(len(self.margins)):
             level = self._level(i)
