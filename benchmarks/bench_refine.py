@@ -16,7 +16,13 @@ tree's ``data/case_study``, as the outputs name the project folder). Ratios are
 baseline / this tree (> 1: faster now), from the median over rounds; the load average is recorded
 before and after (on a shared machine CPU seconds are the steadier figure).
 
+With ``--generated SxU`` (e.g. ``1x2``) it also plans a generated building (``kbplanner
+generate-building --storeys S --units-per-storey U``, by this tree's generator, into the temporary
+folder; both trees plan that same folder) with its scenario (``storage-in-units``): a storey of
+another layout, the pickup locations inside the units.
+
 Usage: .venv/bin/python benchmarks/bench_refine.py [--before REF] [--scenario S ...] [--rounds N]
+       [--generated SxU]
 Prints a table and writes benchmarks/results/refine.json (or --out); ``bench_refine.py --table FILE``
 prints the docs/scale.md table of a written result.
 """
@@ -35,8 +41,10 @@ from typing import Any
 
 from _common import REPO, RESULTS_DIR, machine_info, run_measured, write_json
 
-# ``python -m kbplanner ARGS`` with B4 (manipulation.refine_plan) timed in CPU and wall seconds and the
-# configuration-space builds counted, written to the file named by the first argument.
+# ``python -m kbplanner ARGS`` with B4 (manipulation.refine_plan) timed in CPU and wall seconds, the
+# configuration-space builds counted, and the CPU seconds of B4's parts (PARTS: each function's calls
+# that are not within another of its calls; wrapped by the same code in both trees, also where a module
+# imported it by name), written to the file named by the first argument.
 _TIMED = '''import json, sys, time
 import kbplanner.planning.manipulation as m
 from kbplanner.world.footprint import ConfigurationSpace
@@ -46,6 +54,31 @@ def counted(cls, *args, **kwargs):
     builds[0] += 1
     return build(cls, *args, **kwargs)
 ConfigurationSpace.build = classmethod(counted)
+parts = {}
+def part(name, owner, attr):
+    raw = owner.__dict__[attr]
+    fn = raw.__func__ if isinstance(raw, classmethod) else raw
+    depth = [0]
+    def wrapped(*args, **kwargs):
+        if depth[0]:
+            return fn(*args, **kwargs)
+        depth[0] += 1
+        c0 = time.process_time()
+        try:
+            return fn(*args, **kwargs)
+        finally:
+            depth[0] -= 1
+            got = parts.setdefault(name, [0, 0.0])
+            got[0] += 1
+            got[1] += time.process_time() - c0
+    setattr(owner, attr, classmethod(wrapped) if isinstance(raw, classmethod) else wrapped)
+    if not isinstance(owner, type):
+        for mod in list(sys.modules.values()):
+            if getattr(mod, "__name__", "").startswith("kbplanner") and getattr(mod, attr, None) is raw:
+                setattr(mod, attr, wrapped)
+for name, mod_name, owner_name, attr in PARTS:
+    mod = sys.modules.get(mod_name) or __import__(mod_name, fromlist=["_"])
+    part(name, getattr(mod, owner_name) if owner_name else mod, attr)
 inner = m.refine_plan
 def timed(*args, **kwargs):
     c0, w0, b0 = time.process_time(), time.perf_counter(), builds[0]
@@ -54,11 +87,24 @@ def timed(*args, **kwargs):
     finally:
         with open(sys.argv[1], "w") as f:
             json.dump({"cpu_s": time.process_time() - c0, "wall_s": time.perf_counter() - w0,
-                       "builds": builds[0] - b0}, f)
+                       "builds": builds[0] - b0,
+                       "parts": {k: [v[0], round(v[1], 3)] for k, v in parts.items()}}, f)
 m.refine_plan = timed
 from kbplanner.cli import main
 raise SystemExit(main(sys.argv[2:]))
 '''
+#: B4's parts timed: (name, module, class or "" for a module function, attribute). Present in both trees.
+PARTS = (
+    ("pick", "kbplanner.planning.grasp_poses", "PickSearch", "pick"),
+    ("install", "kbplanner.planning.install_poses", "InstallSearch", "install"),
+    ("IK", "kbplanner.robot.arm_ik", "", "solve_ik"),
+    ("carry-leg check", "kbplanner.planning.carry_reach", "CarryReach", "way"),
+    ("escape test", "kbplanner.planning.base_poses", "", "escapes"),
+    ("configuration-space builds", "kbplanner.world.footprint", "ConfigurationSpace", "build"),
+    ("labellings", "kbplanner.world.footprint", "ConfigurationSpace", "_labels_and_roots"),
+)
+_TIMED = _TIMED.replace("for name, mod_name, owner_name, attr in PARTS:",
+                        f"for name, mod_name, owner_name, attr in {PARTS!r}:")
 
 
 def _export(ref: str, into: Path) -> Path:
@@ -67,11 +113,11 @@ def _export(ref: str, into: Path) -> Path:
     return into / "src"
 
 
-def _run(src: Path, scenario: str, seed: int, out: Path, log: Path) -> dict[str, Any]:
+def _run(src: Path, scenario: str, seed: int, out: Path, log: Path, project: Path) -> dict[str, Any]:
     env = dict(os.environ, PYTHONPATH=str(src))
     step_file = log.with_suffix(".b4.json")
     # the same project folder for both trees: the outputs name it
-    cmd = [sys.executable, "-c", _TIMED, str(step_file), "plan", str(REPO / "data" / "case_study"),
+    cmd = [sys.executable, "-c", _TIMED, str(step_file), "plan", str(project),
            "--scenario", scenario, "--seed", str(seed), "--out", str(out)]
     measured = run_measured(cmd, log=log, timeout_s=1800.0, env=env)
     if not step_file.is_file():
@@ -80,7 +126,8 @@ def _run(src: Path, scenario: str, seed: int, out: Path, log: Path) -> dict[str,
     step = json.loads(step_file.read_text())
     return {"command_s": measured["seconds"], "exit": measured["exit"], "cpu_s": measured["cpu_s"],
             "peak_rss_mb": measured["peak_rss_mb"], "b4_s": round(step["wall_s"], 3),
-            "b4_cpu_s": round(step["cpu_s"], 3), "b4_builds": step["builds"]}
+            "b4_cpu_s": round(step["cpu_s"], 3), "b4_builds": step["builds"],
+            **{f"part:{k}": v[1] for k, v in step.get("parts", {}).items()}}
 
 
 def _median(rows: list[dict[str, Any]], key: str) -> float | None:
@@ -96,22 +143,24 @@ def _files(root: Path) -> dict[str, bytes]:
             if p.is_file() and p.name != MARKER}
 
 
-def bench(before_src: Path, after_src: Path, scenario: str, seed: int, rounds: int, tmp: Path
-          ) -> dict[str, Any]:
+def bench(before_src: Path, after_src: Path, scenario: str, seed: int, rounds: int, tmp: Path,
+          project: Path = REPO / "data" / "case_study", name: str = "case study") -> dict[str, Any]:
     runs: dict[str, list[dict[str, Any]]] = {"before": [], "after": []}
     identical = True
+    tag = f"{project.name}-{scenario}"
     for k in range(rounds):
         outs = {}
         for label, src in (("before", before_src), ("after", after_src)):
-            out = tmp / f"{scenario}-{label}-{k}"
-            runs[label].append(_run(src, scenario, seed, out, tmp / f"{scenario}-{label}-{k}.log"))
+            out = tmp / f"{tag}-{label}-{k}"
+            runs[label].append(_run(src, scenario, seed, out, tmp / f"{tag}-{label}-{k}.log", project))
             outs[label] = out
         identical = identical and _files(outs["before"]) == _files(outs["after"])
-    row: dict[str, Any] = {"scenario": scenario, "seed": seed, "rounds": rounds,
+    row: dict[str, Any] = {"project": name, "scenario": scenario, "seed": seed, "rounds": rounds,
                            "outputs_identical": identical}
     for label in ("before", "after"):
         rs = runs[label]
-        keys = ("command_s", "cpu_s", "peak_rss_mb", "b4_s", "b4_cpu_s", "b4_builds")
+        keys = ("command_s", "cpu_s", "peak_rss_mb", "b4_s", "b4_cpu_s", "b4_builds",
+                *(f"part:{name}" for name, *_ in PARTS))
         row[label] = {key: _median(rs, key) for key in keys}
         row[label]["runs"] = rs
     b, a = row["before"], row["after"]
@@ -127,7 +176,7 @@ def table(result: dict[str, Any]) -> str:
              "| --- | ---: | ---: | ---: | ---: | ---: | --- |"]
     for r in result["scenarios"]:
         b, a = r["before"], r["after"]
-        lines.append(f"| {r['scenario']} | {b['cpu_s']:.1f} / {a['cpu_s']:.1f} s (x{r['speedup_cpu_s']}) | "
+        lines.append(f"| {_where(r)} | {b['cpu_s']:.1f} / {a['cpu_s']:.1f} s (x{r['speedup_cpu_s']}) | "
                      f"{b['b4_cpu_s']:.1f} / {a['b4_cpu_s']:.1f} s (x{r['speedup_b4_cpu_s']}) | "
                      f"{b['b4_s']:.1f} / {a['b4_s']:.1f} s (x{r['speedup_b4_s']}) | "
                      f"{b['b4_builds']:.0f} / {a['b4_builds']:.0f} | "
@@ -135,7 +184,24 @@ def table(result: dict[str, Any]) -> str:
                      f"{'yes' if r['outputs_identical'] else 'no'} |")
     start, end = result["load_average_start"][0], result["load_average_end"][0]
     lines.append(f"\n(before = `{result['before']}`; load average {start:.1f} -> {end:.1f})")
+    names = [name for name, *_ in PARTS if any(r["before"].get(f"part:{name}") is not None
+                                                   for r in result["scenarios"])]
+    if names:  # B4's parts, CPU seconds (a part's calls within another part are in both)
+        heads = " | ".join(_where(r) for r in result["scenarios"])
+        lines += ["", f"| B4 part, CPU s before / after | {heads} |",
+                  "| --- |" + " ---: |" * len(result["scenarios"])]
+        for name in names:
+            cells = []
+            for r in result["scenarios"]:
+                b, a = r["before"].get(f"part:{name}"), r["after"].get(f"part:{name}")
+                cells.append(f"{b:.2f} / {a:.2f}" if b is not None and a is not None else "-")
+            lines.append(f"| {name} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
+
+
+def _where(r: dict[str, Any]) -> str:
+    project = r.get("project", "case study")
+    return r["scenario"] if project == "case study" else f"{project}, {r['scenario']}"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -146,6 +212,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rounds", type=int, default=1, help="before/after pairs per scenario (median)")
     ap.add_argument("--out", type=Path, default=RESULTS_DIR / "refine.json")
     ap.add_argument("--table", type=Path, help="print the docs table of this written result and stop")
+    ap.add_argument("--generated", metavar="SxU", help="also plan a generated building, S storeys x U units")
     args = ap.parse_args(argv)
     if args.table:
         sys.stdout.write(table(json.loads(args.table.read_text(encoding="utf-8"))))
@@ -156,6 +223,14 @@ def main(argv: list[str] | None = None) -> int:
         tmp = Path(tmp_name)
         before_src = _export(args.before, tmp)
         rows = [bench(before_src, REPO / "src", s, args.seed, args.rounds, tmp) for s in scenarios]
+        if args.generated:
+            storeys, units = (int(v) for v in args.generated.lower().split("x"))
+            project = tmp / f"generated-{storeys}x{units}"
+            subprocess.run([sys.executable, "-m", "kbplanner", "generate-building", "--storeys", str(storeys),
+                            "--units-per-storey", str(units), "--out", str(project)], check=True,
+                           capture_output=True, env=dict(os.environ, PYTHONPATH=str(REPO / "src")))
+            rows.append(bench(before_src, REPO / "src", "storage-in-units", args.seed, args.rounds, tmp,
+                              project, f"generated {storeys} x {units}"))
     out = {"machine": machine_info(("python", "cpus", "platform")), "before": args.before,
            "load_average_start": load_before, "load_average_end": list(os.getloadavg()), "scenarios": rows}
     write_json(args.out, out)
@@ -164,6 +239,8 @@ def main(argv: list[str] | None = None) -> int:
       f"{'peak MB':>11} {'same':>5}\n")
     for r in rows:
         b, a = r["before"], r["after"]
+        if r["project"] != "case study":
+            w(f"{r['project']}:\n")
         w(f"{r['scenario']:16} {b['command_s']:6.1f} / {a['command_s']:6.1f} "
           f"{b['cpu_s']:6.1f} / {a['cpu_s']:6.1f} "
           f"{b['b4_s']:6.1f} / {a['b4_s']:6.1f} {b['b4_cpu_s']:6.1f} / {a['b4_cpu_s']:6.1f} "

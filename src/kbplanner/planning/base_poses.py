@@ -147,7 +147,9 @@ def escapes(grid: OccupancyGrid, footprint: Footprint, pose: Pose2, *, radius_m:
     The configuration space of ``footprint`` is built on the grid around the pose; free
     (x, y, yaw-bin) cells are labelled with face connectivity only (6 neighbours, the yaw axis closed
     into a ring), which under-connects, so "reaches the window border" means the robot can get out
-    of the neighbourhood (a 26-connected labelling would let it squeeze through diagonal gaps).
+    of the neighbourhood (a 26-connected labelling would let it squeeze through diagonal gaps). A
+    straight row of free cells from the pose to the border (:func:`straight_out`) decides it first,
+    without the build and the labels (the same answer).
 
     Example:
         >>> occ = np.zeros((80, 80), dtype=bool); occ[20:60, [20, 59]] = True; occ[[20, 59], 20:60] = True
@@ -166,15 +168,10 @@ def escapes(grid: OccupancyGrid, footprint: Footprint, pose: Pose2, *, radius_m:
     iy1 = min(ny, math.ceil((pose.y + radius_m - grid.origin[1]) / res))
     sub = OccupancyGrid(occupied=grid.occupied[iy0:iy1, ix0:ix1], origin=(grid.origin[0] + ix0 * res,
                         grid.origin[1] + iy0 * res), resolution=res, band=grid.band)
-    cs = configuration_space(sub, footprint, n_bins)
-    labels = cs.components()
-    root = cs.component_of(labels, pose.x, pose.y, pose.yaw)
-    if root == 0:
-        return False
     # Off the window counts as occupied, so free cells stop a footprint radius short of its border:
     # the band of that width (plus two cells) along the border is "away". The map's own edges are not.
     band = math.ceil((footprint.radius_m + 2 * res) / res)
-    border = np.zeros(labels.shape[1:], dtype=bool)
+    border = np.zeros(sub.shape, dtype=bool)
     if ix0 > 0:
         border[:, :band] = True
     if ix1 < nx:
@@ -183,5 +180,48 @@ def escapes(grid: OccupancyGrid, footprint: Footprint, pose: Pose2, *, radius_m:
         border[:band, :] = True
     if iy1 < ny:
         border[-band:, :] = True
+    if straight_out(sub, footprint, pose, border, n_bins):
+        return True
+    cs = configuration_space(sub, footprint, n_bins)
+    labels = cs.components()
+    root = cs.component_of(labels, pose.x, pose.y, pose.yaw)
+    if root == 0:
+        return False
     return bool((labels[:, border] == root).any())
+
+
+def straight_out(grid: OccupancyGrid, footprint: Footprint, pose: Pose2, border: npt.NDArray[np.bool_],
+                 n_bins: int = N_YAW_BINS) -> bool:
+    """Whether the footprint, at the pose's heading, is free on every cell from the pose's cell straight
+    along +x, -x, +y or -y up to a cell of ``border`` (cells off the grid occupied).
+
+    Such a row of cells is face-connected in the pose's yaw bin of the configuration space, so then the
+    pose's component (6-connected, :func:`escapes`) reaches ``border``: the same answer without building
+    and labelling the space. The free test is :class:`PoseChecker`'s (the configuration space's).
+    """
+    res = grid.resolution
+    ny, nx = grid.shape
+    ix = math.floor((pose.x - grid.origin[0]) / res)
+    iy = math.floor((pose.y - grid.origin[1]) / res)
+    if not (0 <= ix < nx and 0 <= iy < ny) or not border.any():
+        return False
+    w = 2 * math.pi / n_bins
+    k = math.floor((pose.yaw + w / 2) / w) % n_bins
+    kern = footprint.kernel(res, k * w - w / 2, k * w + w / 2)
+    h = kern.shape[0] // 2
+    padded = np.pad(grid.occupied, h, constant_values=True)
+    from numpy.lib.stride_tricks import sliding_window_view
+
+    # the cells of the pose's row and column: free where no occupied cell lies under the kernel
+    across: npt.NDArray[np.bool_] = sliding_window_view(padded[iy:iy + 2 * h + 1, :], kern.shape)[0]
+    along: npt.NDArray[np.bool_] = sliding_window_view(padded[:, ix:ix + 2 * h + 1], kern.shape)[:, 0]
+    row = np.asarray(~(across & kern).any(axis=(1, 2)), dtype=bool)
+    col = np.asarray(~(along & kern).any(axis=(1, 2)), dtype=bool)
+    for free, edge, i in ((row, border[iy, :], ix), (col, border[:, ix], iy)):
+        for step in (1, -1):
+            line, out = (free[i:], edge[i:]) if step == 1 else (free[i::-1], edge[i::-1])
+            hits = np.flatnonzero(out)
+            if len(hits) and line[:hits[0] + 1].all():
+                return True
+    return False
 

@@ -19,7 +19,10 @@ window is reachable, one that is not is judged on a larger window, and is unreac
 whole map, unless the start's or the goal's component stays clear of the window's edges (then it
 is the same on the map, and final). Where the robot starts in cells its configuration space calls
 blocked, it starts from the nearest free pose, as the navigation does
-(:func:`~kbplanner.planning.base_poses.nearest_free_pose`).
+(:func:`~kbplanner.planning.base_poses.nearest_free_pose`). Each question is first asked of a part of
+the window around the poses (:class:`~kbplanner.world.cspace_join.PartJoin`, its own labels; joined
+there is joined on the window), so that most are answered without building and labelling the whole
+window: the same answers, cheaper.
 
 :func:`carry_leg_reason` says why no candidate was reachable, with figures: how wide the robot is with
 the element carried each way, whether the robot alone gets there (then the load, not the walls, is
@@ -59,6 +62,7 @@ import shapely
 
 from kbplanner.planning.base_poses import N_YAW_BINS, PoseChecker, mark_polygon, nearest_free_pose, window
 from kbplanner.planning.carry import NARROW, NORMAL, CarryGeometry
+from kbplanner.planning.carry_parts import WindowParts, joint_components
 from kbplanner.planning.plan_model import Pose2
 from kbplanner.world.cspace_cache import configuration_space
 from kbplanner.world.footprint import ConfigurationSpace, Footprint
@@ -105,40 +109,6 @@ class _Level:
         return 0
 
 
-def joint_components(parts: Sequence[tuple[npt.NDArray[np.int32], npt.NDArray[np.int64]]]
-                     ) -> tuple[tuple[int, ...], npt.NDArray[np.int64]]:
-    """Components of free cells of several footprints on one grid, joined where a cell is free for two.
-
-    ``parts``: per footprint, the 26-connected labels with the yaw ring and their roots
-    (:meth:`~kbplanner.world.footprint.ConfigurationSpace.labels_and_roots`, the navigation's "walled
-    off" test). A graph whose nodes are every footprint's labels and whose edges join the labels of two
-    footprints that share a free cell (the robot may change from one footprint to the other standing
-    still there). Returns (node offset per footprint, joint component per node).
-    """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    offsets = []
-    n_nodes = 0
-    for _lab, root in parts:
-        offsets.append(n_nodes)
-        n_nodes += len(root)
-    edges = [np.zeros((0, 2), dtype=np.int64)]
-    for i in range(len(parts)):
-        for j in range(i + 1, len(parts)):
-            (li, ri), (lj, rj) = parts[i], parts[j]
-            both = (li > 0) & (lj > 0)
-            # the distinct label pairs (one int64 key each: a 1-D unique, far faster than rows)
-            keys = np.unique(li[both].astype(np.int64) * len(rj) + lj[both])
-            a = ri[keys // len(rj)] + offsets[i]
-            b = rj[keys % len(rj)] + offsets[j]
-            edges.append(np.stack([a, b], axis=1))
-    e = np.concatenate(edges)
-    graph = coo_matrix((np.ones(len(e), dtype=np.int8), (e[:, 0], e[:, 1])), shape=(n_nodes, n_nodes))
-    _, joint = connected_components(graph, directed=False)
-    return tuple(offsets), np.asarray(joint, dtype=np.int64)
-
-
 def carry_footprints(geo: CarryGeometry) -> tuple[Footprint, ...]:
     """The footprints the navigation with object plans with: the robot + element carried normal, narrow."""
     return (geo.footprint(NORMAL), geo.footprint(NARROW))
@@ -170,6 +140,8 @@ class CarryReach:
         self._levels: dict[int, _Level] = {}
         self.reason: str | None = None  # the caller's reason once no goal was reachable (kept with it)
         self._spaces: dict[tuple[int, int], ConfigurationSpace] = {}
+        self._windows: dict[int, tuple[OccupancyGrid, PoseChecker]] = {}
+        self._parts = WindowParts(self._window, self.footprints, around, n_bins)
         n_cells = grid.shape[0] * grid.shape[1]
         # the whole map only where it is small enough to label quickly; else the largest window is final
         self.capped = self.margins[-1] is None and n_cells > WHOLE_MAP_MAX_CELLS and len(self.margins) > 1
@@ -177,7 +149,16 @@ class CarryReach:
             self.margins = self.margins[:-1]
 
     def _window(self, i: int) -> OccupancyGrid:
-        return window(self.grid, [(self.start.x, self.start.y), self.around], self.margins[i])
+        return self._window_checker(i)[0]
+
+    def _window_checker(self, i: int) -> tuple[OccupancyGrid, PoseChecker]:
+        """Window ``i`` and a pose checker on it (each made once)."""
+        got = self._windows.get(i)
+        if got is None:
+            win = window(self.grid, [(self.start.x, self.start.y), self.around], self.margins[i])
+            got = (win, PoseChecker(win, self.n_bins))
+            self._windows[i] = got
+        return got
 
     def _space(self, i: int, k: int) -> ConfigurationSpace:
         """Footprint ``k``'s configuration space on window ``i`` (built once; its labels, 26-connected,
@@ -192,8 +173,24 @@ class CarryReach:
         return cs
 
     def _joins(self, i: int, k: int, a: Pose2, b: Pose2) -> bool:
-        """Whether footprint ``k`` joins ``a`` and ``b`` on window ``i`` (26-connected, the yaw ring)."""
-        return self._space(i, k).joined((a.x, a.y, a.yaw), (b.x, b.y, b.yaw), diagonal=True)
+        """Whether footprint ``k`` joins ``a`` and ``b`` on window ``i`` (26-connected, the yaw ring).
+
+        The same answer as the window's configuration space gives
+        (:meth:`~kbplanner.world.footprint.ConfigurationSpace.joined`), without building it where a
+        pose is blocked for the footprint (the kernel test on the window's cells) or a part of the
+        window around the poses decides (:class:`~kbplanner.world.cspace_join.PartJoin`).
+        """
+        pa, pb = (a.x, a.y, a.yaw), (b.x, b.y, b.yaw)
+        cs = self._spaces.get((i, k))
+        if cs is None or True not in cs.memo:
+            _win, checker = self._window_checker(i)
+            fp = self.footprints[k]
+            if not (checker.free(fp, *pa) and checker.free(fp, *pb)):
+                return False
+            got = self._parts.joins(i, k, a, b)
+            if got is not None:
+                return got
+        return self._space(i, k).joined(pa, pb, diagonal=True)
 
     def _first_joins(self, goal: Pose2) -> bool:
         """Whether the first footprint alone (the normal carry: the navigation's first try) joins the
@@ -302,6 +299,8 @@ class CarryReach:
     def reaches(self, goal: Pose2) -> bool:
         """Whether ``goal`` lies in the start's joint component (on the smallest window that joins them)."""
         if self._first_joins(goal):
+            return True
+        if 0 not in self._levels and self._parts.reaches(self.start, goal):
             return True
         for i in range(len(self.margins)):
             level = self._level(i)

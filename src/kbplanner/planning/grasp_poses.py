@@ -121,9 +121,10 @@ class PickSearch(PoseSearch):
             for grasp in grasp_candidates(we.local_bounds, frame, gp, direction, (tilt,)):
                 if (grasp.tilt_deg, grasp.flip_x) in self.excluded_grasps:
                     continue  # its install failed (manipulation._Refiner._element_regrasp)
-                if not self.ik(grasp.tool_at(frame), seeds, fallback=False).reachable:
+                g = self.ik(grasp.tool_at(frame), seeds, fallback=False)
+                if not g.reachable:
                     continue
-                res = self._pick_at(base, grasp, frame, we, nav_q, carry_seed)
+                res = self._pick_at(base, grasp, frame, we, nav_q, carry_seed, g)
                 if isinstance(res, str):
                     last_reason = res
                     continue
@@ -142,13 +143,11 @@ class PickSearch(PoseSearch):
         return best if best is not None else last_reason
 
     def _pick_at(self, base: Pose2, grasp: Grasp, frame: Matrix, we: WorldElement, nav_q: tuple[float, ...],
-                 carry_seed: tuple[float, ...] | None) -> Pick | str:
+                 carry_seed: tuple[float, ...] | None, g: IkResult) -> Pick | str:
+        """The pick with ``grasp`` from ``base``; ``g``: the grasp pose's IK (reachable), from the seeds
+        ``nav_q`` and the robot's ``pre_grasp`` pose."""
         assert we.local_bounds is not None
         tool = grasp.tool_at(frame)
-        seeds = [nav_q, *(self.robot.spec.poses[k] for k in ("pre_grasp",) if k in self.robot.spec.poses)]
-        g = self.ik(tool, seeds, fallback=False)
-        if not g.reachable:
-            return f"grasp {g.reason}"
         # The carry footprints depend on the grasp only (cached): check them first, it is cheap and it
         # rejects most base poses next to a stack.
         tie0 = np.linalg.inv(frame) @ tool_frame(self.robot, g.joints)

@@ -38,6 +38,7 @@ Example:
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import math
 from collections import OrderedDict
@@ -133,7 +134,7 @@ def _view(kept: ConfigurationSpace, grid: OccupancyGrid, footprint: Footprint) -
     if kept.grid is grid and kept.footprint is footprint:
         return kept
     return ConfigurationSpace(grid=grid, footprint=footprint, free=kept.free, margin_m=kept.margin_m,
-                              memo=kept.memo, open_memo=kept.open_memo)
+                              memo=kept.memo, open_memo=kept.open_memo, near_memo=kept.near_memo)
 
 
 def _cropped(key: _Key, grid: OccupancyGrid, footprint: Footprint) -> ConfigurationSpace | None:
@@ -147,7 +148,7 @@ def _cropped(key: _Key, grid: OccupancyGrid, footprint: Footprint) -> Configurat
     ox, oy = grid.origin[0] / res, grid.origin[1] / res
     sy, sx = grid.shape
     n_bins, margin = key[1], key[2]
-    reach = _reach(footprint, res, n_bins, margin)
+    reach = kernel_reach(footprint, res, n_bins, margin)
     best: tuple[int, int, _Entry, int, int, tuple[int, int, int, int] | None] | None = None
     for (k, _d, _o), e in _CACHE.entries.items():
         if k != key:
@@ -189,8 +190,14 @@ def _cropped(key: _Key, grid: OccupancyGrid, footprint: Footprint) -> Configurat
                               margin_m=margin)
 
 
-def _reach(footprint: Footprint, res: float, n_bins: int, margin_m: float) -> int:
+def kernel_reach(footprint: Footprint, res: float, n_bins: int, margin_m: float) -> int:
     """The largest kernel half-size in cells: how far an occupied cell changes the free maps."""
+    return _kernel_reach(footprint.rects, float(res), int(n_bins), float(margin_m))
+
+
+@functools.lru_cache(maxsize=1024)
+def _kernel_reach(rects: tuple[Rect, ...], res: float, n_bins: int, margin_m: float) -> int:
+    footprint = Footprint(rects)
     width = 2 * math.pi / n_bins
     return max(footprint.kernel(res, k * width - width / 2, k * width + width / 2, margin_m).shape[0] // 2
                for k in range(n_bins))

@@ -161,6 +161,10 @@ class ConfigurationSpace:
         default_factory=dict, repr=False, compare=False)
     open_memo: dict[tuple[str, bool], npt.NDArray[np.int32]] = field(default_factory=dict, repr=False,
                                                                      compare=False)
+    #: :meth:`_groups_near` per (diagonal, bin, iy, ix): the carry-leg check asks it of one start cell
+    #: for every goal
+    near_memo: dict[tuple[bool, int, int, int], frozenset[int]] = field(default_factory=dict, repr=False,
+                                                                        compare=False)
 
     def nbytes(self) -> int:
         """Bytes of the free maps and the labels computed so far."""
@@ -313,8 +317,18 @@ class ConfigurationSpace:
         return got
 
     def _groups_near(self, cell: tuple[int, int, int], groups: npt.NDArray[np.int32],
-                     diagonal: bool) -> set[int]:
-        """The groups of :meth:`_open_groups` that the component of ``cell`` reaches within a box."""
+                     diagonal: bool) -> frozenset[int]:
+        """The groups of :meth:`_open_groups` that the component of ``cell`` reaches within a box
+        (memoised per cell)."""
+        key = (diagonal, *cell)
+        got = self.near_memo.get(key)
+        if got is None:
+            got = self._groups_near_of(cell, groups, diagonal)
+            self.near_memo[key] = got
+        return got
+
+    def _groups_near_of(self, cell: tuple[int, int, int], groups: npt.NDArray[np.int32],
+                        diagonal: bool) -> frozenset[int]:
         k, iy, ix = cell
         ny, nx = self.grid.shape
         r = JOIN_BOX_CELLS
@@ -326,7 +340,7 @@ class ConfigurationSpace:
         mine = roots[labels[k, iy - y0 + 1, ix - x0 + 1]]
         near = groups[y0:y1, x0:x1]
         here = (roots[labels[0, 1:-1, 1:-1]] == mine) & (near > 0)  # an open cell is free in bin 0
-        return {int(g) for g in np.unique(near[here])}
+        return frozenset(int(g) for g in np.unique(near[here]))
 
     def labels_and_roots(
         self, diagonal: bool
