@@ -56,6 +56,9 @@ from kbplanner.world.occupancy import OccupancyGrid
 log = logging.getLogger(__name__)
 
 CERTAIN_PASSAGE_CHECKS = 100_000  # OMPL's budget where free cells certainly join start and goal
+# Whether start and goal are walled off from each other is asked only once the planner has used this many
+# motion checks without a path (most queries end sooner): a path found proves them joined.
+WALLED_OFF_AFTER_CHECKS = 2_000
 
 
 def _connected(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D) -> bool:
@@ -65,6 +68,27 @@ def _connected(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D) -> bool:
     certain: no continuous path exists in the (conservative) configuration space.
     """
     return cs.joined(start, goal, diagonal=True)  # labels the whole space only where boxes do not decide
+
+
+class _WalledOff:
+    """Whether start and goal are walled off (not :func:`_connected`), asked at most once, lazily.
+
+    The planner is not told beforehand: every motion of its path passed the exact motion check, which
+    checks a face-connected chain of free cells, so a path found proves start and goal joined and the
+    answer would have been "no". It is asked from the planner's termination condition once the planner has
+    used :data:`WALLED_OFF_AFTER_CHECKS` motion checks (a read-only question: the search goes on exactly as
+    it would have), and after a failed search; "yes" stops the search with the result a check before
+    planning gives.
+    """
+
+    def __init__(self, cs: ConfigurationSpace, start: Pose2D, goal: Pose2D) -> None:
+        self.cs, self.start, self.goal = cs, start, goal
+        self.answer: bool | None = None
+
+    def __call__(self) -> bool:
+        if self.answer is None:
+            self.answer = not _connected(self.cs, self.start, self.goal)
+        return self.answer
 
 
 def _validity_checker(cs: ConfigurationSpace) -> Callable[[ob.State], bool]:
@@ -147,9 +171,7 @@ def plan_path(
             return failed_path(f"no path: {label} ({pose[0]:.2f}, {pose[1]:.2f}) is off the map", name, fp)
         if not cs.is_free(*pose):
             return failed_path(f"no path: {label} in collision", name, fp)
-    if not _connected(cs, start, goal):
-        return failed_path("no path: the goal is walled off from the start for this footprint", name, fp)
-
+    walled_off = _WalledOff(cs, start, goal)
     t0 = time.perf_counter()
     certain: list[bool] = []
 
@@ -161,9 +183,12 @@ def plan_path(
     level = ou.getLogLevel()
     ou.setLogLevel(ou.LogLevel.LOG_INFO if log.isEnabledFor(logging.DEBUG) else ou.LogLevel.LOG_WARN)
     try:
-        result = _solve(cs, start, goal, settings, t0, cells_certain if settings.cell_fallback else None)
+        result = _solve(cs, start, goal, settings, t0, cells_certain if settings.cell_fallback else None,
+                        walled_off)
     finally:
         ou.setLogLevel(level)
+    if not result.ok and walled_off():
+        return failed_path("no path: the goal is walled off from the start for this footprint", name, fp)
     if result.ok or not (certain and certain[-1]):
         return result
     cells = face_path(cs, start, goal)
@@ -173,10 +198,13 @@ def plan_path(
 
 
 def _solve(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSettings, t0: float,
-           cells_certain: Callable[[], bool] | None = None) -> NavPath:
+           cells_certain: Callable[[], bool] | None = None,
+           walled_off: Callable[[], bool] | None = None) -> NavPath:
     """RRTConnect within the work budget. With ``cells_certain``: after CERTAIN_PASSAGE_CHECKS motion
     checks without a path it is asked whether free cells certainly join start and goal; if so, planning
-    stops there (the caller takes the cell path), else the same tree grows on to the full budget."""
+    stops there (the caller takes the cell path), else the same tree grows on to the full budget. With
+    ``walled_off``: after WALLED_OFF_AFTER_CHECKS motion checks without a path it is asked (once) whether
+    start and goal are walled off; if so, planning stops (the caller reports it)."""
     name = settings.planner
     fp = cs.footprint.name
     grid = cs.grid
@@ -208,9 +236,17 @@ def _solve(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSet
     deadline = time.perf_counter() + settings.time_limit_s
     budget = settings.max_motion_checks
     first = min(budget, CERTAIN_PASSAGE_CHECKS) if cells_certain is not None else budget
-    ptc = ob.PlannerTerminationCondition(
-        lambda: validator.calls >= first or time.perf_counter() > deadline)
+
+    def stop() -> bool:
+        return (validator.calls >= first or time.perf_counter() > deadline
+                or (walled_off is not None and validator.calls >= WALLED_OFF_AFTER_CHECKS and walled_off()))
+
+    ptc = ob.PlannerTerminationCondition(stop)
     status = ss.solve(ptc)
+    if (walled_off is not None and not ss.haveExactSolutionPath()
+            and validator.calls >= WALLED_OFF_AFTER_CHECKS and walled_off()):
+        del ss, planner
+        return failed_path("no path: the goal is walled off from the start for this footprint", name, fp)
     if cells_certain is not None and not ss.haveExactSolutionPath() and time.perf_counter() <= deadline:
         if cells_certain():
             budget = first  # the caller takes the cell path
