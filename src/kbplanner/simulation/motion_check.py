@@ -3,7 +3,9 @@ them: greedy string pulling and the skid-steer turn-drive-turn.
 
 Takes a :class:`~kbplanner.world.footprint.ConfigurationSpace` (one free map per yaw bin) and SE(2)
 poses; :class:`ExactMotion` answers whether a straight SE(2) motion is free (cut at yaw-bin borders,
-every cell of the centre's supercover checked), which the OMPL query uses as its motion validator
+every cell of the centre's supercover checked; a short motion whose cells are all free in every yaw bin
+is accepted at once, from a clearance table, and a long one is refuted by samples tried middle first),
+which the OMPL query uses as its motion validator
 (:mod:`kbplanner.simulation.navigation`) and the cell path as its check
 (:mod:`kbplanner.simulation.cell_path`). :func:`turn_drive_turn` rewrites a path for a skid-steer base.
 """
@@ -12,13 +14,66 @@ from __future__ import annotations
 
 import itertools
 import math
+import weakref
 from collections.abc import Sequence
+
+import numpy as np
+from scipy import ndimage
 
 from kbplanner.simulation.nav_path import Pose2D, densify, path_length, wrap
 from kbplanner.world.footprint import ConfigurationSpace
 
 _PI = math.pi
 _TAU = 2 * math.pi
+_PROBES: dict[int, tuple[float, ...]] = {}  # n -> the sample fractions of :func:`probe_fractions`
+# Per configuration space with read-only free maps (those of the space cache): :func:`open_clearance`, made
+# once for all the ExactMotion objects of a space (planner, dense re-check, turn-drive-turn, rounded corners).
+_CLEARANCE: weakref.WeakKeyDictionary[ConfigurationSpace, bytes] = weakref.WeakKeyDictionary()
+
+
+def open_clearance(cs: ConfigurationSpace) -> bytes:
+    """Per cell (row-major, ``iy * nx + ix``), the chessboard distance in cells to the nearest cell that is
+    blocked in some yaw bin or off the grid, capped at 255: every cell nearer than that is free in every
+    yaw bin. A motion whose cells all lie within that distance of its start cell is free whatever its
+    turn (the quick accept of :meth:`ExactMotion.free6`)."""
+    open_all = np.pad(cs.free.all(axis=0), 1, constant_values=False)
+    dist = ndimage.distance_transform_cdt(open_all, metric="chessboard")[1:-1, 1:-1]
+    return np.minimum(dist, 255).astype(np.uint8).tobytes()
+
+
+def _clearance(cs: ConfigurationSpace) -> bytes:
+    """:func:`open_clearance`, kept per space whose free maps are read-only (made anew where they may
+    still change)."""
+    got = _CLEARANCE.get(cs)
+    if got is None:
+        got = open_clearance(cs)
+        if not cs.free.flags.writeable:
+            _CLEARANCE[cs] = got
+    return got
+
+
+def probe_fractions(n: int) -> tuple[float, ...]:
+    """The fractions u = i / n, i = 1 ... n, of a motion's quick samples, in the order they are tried.
+
+    First the middle (n // 2) and the end (n), then the middles of the halves, of the quarters, and so on
+    (breadth first): a motion that runs into a wall is mostly refuted within a few samples wherever the
+    wall is (trying them from the start took three times as many samples on the case study). The order
+    decides only how soon a blocked sample is met, not the answer. Memoised per ``n``.
+    """
+    got = _PROBES.get(n)
+    if got is None:
+        order = [n // 2, n]
+        spans = [(0, n // 2), (n // 2, n)]
+        while spans:
+            halves: list[tuple[int, int]] = []
+            for lo, hi in spans:
+                if hi - lo > 1:
+                    mid = (lo + hi) // 2
+                    order.append(mid)
+                    halves += ((lo, mid), (mid, hi))
+            spans = halves
+        got = _PROBES[n] = tuple(i / n for i in order)
+    return got
 
 
 class ExactMotion:
@@ -32,6 +87,7 @@ class ExactMotion:
 
     def __init__(self, cs: ConfigurationSpace) -> None:
         self.free = cs.free.tobytes()
+        self.clearance = _clearance(cs)
         self.ny, self.nx = cs.grid.shape
         self.ox, self.oy = cs.grid.origin
         self.inv_res = 1.0 / cs.grid.resolution
@@ -39,7 +95,7 @@ class ExactMotion:
         self.w = cs.bin_width
         self.plane = self.ny * self.nx
         self._consts = (self.inv_res, self.ox, self.oy, self.nx, self.ny, self.w, self.n_bins, self.plane,
-                        self.free)
+                        self.free, self.clearance)
 
     def pose_free(self, x: float, y: float, yaw: float) -> bool:
         ix = math.floor((x - self.ox) * self.inv_res)
@@ -79,17 +135,29 @@ class ExactMotion:
     def free6(self, a0: float, a1: float, a2: float, b0: float, b1: float, b2: float) -> bool:
         """:meth:`motion_free` of ``(a0, a1, a2)`` to ``(b0, b1, b2)``, the six numbers passed one by one
         (the OMPL motion validator's call, without building tuples)."""
-        inv_res, ox, oy, nx, ny, w, n_bins, plane, free = self._consts
+        inv_res, ox, oy, nx, ny, w, n_bins, plane, free, clearance = self._consts
         floor = math.floor
+        # Quick accept: every cell that the samples and the exact check below look at lies within one cell
+        # of the box of the end cells (rounding moves a coordinate across at most one cell border), so
+        # within R of the start cell; if all cells that near are free in every yaw bin (and on the grid),
+        # all those checks pass.
+        ax, ay = (a0 - ox) * inv_res, (a1 - oy) * inv_res
+        ix, iy = floor(ax), floor(ay)
+        if 0 <= ix < nx and 0 <= iy < ny:
+            r = clearance[iy * nx + ix]
+            if r > 2:
+                jx, jy = floor((b0 - ox) * inv_res) - ix, floor((b1 - oy) * inv_res) - iy
+                if (jx if jx > 0 else -jx) + 2 < r and (jy if jy > 0 else -jy) + 2 < r:
+                    return True
         t0 = float(a2)
         d = (float(b2) - t0 + _PI) % _TAU - _PI  # nav_path.wrap inlined
         # Cheap rejection first: most motions a planner tries run into a wall somewhere, most of them
         # half-way. (pose_free inlined: the same arithmetic, without a method call per sample.) The
-        # samples are u = i / n for i = n // 2, n, 1, ..., n - 1.
+        # samples are u = i / n for i = 1 ... n, in the order of probe_fractions.
         bx, by = b0 - a0, b1 - a1
         n = max(2, math.ceil(max(abs(bx), abs(by)) * inv_res / 2))
-        for i in itertools.chain((n // 2, n), range(1, n)):
-            u = i / n
+        probes = _PROBES.get(n) or probe_fractions(n)
+        for u in probes:
             ix = floor((a0 + u * bx - ox) * inv_res)
             iy = floor((a1 + u * by - oy) * inv_res)
             if not (0 <= ix < nx and 0 <= iy < ny):
@@ -105,7 +173,6 @@ class ExactMotion:
             borders = range(k0, k1) if d > 0 else range(k0 - 1, k1 - 1, -1)
             cuts += [((k + 0.5) * w - t0) / d for k in borders]
         cuts.append(1.0)
-        ax, ay = (a0 - ox) * inv_res, (a1 - oy) * inv_res
         dx, dy = (b0 - ox) * inv_res - ax, (b1 - oy) * inv_res - ay
         ua = 0.0
         for ub in cuts[1:]:
