@@ -57,8 +57,9 @@ log = logging.getLogger(__name__)
 
 CERTAIN_PASSAGE_CHECKS = 100_000  # OMPL's budget where free cells certainly join start and goal
 # Whether start and goal are walled off from each other is asked only once the planner has used this many
-# motion checks without a path (most queries end sooner): a path found proves them joined.
-WALLED_OFF_AFTER_CHECKS = 2_000
+# motion checks without a path (all but the hardest queries end sooner; labelling a space to answer it costs
+# about as much as 10,000-20,000 checks): a path found proves them joined.
+WALLED_OFF_AFTER_CHECKS = 50_000
 
 
 def _connected(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D) -> bool:
@@ -78,16 +79,24 @@ class _WalledOff:
     answer would have been "no". It is asked from the planner's termination condition once the planner has
     used :data:`WALLED_OFF_AFTER_CHECKS` motion checks (a read-only question: the search goes on exactly as
     it would have), and after a failed search; "yes" stops the search with the result a check before
-    planning gives.
+    planning gives. Face-adjacent free cells that join them (:func:`face_connected`, asked first and kept
+    for the cell path) answer "no" as well: they are 26-connected too.
     """
 
     def __init__(self, cs: ConfigurationSpace, start: Pose2D, goal: Pose2D) -> None:
         self.cs, self.start, self.goal = cs, start, goal
         self.answer: bool | None = None
+        self.face: bool | None = None
+
+    def face_joined(self) -> bool:
+        """:func:`face_connected` of start and goal, computed once."""
+        if self.face is None:
+            self.face = face_connected(self.cs, self.start, self.goal)
+        return self.face
 
     def __call__(self) -> bool:
         if self.answer is None:
-            self.answer = not _connected(self.cs, self.start, self.goal)
+            self.answer = not (self.face_joined() or _connected(self.cs, self.start, self.goal))
         return self.answer
 
 
@@ -128,11 +137,52 @@ class _OmplMotionValidator(ob.MotionValidator):
         self.exact = exact
         self.free6 = exact.free6
 
-    calls = 0
+        self.calls = 0
+        self.alarm: float = math.inf  # when calls reaches it, ring() is called
+        self.ring: Callable[[], None] = _nothing
 
     def checkMotion(self, s1: ob.State, s2: ob.State) -> bool:  # OMPL's method name
         self.calls += 1
+        if self.calls >= self.alarm:
+            self.ring()
         return self.free6(s1.getX(), s1.getY(), s1.getYaw(), s2.getX(), s2.getY(), s2.getYaw())
+
+
+def _nothing() -> None:
+    return None
+
+
+def _run(ss: og.SimpleSetup, validator: _OmplMotionValidator, limit: int, deadline: float,
+         walled_off: Callable[[], bool] | None) -> ob.PlannerStatus:
+    """``ss.solve`` until the validator has made ``limit`` motion checks, the clock passes ``deadline`` or,
+    from WALLED_OFF_AFTER_CHECKS checks on, ``walled_off()`` says so.
+
+    The planner asks its termination condition at every iteration; rather than a Python condition asked
+    each time, the clock is OMPL's own condition and the work budget is an alarm of the validator that
+    ends the condition (``terminate``) at the very check after which the counted condition first holds:
+    the planner stops at the same point either way, for the checks only grow.
+    """
+    ptc = ob.timedPlannerTerminationCondition(max(0.0, deadline - time.perf_counter()))
+
+    def holds() -> bool:
+        calls = validator.calls
+        asked = walled_off is not None and calls >= WALLED_OFF_AFTER_CHECKS
+        return calls >= limit or (asked and walled_off is not None and walled_off())
+
+    def ring() -> None:
+        if holds():
+            ptc.terminate()
+            validator.alarm = math.inf
+        else:
+            early = walled_off is not None and validator.calls < WALLED_OFF_AFTER_CHECKS
+            validator.alarm = min(limit, WALLED_OFF_AFTER_CHECKS) if early else limit
+
+    validator.ring = ring
+    ring()
+    try:
+        return ss.solve(ptc)
+    finally:
+        validator.alarm = math.inf  # simplifying the path checks motions too
 
 
 def plan_path(
@@ -177,7 +227,7 @@ def plan_path(
 
     def cells_certain() -> bool:
         """Asked once, when RRTConnect has used CERTAIN_PASSAGE_CHECKS without a path."""
-        certain.append(face_connected(cs, start, goal))
+        certain.append(walled_off.face_joined())
         return certain[-1]
 
     level = ou.getLogLevel()
@@ -237,12 +287,7 @@ def _solve(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSet
     budget = settings.max_motion_checks
     first = min(budget, CERTAIN_PASSAGE_CHECKS) if cells_certain is not None else budget
 
-    def stop() -> bool:
-        return (validator.calls >= first or time.perf_counter() > deadline
-                or (walled_off is not None and validator.calls >= WALLED_OFF_AFTER_CHECKS and walled_off()))
-
-    ptc = ob.PlannerTerminationCondition(stop)
-    status = ss.solve(ptc)
+    status = _run(ss, validator, first, deadline, walled_off)
     if (walled_off is not None and not ss.haveExactSolutionPath()
             and validator.calls >= WALLED_OFF_AFTER_CHECKS and walled_off()):
         del ss, planner
@@ -251,9 +296,8 @@ def _solve(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSet
         if cells_certain():
             budget = first  # the caller takes the cell path
         elif first < budget:
-            ptc = ob.PlannerTerminationCondition(
-                lambda: validator.calls >= budget or time.perf_counter() > deadline)
-            status = ss.solve(ptc)  # the planner keeps its trees: this continues the same search
+            status = _run(ss, validator, budget, deadline, None)  # the planner keeps its trees: this
+            # continues the same search
     elif first < budget and not ss.haveExactSolutionPath():
         budget = first
     if validator.calls < budget and time.perf_counter() > deadline:
