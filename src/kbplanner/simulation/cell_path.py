@@ -70,12 +70,16 @@ def bfs_cells(free: npt.NDArray[np.bool_], src: tuple[int, int, int], dst: tuple
     d = (dst[0] * ny + dst[1]) * nx + dst[2]
     if s == d:
         return [s]
-    parent = np.full(flat.size, -1, dtype=np.int64)
-    seen = np.zeros(flat.size, dtype=bool)
-    seen[s] = True
+    if not flat[d]:
+        return None  # a blocked cell is never reached
+    parent = np.full(flat.size, -1, dtype=np.int32 if flat.size < 2**31 else np.int64)
+    open_ = np.append(flat, False)  # free and not reached yet; the last entry, at index -1: "no neighbour"
+    open_[s] = False
     frontier = np.array([s], dtype=np.int64)
     wrap_span = (nb - 1) * plane
-    while frontier.size and not seen[d]:
+    unset = np.iinfo(np.int32).max
+    earliest = np.full(flat.size, unset, dtype=np.int32)  # per cell, its first place among the candidates
+    while frontier.size and open_[d]:
         b = frontier // plane
         rem = frontier - b * plane
         y = rem // nx
@@ -86,18 +90,18 @@ def bfs_cells(free: npt.NDArray[np.bool_], src: tuple[int, int, int], dst: tuple
                                             (x > 0, -1), (b == 0, wrap_span))):
             cand[row, mask] = frontier[mask] + step
         order = cand.T.ravel()  # cell by cell in queue order, each cell's neighbours in order
-        par = np.repeat(frontier, 8)
-        ok = order >= 0
-        order, par = order[ok], par[ok]
-        ok = flat[order] & ~seen[order]
-        order, par = order[ok], par[ok]
-        _, first = np.unique(order, return_index=True)
-        first.sort()
+        at = np.flatnonzero(open_[order])
+        order = order[at]
+        # Each new cell once, at its first place (np.unique's first occurrences, without sorting).
+        place = np.arange(order.size, dtype=np.int32)
+        np.minimum.at(earliest, order, place)
+        first = np.flatnonzero(earliest[order] == place)
+        earliest[order] = unset
         new = order[first]
-        parent[new] = par[first]
-        seen[new] = True
+        parent[new] = frontier[at[first] // 8]
+        open_[new] = False
         frontier = new
-    if not seen[d]:
+    if open_[d]:
         return None
     nodes = [d]
     while nodes[-1] != s:
