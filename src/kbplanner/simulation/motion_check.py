@@ -137,18 +137,6 @@ class ExactMotion:
         (the OMPL motion validator's call, without building tuples)."""
         inv_res, ox, oy, nx, ny, w, n_bins, plane, free, clearance = self._consts
         floor = math.floor
-        # Quick accept: every cell that the samples and the exact check below look at lies within one cell
-        # of the box of the end cells (rounding moves a coordinate across at most one cell border), so
-        # within R of the start cell; if all cells that near are free in every yaw bin (and on the grid),
-        # all those checks pass.
-        ax, ay = (a0 - ox) * inv_res, (a1 - oy) * inv_res
-        ix, iy = floor(ax), floor(ay)
-        if 0 <= ix < nx and 0 <= iy < ny:
-            r = clearance[iy * nx + ix]
-            if r > 2:
-                jx, jy = floor((b0 - ox) * inv_res) - ix, floor((b1 - oy) * inv_res) - iy
-                if (jx if jx > 0 else -jx) + 2 < r and (jy if jy > 0 else -jy) + 2 < r:
-                    return True
         t0 = float(a2)
         d = (float(b2) - t0 + _PI) % _TAU - _PI  # nav_path.wrap inlined
         # Cheap rejection first: most motions a planner tries run into a wall somewhere, most of them
@@ -164,6 +152,18 @@ class ExactMotion:
                 return False
             if free[(floor((t0 + u * d) / w + 0.5) % n_bins) * plane + iy * nx + ix] != 1:
                 return False
+        # Quick accept: every cell that the exact check below looks at lies within one cell of the box of
+        # the end cells (rounding moves a coordinate across at most one cell border), so within
+        # max(|jx|, |jy|) + 1 of the start cell; if all cells that near are free in every yaw bin (and on
+        # the grid), every piece passes.
+        ax, ay = (a0 - ox) * inv_res, (a1 - oy) * inv_res
+        ix, iy = floor(ax), floor(ay)
+        if 0 <= ix < nx and 0 <= iy < ny:
+            r = clearance[iy * nx + ix]
+            if r > 2:
+                jx, jy = floor((b0 - ox) * inv_res) - ix, floor((b1 - oy) * inv_res) - iy
+                if (jx if jx > 0 else -jx) + 2 < r and (jy if jy > 0 else -jy) + 2 < r:
+                    return True
         # The exact check, piece by piece between yaw-bin borders: :meth:`_segment_free` inlined (the
         # same arithmetic; a one-cell column is read directly rather than sliced).
         cuts = [0.0]
