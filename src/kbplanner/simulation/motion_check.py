@@ -41,6 +41,15 @@ def open_clearance(cs: ConfigurationSpace) -> bytes:
     return np.minimum(dist, 255).astype(np.uint8).tobytes()
 
 
+def free_bytes(cs: ConfigurationSpace) -> bytes | memoryview:
+    """The free maps as one byte per cell (``bin * ny * nx + iy * nx + ix``): read-only maps in one block
+    (those of the space cache) are read in place, others copied (a copy cannot change under a check)."""
+    free = cs.free
+    if not free.flags.writeable and free.flags.c_contiguous:
+        return free.data.cast("B")
+    return free.tobytes()
+
+
 def _clearance(cs: ConfigurationSpace) -> bytes:
     """:func:`open_clearance`, kept per space whose free maps are read-only (made anew where they may
     still change)."""
@@ -86,7 +95,7 @@ class ExactMotion:
     """
 
     def __init__(self, cs: ConfigurationSpace) -> None:
-        self.free = cs.free.tobytes()
+        self.free = free_bytes(cs)
         self.clearance = _clearance(cs)
         self.ny, self.nx = cs.grid.shape
         self.ox, self.oy = cs.grid.origin

@@ -39,7 +39,7 @@ from ompl import util as ou
 
 from kbplanner.core.errors import KbplannerError
 from kbplanner.simulation.cell_path import cell_route, face_connected, face_path
-from kbplanner.simulation.motion_check import ExactMotion, shortcut, turn_drive_turn
+from kbplanner.simulation.motion_check import ExactMotion, free_bytes, shortcut, turn_drive_turn
 from kbplanner.simulation.nav_path import (
     OK,
     PLANNERS,
@@ -102,7 +102,7 @@ class _WalledOff:
 
 def _validity_checker(cs: ConfigurationSpace) -> Callable[[ob.State], bool]:
     """A fast Python validity checker: one bytes look-up per state."""
-    free = cs.free.tobytes()
+    free = free_bytes(cs)
     ox, oy = cs.grid.origin
     inv_res = 1.0 / cs.grid.resolution
     ny, nx = cs.grid.shape
