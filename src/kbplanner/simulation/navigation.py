@@ -166,8 +166,9 @@ def _run(ss: og.SimpleSetup, validator: _OmplMotionValidator, limit: int, deadli
 
     def holds() -> bool:
         calls = validator.calls
-        asked = walled_off is not None and calls >= WALLED_OFF_AFTER_CHECKS
-        return calls >= limit or (asked and walled_off is not None and walled_off())
+        if calls >= limit:
+            return True
+        return walled_off is not None and calls >= WALLED_OFF_AFTER_CHECKS and walled_off()
 
     def ring() -> None:
         if holds():
@@ -286,7 +287,6 @@ def _solve(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSet
     deadline = time.perf_counter() + settings.time_limit_s
     budget = settings.max_motion_checks
     first = min(budget, CERTAIN_PASSAGE_CHECKS) if cells_certain is not None else budget
-
     status = _run(ss, validator, first, deadline, walled_off)
     if (walled_off is not None and not ss.haveExactSolutionPath()
             and validator.calls >= WALLED_OFF_AFTER_CHECKS and walled_off()):
@@ -296,8 +296,8 @@ def _solve(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSet
         if cells_certain():
             budget = first  # the caller takes the cell path
         elif first < budget:
-            status = _run(ss, validator, budget, deadline, None)  # the planner keeps its trees: this
-            # continues the same search
+            # The planner keeps its trees: this continues the same search.
+            status = _run(ss, validator, budget, deadline, None)
     elif first < budget and not ss.haveExactSolutionPath():
         budget = first
     if validator.calls < budget and time.perf_counter() > deadline:
