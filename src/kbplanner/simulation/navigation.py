@@ -9,7 +9,9 @@ its carry pose); returns a :class:`~kbplanner.simulation.nav_path.NavPath` with 
 a time budget) is seeded through ``ou.RNG.setSeed``, so the same seed gives the same path; the solution
 is shortcut-simplified and re-checked densely. Where free cells certainly join start and goal but
 RRTConnect finds nothing within its first budget, the cell path is taken
-(:mod:`kbplanner.simulation.cell_path`).
+(:mod:`kbplanner.simulation.cell_path`). Whether the goal is walled off is asked only of a search that
+has made :data:`WALLED_OFF_AFTER_CHECKS` motion checks without a path, or has failed (a path found proves
+it is not): the answer is that of asking before planning, mostly without labelling the space.
 
 The rest of navigation: settings and path types (:mod:`kbplanner.simulation.nav_path`), the doorway
 behaviour of the paper (:mod:`kbplanner.simulation.carry_paths`), timed samples
