@@ -18,7 +18,6 @@ import weakref
 from collections.abc import Sequence
 
 import numpy as np
-from scipy import ndimage
 
 from kbplanner.simulation.nav_path import Pose2D, densify, path_length, wrap
 from kbplanner.world.footprint import ConfigurationSpace
@@ -36,6 +35,8 @@ def open_clearance(cs: ConfigurationSpace) -> bytes:
     blocked in some yaw bin or off the grid, capped at 255: every cell nearer than that is free in every
     yaw bin. A motion whose cells all lie within that distance of its start cell is free whatever its
     turn (the quick accept of :meth:`ExactMotion.free6`)."""
+    from scipy import ndimage  # imported here: the module is imported by commands that never plan
+
     open_all = np.pad(cs.free.all(axis=0), 1, constant_values=False)
     dist = ndimage.distance_transform_cdt(open_all, metric="chessboard")[1:-1, 1:-1]
     return np.minimum(dist, 255).astype(np.uint8).tobytes()
