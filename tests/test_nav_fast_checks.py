@@ -227,3 +227,50 @@ def test_a_walled_off_query_stops_once_asked(monkeypatch: pytest.MonkeyPatch) ->
     path = navigation.plan_path(cs, (1.0, 1.5, 0.0), (3.0, 1.5, 0.0), settings=NavSettings(time_limit_s=60.0))
     assert not path.ok and "walled off" in path.reason
     assert 300 <= checks < 400  # the planner ends the iteration it is in, then stops
+
+
+def test_the_validator_alarm_stops_the_planner_where_a_python_condition_does(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    import time
+
+    from ompl import base as ob
+
+    def former_run(ss, validator, limit, deadline, walled_off):  # type: ignore[no-untyped-def]
+        """The termination condition as it was: a Python function asked at every iteration."""
+        def stop() -> bool:
+            return (validator.calls >= limit or time.perf_counter() > deadline
+                    or (walled_off is not None and validator.calls >= navigation.WALLED_OFF_AFTER_CHECKS
+                        and walled_off()))
+        return ss.solve(ob.PlannerTerminationCondition(stop))
+
+    occ = np.zeros((60, 100), dtype=bool)
+    occ[[0, -1], :] = True
+    occ[:, [0, -1]] = True
+    occ[:, 48:52] = True
+    occ[26:36, 48:52] = False  # a 0.5 m door
+    cs = ConfigurationSpace.build(OccupancyGrid(occ, origin=(0.0, 0.0), resolution=0.05),
+                                  Footprint((Rect(0.0, 0.0, 0.5, 0.3),)), 36)
+    cs.free.setflags(write=False)
+    checks = 0
+    fast = ExactMotion.free6
+
+    def counting(self: ExactMotion, *motion: float) -> bool:
+        nonlocal checks
+        checks += 1
+        return fast(self, *motion)
+
+    monkeypatch.setattr(ExactMotion, "free6", counting)
+    monkeypatch.setattr(navigation, "WALLED_OFF_AFTER_CHECKS", 150)
+    outcomes = set()
+    for seed, budget, cells in itertools.product((1, 2), (40, 200, 1500, 400_000), (True, False)):
+        got = []
+        for run in (navigation._run, former_run):
+            monkeypatch.setattr(navigation, "_run", run)
+            checks = 0
+            path = navigation.plan_path(cs, (0.8, 0.8, 0.3), (4.2, 2.2, 2.0),
+                                        settings=NavSettings(seed=seed, max_motion_checks=budget,
+                                                             cell_fallback=cells))
+            got.append((path.status, path.reason, path.poses, checks))
+        assert got[0] == got[1], (seed, budget, cells)
+        outcomes.add(got[0][0] + ("+cells" if "cell search" in got[0][1] else ""))
+    assert outcomes == {"ok", "ok+cells", "failed"}
