@@ -45,9 +45,8 @@ try:
     code = main(sys.argv[2:])
 finally:
     for q in queries:
-        if hasattr(q[0], "memo"):
-            q[0].memo.clear()
-            q[0].open_memo.clear()
+        for memo in ("memo", "open_memo", "near_memo"):
+            getattr(q[0], memo, {}).clear()
     with open(sys.argv[1], "wb") as f:
         pickle.dump(queries, f)
 raise SystemExit(code)
