@@ -10,10 +10,12 @@ agrees; the office's inside pickup locations are reached by the robot's footprin
 from __future__ import annotations
 
 import re
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
+import shapely
 
 from ifc_factory import write_test_building
 from ifc_office import write_office
@@ -21,7 +23,7 @@ from kbplanner.cli import main
 from kbplanner.core.vocab import KBP
 from kbplanner.planning.plan_model import ElementInfo, Plan, Pose2, Pose6, SkillCall
 from kbplanner.scale import init_site as site
-from kbplanner.scale.init_plan_check import unreached_pickups
+from kbplanner.scale.init_plan_check import pickup_blocker, unreached_pickups
 from kbplanner.scale.init_proposals import restacked
 from kbplanner.world.occupancy import OccupancyGrid
 
@@ -54,6 +56,39 @@ def test_a_pickup_behind_a_gap_narrower_than_the_robot_is_not_reached(gap_m: flo
     occ[50:70, 30:50] = True  # a storage over the start: the navigation does not start
     out = unreached_pickups(_plan_to(8.0, 3.0), grid, Pose2(2.0, 3.0, 0.0))
     assert "at its start (2.00, 3.00) stands in collision" in out["urn:E"]
+
+
+def _two_elements(pickup: tuple[float, float], first_stands: tuple[float, float]) -> Plan:
+    """E1 then E2, both picked at ``pickup``; E1 installed from the base pose ``first_stands``."""
+    plan = _plan_to(*pickup)
+    e1 = plan.elements[0]
+    release = SkillCall(3, e1.iri, "urn:a3", "install frame", 3, "urn:s3", "MM-R-1",
+                        str(KBP.MoveManipulatorAndRelease), base_pose=Pose2(*first_stands, 0.0))
+    plan.steps.append(release)
+    e2 = ElementInfo("urn:E2", "E2", "E2", 10.0, (0.7, 0.09, 2.4), Pose6(1.0, 1.0, 0.0),
+                     Pose6(*pickup, 0.0), None)
+    plan.elements.append(e2)
+    plan.steps += [replace(s, step=s.step + 3, element=e2.iri) for s in plan.steps[:2]]
+    return plan
+
+
+def test_the_way_back_to_the_pickup_is_checked_with_the_elements_installed_before() -> None:
+    """A 1.4 m opening the robot passes, until the first element stands in it: the second element's
+    way back to the pickup is closed (the simulation's 'no path to the base pose'), and the first is
+    named, so that init installs the second before it."""
+    res = 0.05
+    occ = np.zeros((120, 200), dtype=bool)  # 10 x 6 m, a wall at x = 5 m with a 1.4 m opening
+    occ[:, 100] = True
+    occ[46:74, 100] = False
+    grid = OccupancyGrid(occ, origin=(0.0, 0.0), resolution=res)
+    plan = _two_elements((8.0, 3.0), (3.5, 3.0))
+    assert unreached_pickups(plan, grid, Pose2(7.0, 1.0, 0.0)) == {}  # the empty map: both reached
+    panel = shapely.box(4.8, 2.2, 5.2, 3.8)  # E1 stands in the opening
+    out = unreached_pickups(plan, grid, Pose2(7.0, 1.0, 0.0), {"urn:E": panel})
+    assert set(out) == {"urn:E2"}
+    assert "from where it installed the element before (3.50, 3.00)" in out["urn:E2"]
+    assert "with the 1 element(s) installed before it" in out["urn:E2"]
+    assert pickup_blocker(out["urn:E2"]) == "urn:E"
 
 
 def test_stacks_follow_the_order_b4_found() -> None:

@@ -17,9 +17,10 @@ higher in its stack, and kept when the plan installs more (:data:`RESTACK_ROUNDS
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import partial
 from pathlib import Path
 from urllib.parse import quote
@@ -32,7 +33,7 @@ from kbplanner.planning.install_order import blocked_move, move_before
 from kbplanner.planning.pose_search import RefineSettings
 from kbplanner.scale import init_site as site
 from kbplanner.scale.init_ifc import FrameRecord
-from kbplanner.scale.init_plan_check import Failure, ScenarioCheck, check_scenario
+from kbplanner.scale.init_plan_check import Failure, ScenarioCheck, check_scenario, pickup_blocker
 from kbplanner.scale.init_storage import ENTRANCE_KEEP, Spot, place_storages
 from kbplanner.world.build import world_of
 from kbplanner.world.maps import storey_map
@@ -191,6 +192,27 @@ def propose(
     return Proposal(storages, got, lines)
 
 
+def next_move(got: ScenarioCheck, radius: float, tried: set[tuple[str, str]]) -> tuple[str, str] | None:
+    """The next (element, before) move for a checked proposal: B4's install-order feedback
+    (:func:`~kbplanner.planning.install_order.blocked_move`, on the plan with init's own work sequence
+    taken off: init lays the stacks and writes the sequence), else an element whose way back to the
+    pickup an element installed before it closes (:func:`~.init_plan_check.pickup_blocker`) goes before
+    that one."""
+    assert got.plan is not None
+    plan = copy.copy(got.plan)
+    plan.elements = [replace(e, work_sequence=None) for e in got.plan.elements]
+    move = blocked_move(plan, plan, {}, radius, tried)
+    if move is not None:
+        return move
+    order = [e.iri for e in plan.elements]
+    for f in got.failures:
+        named = pickup_blocker(f.reason)
+        if (named is not None and f.iri in order and named in order[:order.index(f.iri)]
+                and (f.iri, named) not in tried):
+            return f.iri, named
+    return None
+
+
 def _restack(stage: Path, base: str, place: Place, storages: list[site.Storage], got: ScenarioCheck,
              seed: int, say: Say, path: Path) -> tuple[list[site.Storage], ScenarioCheck, list[str]]:
     """B4's install-order feedback without the stack's limit (init lays the stacks): an element blocked
@@ -204,7 +226,7 @@ def _restack(stage: Path, base: str, place: Place, storages: list[site.Storage],
     for n in range(RESTACK_ROUNDS):
         if not got.failures or got.plan is None:
             break
-        move = blocked_move(got.plan, got.plan, {}, radius, tried)
+        move = next_move(got, radius, tried)
         if move is None:
             break
         tried.add(move)
