@@ -9,10 +9,14 @@ pickup checks of ``kbplanner world`` (:func:`kbplanner.world.site_checks.check_p
 planned as ``kbplanner plan`` plans it (:mod:`.init_plan_check`); the first that installs every frame,
 else the one that installs the most, is kept, written with the order B4 found as its
 ``kbp:workSequence`` (the stacks follow it: the first installed on top). The elements its plan cannot
-install are returned with reason and fix. When the kept proposal leaves elements blocked by those installed
-before them, B4's install-order feedback (:func:`~kbplanner.planning.install_order.blocked_move`) is
-applied without the stack's limit, as init lays the stacks: the element is moved before them and laid
-higher in its stack, and kept when the plan installs more (:data:`RESTACK_ROUNDS` rounds).
+install are returned with reason and fix. When the kept proposal leaves elements uninstallable, it is
+planned again in init's stack-by-stack order (the walls farthest from the entrance first, in a stack the
+panel farthest from its pickup on top: :func:`storages_at`) and that order kept when it installs more.
+When the kept proposal then leaves elements blocked by those installed before them, B4's install-order
+feedback (:func:`~kbplanner.planning.install_order.blocked_move`) is applied without the stack's limit,
+as init lays the stacks: the element is moved before them and laid higher in its stack, and kept when
+the plan installs more (:data:`RESTACK_ROUNDS` rounds); so is an element whose way back to the pickup
+an element installed before closes (:func:`next_move`).
 """
 
 from __future__ import annotations
@@ -178,6 +182,14 @@ def propose(
     if kept is None:
         path.write_text(site.scenario(base, place.key, place.label, storages), encoding="utf-8")
         return Proposal(storages, None, lines)
+    if kept.failures:  # init's own order, stack by stack, may plan more than B1's (nearest first)
+        path.write_text(site.scenario(base, place.key, place.label, storages), encoding="utf-8")
+        say(f"planning {place.key} again in the stack-by-stack order")
+        other = check_scenario(stage, place.key, site.FRAME_TASK, seed)
+        lines.append(f"the kept proposal in the stack-by-stack order: plan installs {other.installable} of "
+                     f"{other.total}" + ("" if other.installable > kept.installable else ", not kept"))
+        if other.installable > kept.installable:
+            kept = other
     if kept.failures:  # the stacks laid again for the elements blocked by those installed before them
         storages, kept, what = _restack(stage, base, place, storages, kept, seed, say, path)
         lines += what
