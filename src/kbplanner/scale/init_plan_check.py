@@ -214,12 +214,18 @@ def pickup_blocker(reason: str) -> str | None:
 
 
 def check_scenario(stage: Path, scenario: str, task: str, seed: int,
-                   progress: Callable[[str, int, int], None] | None = None) -> ScenarioCheck:
+                   progress: Callable[[str, int, int], None] | None = None,
+                   loaded: tuple[ProjectData, World, OccupancyGrid] | None = None) -> ScenarioCheck:
     """Plan ``task`` of the project staged in ``stage`` under ``scenario`` as ``kbplanner plan`` does
-    (B1-B4), plus the robot's way to each pickup location (module docstring)."""
-    data = ProjectData.load(stage, scenario=scenario)
-    world = world_of(data, task_id=task)
-    grid = storey_map(world).grid
+    (B1-B4), plus the robot's way to each pickup location (module docstring). ``loaded``: the project
+    as staged now, its world of ``task`` and the task storey's grid, when the caller has them (else
+    loaded here)."""
+    if loaded is None:
+        data = ProjectData.load(stage, scenario=scenario)
+        world = world_of(data, task_id=task)
+        grid = storey_map(world).grid
+    else:
+        data, world, grid = loaded
     plan = plan_task(data, task, world=world)
     check = ScenarioCheck(scenario, len(plan.elements))
     if not plan.robot_id:

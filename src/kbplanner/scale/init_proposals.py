@@ -105,6 +105,24 @@ def _tell(say: Say, key: str, k: int, _label: str, done: int, total: int) -> Non
     say(f"B4 of {key}, proposal {k + 1}: {done}/{total}")
 
 
+def _failing(got: ScenarioCheck) -> str:
+    """`` (not: F004 at install frame, ...)``: the elements a checked proposal cannot install and the
+    step each fails at."""
+    if not got.failures:
+        return ""
+    return " (not: " + ", ".join(f"{f.label.rsplit(' ', 1)[-1]} at {_step(f.reason)}"
+                                 for f in got.failures) + ")"
+
+
+def _step(reason: str) -> str:
+    """``step 28 (MM-R-1 install frame): ...`` -> ``install frame``; a reason of the pickup way ->
+    ``the way to the pickup``."""
+    if reason.startswith("step ") and "(" in reason:
+        inner = reason.split("(", 1)[1].split(")", 1)[0]
+        return inner.split(" ", 1)[-1]
+    return "the way to the pickup" if "pickup" in reason.split(":", 1)[0] else reason.split(":", 1)[0]
+
+
 def _summary(k: int, spots: Sequence[Spot], what: str) -> str:
     where = ", ".join(f"({s.x:.2f}, {s.y:.2f})" for s in spots)
     return f"proposal {k + 1} (storages at {where}): {what}"
@@ -158,8 +176,9 @@ def propose(
         say(f"checking the pickup locations of {place.key} (proposal {k + 1}) on its world")
         data = ProjectData.load(stage, scenario=place.key)
         world = world_of(data, task_id=site.FRAME_TASK)
+        grid_k = storey_map(world).grid
         try:
-            check_pickup_locations(world, storey_map(world).grid)
+            check_pickup_locations(world, grid_k)
         except KbplannerError as exc:  # a proposal that does not hold is dropped, with the reason
             last_problem = exc.problem
             lines.append(_summary(k, spots, f"dropped: {exc.problem}"))
@@ -168,8 +187,9 @@ def propose(
             best = (storages, None)
             break
         say(f"planning {place.key} (proposal {k + 1}) as `kbplanner plan` does (B1-B4)")
-        got = check_scenario(stage, place.key, site.FRAME_TASK, seed, partial(_tell, say, place.key, k))
-        lines.append(_summary(k, spots, f"plan installs {got.installable} of {got.total}"))
+        got = check_scenario(stage, place.key, site.FRAME_TASK, seed, partial(_tell, say, place.key, k),
+                             (data, world, grid_k))
+        lines.append(_summary(k, spots, f"plan installs {got.installable} of {got.total}{_failing(got)}"))
         if best is None or best[1] is None or got.installable > best[1].installable:
             best = (storages, got)
         if not got.failures:
@@ -187,7 +207,8 @@ def propose(
         say(f"planning {place.key} again in the stack-by-stack order")
         other = check_scenario(stage, place.key, site.FRAME_TASK, seed)
         lines.append(f"the kept proposal in the stack-by-stack order: plan installs {other.installable} of "
-                     f"{other.total}" + ("" if other.installable > kept.installable else ", not kept"))
+                     f"{other.total}{_failing(other)}" + ("" if other.installable > kept.installable else
+                                                          ", not kept"))
         if other.installable > kept.installable:
             kept = other
     if kept.failures:  # the stacks laid again for the elements blocked by those installed before them
@@ -250,8 +271,8 @@ def _restack(stage: Path, base: str, place: Place, storages: list[site.Storage],
         labels = {e.iri: e.label for e in got.plan.elements}
         what.append(f"the kept proposal with {labels.get(move[0], move[0])} installed before "
                     f"{labels.get(move[1], move[1])} (laid higher in its stack): plan installs "
-                    f"{new.installable} of {new.total}" + ("" if new.installable > got.installable else
-                                                           ", not kept"))
+                    f"{new.installable} of {new.total}{_failing(new)}"
+                    + ("" if new.installable > got.installable else ", not kept"))
         if new.installable > got.installable:
             storages, got = again, new
     return storages, got, what
