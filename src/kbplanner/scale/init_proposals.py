@@ -202,7 +202,10 @@ def propose(
     if kept is None:
         path.write_text(site.scenario(base, place.key, place.label, storages), encoding="utf-8")
         return Proposal(storages, None, lines)
-    if kept.failures:  # init's own order, stack by stack, may plan more than B1's (nearest first)
+    by_stack = [r.global_id for st in storages for r in st.panels]
+    if kept.failures and [gid_of.get(i) for i in kept.order] != by_stack:
+        # init's own order, stack by stack, may plan more than B1's (nearest first); the same order
+        # checked again would plan the same
         path.write_text(site.scenario(base, place.key, place.label, storages), encoding="utf-8")
         say(f"planning {place.key} again in the stack-by-stack order")
         other = check_scenario(stage, place.key, site.FRAME_TASK, seed)
