@@ -163,3 +163,20 @@ def test_the_office_inside_pickups_are_reached_by_the_robots_footprint(tmp_path:
         assert p is not None
         goal = Pose2(p.x, p.y, p.yaw)
         assert CarryReach(grid, (fp,), start, (p.x, p.y)).reaches(goal)
+
+
+def test_other_placements_are_tried_only_for_failures_a_placement_may_mend() -> None:
+    from kbplanner.scale.init_plan_check import Failure, ScenarioCheck
+    from kbplanner.scale.init_proposals import placement_bound
+
+    plan = _plan_to(8.0, 3.0)  # element E installed at (1, 1)
+    no_base = ("step 3 (MM-R-1 install frame): installed pose out of reach from 0 free base pose(s) tried: "
+               "no base pose near the installed pose is free")
+    got = ScenarioCheck("storage-outside", 1, failures=[Failure("urn:E", "E", no_base, "")], plan=plan)
+    far = site.Storage("s-1", "S", 9.0, 9.0, 0.0, 0.0, (9.0, 8.0, 0.0, 0.0), ())
+    near = site.Storage("s-1", "S", 3.0, 2.0, 0.0, 0.0, (9.0, 8.0, 0.0, 0.0), ())
+    assert not placement_bound(got, [far])  # only the order can free the floor there
+    assert placement_bound(got, [near])  # the storage may be what covers it
+    carry = replace(got, failures=[Failure("urn:E", "E", "step 3 (MM-R-1 install frame): carry way walled "
+                                                          "off: ...", "")])
+    assert placement_bound(carry, [far])

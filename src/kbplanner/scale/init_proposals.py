@@ -7,7 +7,9 @@ away from those tried and, outside, :data:`KEEP_STEP_M` farther from the entranc
 robot to turn the frame before the door). Each is written into the staged project, checked with the
 pickup checks of ``kbplanner world`` (:func:`kbplanner.world.site_checks.check_pickup_locations`) and
 planned as ``kbplanner plan`` plans it (:mod:`.init_plan_check`); the first that installs every frame,
-else the one that installs the most, is kept, written with the order B4 found as its
+else the one that installs the most, is kept (no other placement is tried when each frame a proposal
+cannot install has no free base pose near its installed pose and no storage stands near it:
+:func:`placement_bound`; only the order can mend that), written with the order B4 found as its
 ``kbp:workSequence`` (the stacks follow it: the first installed on top). The elements its plan cannot
 install are returned with reason and fix. When the kept proposal leaves elements uninstallable, it is
 planned again in init's stack-by-stack order (the walls farthest from the entrance first, in a stack the
@@ -105,6 +107,31 @@ def _tell(say: Say, key: str, k: int, _label: str, done: int, total: int) -> Non
     say(f"B4 of {key}, proposal {k + 1}: {done}/{total}")
 
 
+#: An install failure another storage placement cannot mend, when no storage stands near the installed
+#: pose: no free base pose at all (the walls and the elements installed before cover the floor there).
+UNBOUND = "no base pose near the installed pose is free"
+UNBOUND_WHY = (f"each frame it cannot install fails with '{UNBOUND}' and no storage stands near its "
+               "installed pose: the order may mend that (below), another place of the storage does not")
+
+
+def placement_bound(got: ScenarioCheck, storages: Sequence[site.Storage]) -> bool:
+    """Whether a failure of the checked proposal may depend on where its storages stand: any failure but
+    an install with no free base pose near the installed pose (:data:`UNBOUND`), or such a one with a
+    storage or its pickup location within B4's blocking radius (plus the storage's half diagonal) of
+    the installed pose. Placements are tried again only then (the order is tried afterwards)."""
+    if got.plan is None:
+        return True
+    radius = RefineSettings().blocking_radius_m + math.hypot(*site.STORAGE_SIZE[:2]) / 2
+    for f in got.failures:
+        if UNBOUND not in f.reason or "install" not in _step(f.reason):
+            return True
+        pose = got.plan.element(f.iri).installed_pose
+        if any(math.hypot(x - pose.x, y - pose.y) <= radius
+               for st in storages for x, y in ((st.x, st.y), st.pickup[:2])):
+            return True
+    return False
+
+
 def _failing(got: ScenarioCheck) -> str:
     """`` (not: F004 at install frame, ...)``: the elements a checked proposal cannot install and the
     step each fails at."""
@@ -193,6 +220,9 @@ def propose(
         if best is None or best[1] is None or got.installable > best[1].installable:
             best = (storages, got)
         if not got.failures:
+            break
+        if not placement_bound(got, storages):
+            lines.append(f"no other placement tried: {UNBOUND_WHY}")
             break
     if best is None:
         path.unlink(missing_ok=True)
