@@ -1,24 +1,24 @@
 """``kbplanner init`` (issue 10), step 4-5: the storage proposals of a scenario, each checked, the best kept.
 
-For one scenario (``storage-inside`` or ``storage-outside``) up to :data:`PROPOSALS` placements of the
-frame storages are tried (:func:`kbplanner.scale.init_storage.place_storages`): the first as before
-(nearest the panels or the entrance), each next one with its stacks :data:`~.init_storage.AVOID_M`
-away from those tried and, outside, :data:`KEEP_STEP_M` farther from the entrance door (room for the
-robot to turn the frame before the door). Each is written into the staged project, checked with the
-pickup checks of ``kbplanner world`` (:func:`kbplanner.world.site_checks.check_pickup_locations`) and
-planned as ``kbplanner plan`` plans it (:mod:`.init_plan_check`); the first that installs every frame,
-else the one that installs the most, is kept (no other placement is tried when each frame a proposal
-cannot install has no free base pose near its installed pose and no storage stands near it:
-:func:`placement_bound`; only the order can mend that), written with the order B4 found as its
+For one scenario (``storage-inside`` or ``storage-outside``) up to :data:`PROPOSALS` placements of the frame
+storages are tried (:func:`kbplanner.scale.init_storage.place_storages`): the first as before (nearest the
+panels or the entrance), each next one with its stacks :data:`~.init_storage.AVOID_M` away from those tried
+and, outside, :data:`KEEP_STEP_M` farther from the entrance door (room for the robot to turn the frame
+before the door). Each is written into the staged project, checked with the pickup checks of ``kbplanner
+world`` (:func:`kbplanner.world.site_checks.check_pickup_locations`) and planned as ``kbplanner plan`` plans
+it (:mod:`.init_plan_check`); the first that installs every frame, else the one that installs the most, is
+kept (when each frame a proposal cannot install has no free base pose near its installed pose and no storage
+stands near it, :func:`placement_bound`, the restack rounds below are tried on it first, and other
+placements only when they do not install every frame), written with the order B4 found as its
 ``kbp:workSequence`` (the stacks follow it: the first installed on top). The elements its plan cannot
 install are returned with reason and fix. When the kept proposal leaves elements uninstallable, it is
 planned again in init's stack-by-stack order (the walls farthest from the entrance first, in a stack the
-panel farthest from its pickup on top: :func:`storages_at`) and that order kept when it installs more.
-When the kept proposal then leaves elements blocked by those installed before them, B4's install-order
-feedback (:func:`~kbplanner.planning.install_order.blocked_move`) is applied without the stack's limit,
-as init lays the stacks: the element is moved before them and laid higher in its stack, and kept when
-the plan installs more (:data:`RESTACK_ROUNDS` rounds); so is an element whose way back to the pickup
-an element installed before closes (:func:`next_move`).
+panel farthest from its pickup on top: :func:`storages_at`) and that order kept when it installs more. When
+the kept proposal then leaves elements blocked by those installed before them, B4's install-order feedback
+(:func:`~kbplanner.planning.install_order.blocked_move`) is applied without the stack's limit, as init lays
+the stacks: the element is moved before them and laid higher in its stack, and kept when the plan installs
+more (:data:`RESTACK_ROUNDS` rounds); so is an element whose way back to the pickup an element installed
+before closes (:func:`next_move`).
 """
 
 from __future__ import annotations
@@ -111,7 +111,7 @@ def _tell(say: Say, key: str, k: int, _label: str, done: int, total: int) -> Non
 #: pose: no free base pose at all (the walls and the elements installed before cover the floor there).
 UNBOUND = "no base pose near the installed pose is free"
 UNBOUND_WHY = (f"each frame it cannot install fails with '{UNBOUND}' and no storage stands near its "
-               "installed pose: the order may mend that (below), another place of the storage does not")
+               "installed pose: the order may mend that, another place of the storage rarely does")
 
 
 def placement_bound(got: ScenarioCheck, storages: Sequence[site.Storage]) -> bool:
@@ -184,6 +184,7 @@ def propose(
     lines: list[str] = []
     best: tuple[list[site.Storage], ScenarioCheck | None] | None = None
     last_problem = ""
+    restacked_best: list[site.Storage] | None = None  # the storages the restack rounds were tried on
     for k in range(PROPOSALS if check else 1):
         keep = ENTRANCE_KEEP + (0.0 if place.inside else k * KEEP_STEP_M)
         spots = place_storages(grid, stacks, start=start, panels=panels, footprint=hull,
@@ -221,9 +222,16 @@ def propose(
             best = (storages, got)
         if not got.failures:
             break
-        if not placement_bound(got, storages):
-            lines.append(f"no other placement tried: {UNBOUND_WHY}")
-            break
+        if not placement_bound(got, storages) and restacked_best is None:
+            # only the order can mend these: tried on this placement first, the others only if it does not
+            lines.append(f"the order tried first: {UNBOUND_WHY}")
+            again, fixed, what = _restack(stage, base, place, storages, got, seed, say, path)
+            lines += what
+            restacked_best = again  # this placement's storages, laid again when that installs more
+            if best[1] is None or fixed.installable > best[1].installable:
+                best = (again, fixed)
+            if not fixed.failures:
+                break
     if best is None:
         path.unlink(missing_ok=True)
         notes.append(f"scenario {place.key} not written: {last_problem}")
@@ -244,7 +252,8 @@ def propose(
                                                           ", not kept"))
         if other.installable > kept.installable:
             kept = other
-    if kept.failures:  # the stacks laid again for the elements blocked by those installed before them
+    if kept.failures and storages is not restacked_best:  # the stacks laid again for the elements
+        # blocked by those installed before them (not again where the loop above tried it)
         storages, kept, what = _restack(stage, base, place, storages, kept, seed, say, path)
         lines += what
     got = kept
