@@ -180,3 +180,20 @@ def test_other_placements_are_tried_only_for_failures_a_placement_may_mend() -> 
     carry = replace(got, failures=[Failure("urn:E", "E", "step 3 (MM-R-1 install frame): carry way walled "
                                                           "off: ...", "")])
     assert placement_bound(carry, [far])
+
+
+def test_an_element_whose_way_back_an_earlier_one_closes_is_moved_before_it() -> None:
+    from kbplanner.scale.init_plan_check import Failure, ScenarioCheck
+    from kbplanner.scale.init_proposals import next_move
+
+    res = 0.05
+    occ = np.zeros((120, 200), dtype=bool)
+    occ[:, 100] = True
+    occ[46:74, 100] = False
+    grid = OccupancyGrid(occ, origin=(0.0, 0.0), resolution=res)
+    plan = _two_elements((8.0, 3.0), (3.5, 3.0))
+    why = unreached_pickups(plan, grid, Pose2(7.0, 1.0, 0.0), {"urn:E": shapely.box(4.8, 2.2, 5.2, 3.8)})
+    got = ScenarioCheck("storage-inside", 2, [e.iri for e in plan.elements],
+                        [Failure("urn:E2", "E2", why["urn:E2"], "")], plan=plan)
+    assert next_move(got, 3.0, set()) == ("urn:E2", "urn:E")  # E2 first, laid higher in its stack
+    assert next_move(got, 3.0, {("urn:E2", "urn:E")}) is None  # tried once
