@@ -4,8 +4,9 @@ Fast: the robot's way to a pickup location is judged in its footprint's configur
 (scale/init_plan_check.py), not on free cells; the stacks follow the order B4 found
 (scale/init_proposals.py). Slow (B4 on real projects): the test building's storage-outside scenario
 is planned installable, or each frame that is not is reported with its reason and fix, `plan`
-agrees, and `simulate` installs what the plan installs in both scenarios; the office's inside pickup
-locations are reached by the robot's footprint.
+agrees, and `simulate` installs what the plan installs in both scenarios; the split level's first
+inside placement fails in the check the frames simulate fails (trips back to the pickup after panels
+stand); the office's inside pickup locations are reached by the robot's footprint.
 """
 
 from __future__ import annotations
