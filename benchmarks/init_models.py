@@ -236,13 +236,37 @@ def render(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
-def update_doc(doc: Path, rows: list[dict[str, Any]]) -> None:
+def _row_key(line: str) -> str:
+    """A table row's first cell (the model and its schema), which names the row."""
+    return line.split("|")[1].strip() if line.startswith("| ") else ""
+
+
+def kept_rows(old: str, new: str) -> str:
+    """``new`` (a rendered table) with the rows of ``old`` (the document's table) that ``new`` does not
+    measure kept, in the document's order: a pass over some models updates their rows only."""
+    new_lines = new.splitlines()
+    fresh = {_row_key(line): line for line in new_lines[4:] if _row_key(line)}
+    out = new_lines[:4]
+    seen = set()
+    for line in old.strip().splitlines()[4:]:
+        key = _row_key(line)
+        if key:
+            out.append(fresh.get(key, line))
+            seen.add(key)
+    out += [line for key, line in fresh.items() if key not in seen]
+    return "\n".join(out)
+
+
+def update_doc(doc: Path, rows: list[dict[str, Any]], *, keep: bool = False) -> None:
+    """Render ``rows`` into ``doc``'s block; ``keep``: the rows of models not in ``rows`` stay as they
+    are (:func:`kept_rows`)."""
     text = doc.read_text(encoding="utf-8")
     if BEGIN not in text or END not in text:
         raise SystemExit(f"{doc}: no {BEGIN} ... {END} block to replace")
     head, rest = text.split(BEGIN, 1)
-    _old, tail = rest.split(END, 1)
-    doc.write_text(f"{head}{BEGIN}\n{render(rows)}\n{END}{tail}", encoding="utf-8")
+    old, tail = rest.split(END, 1)
+    table = kept_rows(old, render(rows)) if keep else render(rows)
+    doc.write_text(f"{head}{BEGIN}\n{table}\n{END}{tail}", encoding="utf-8")
 
 
 def main() -> int:
@@ -263,6 +287,9 @@ def main() -> int:
                         help="keep the other models' rows of the JSON (a model measured again is replaced)")
     parser.add_argument("--doc", type=Path, help="render the table into this document (section 7)")
     parser.add_argument("--render-only", action="store_true", help="only render --doc from the JSON")
+    parser.add_argument("--keep-doc-rows", action="store_true",
+                        help="with --doc: keep the document's rows of the models not measured (or merged) "
+                             "now, as they are")
     parser.add_argument("--results", type=Path, default=RESULTS, help=f"the JSON (default {RESULTS})")
     parser.add_argument("--merge", type=Path, action="append", default=[],
                         help="with --render-only: rows of another results JSON (a row with a run wins)")
@@ -275,7 +302,7 @@ def main() -> int:
             for row in json.loads(results.read_text(encoding="utf-8"))["models"]:
                 if row["file"] not in merged or "run" in row:
                     merged[row["file"]] = row
-        update_doc(args.doc, list(merged.values()))
+        update_doc(args.doc, list(merged.values()), keep=args.keep_doc_rows)
         return 0
     rows: list[dict[str, Any]] = []
     if args.append and args.results.is_file():
@@ -304,7 +331,7 @@ def main() -> int:
                 print(f"  run: {_cell_run(row)}", flush=True)
             write_json(args.results, {"models": rows})
     if args.doc is not None:
-        update_doc(args.doc, rows)
+        update_doc(args.doc, rows, keep=args.keep_doc_rows)
     return 0
 
 

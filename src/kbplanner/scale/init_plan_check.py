@@ -10,9 +10,12 @@ is the one init then writes.
 
 One check B4 does not make is added, with the same configuration-space test the carry leg uses: the
 robot alone (its base footprint, :class:`~kbplanner.planning.carry_reach.CarryReach` with one
-footprint) must reach every destination of its unloaded navigation (the pickup locations) from its
-start on the task storey's map: a pickup location on free cells the robot's footprint cannot get to
-fails in ``simulate`` with "no path to the base pose".
+footprint) must reach every destination of its unloaded navigation (the pickup locations) from where
+it stands - its start for the first element, then the base pose it installed the element before from -
+on the task storey's map with the elements installed so far marked, as the simulation drives: a pickup
+location the robot's footprint cannot get to fails in ``simulate`` with "no path to the base pose".
+When an element installed before closes that way, it is named (``pickup way closed by``), and init
+moves this element before it (:func:`kbplanner.scale.init_proposals.next_move`).
 
 Takes the staged project folder, the scenario name and the seed; gives a :class:`ScenarioCheck`
 (installable count, the order, each failing element with its reason and fix).
@@ -21,21 +24,26 @@ Takes the staged project folder, the scenario name and the seed; gives a :class:
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import shapely
+
 from kbplanner.model.project_data import ProjectData
-from kbplanner.planning.base_poses import PoseChecker
+from kbplanner.planning.base_poses import PoseChecker, element_polygon, mark_polygon
 from kbplanner.planning.carry_reach import CarryReach
 from kbplanner.planning.feasibility import element_verdicts
-from kbplanner.planning.manipulation import refine_plan, robot_name
-from kbplanner.planning.plan_model import Plan, Pose2
+from kbplanner.planning.manipulation import KIND_RELEASE, refine_plan, robot_name
+from kbplanner.planning.plan_model import Plan, Pose2, SkillCall
 from kbplanner.planning.planner import plan_task
+from kbplanner.planning.pose_frames import as_pose6_list, pose6_matrix
 from kbplanner.robot.robot_table import load_robot_specs
 from kbplanner.world.build import world_of
+from kbplanner.world.footprint import Footprint
 from kbplanner.world.maps import storey_map
 from kbplanner.world.occupancy import OccupancyGrid
+from kbplanner.world.world_types import World
 
 log = logging.getLogger(__name__)
 
@@ -43,6 +51,10 @@ log = logging.getLogger(__name__)
 UNREACHED_FIX = ("move the storage and its kbp:pickupLocation (scenarios/storage_*.ttl) to a spot the robot "
                  "reaches from kbp:robotStart: wider than the robot's footprint all the way, or move the "
                  "robot start (site/site_layout.ttl)")
+
+#: The fix for a pickup location that an element installed before walls off.
+CLOSED_FIX = ("install the element earlier: move it before the element named in the scenario's "
+              "kbp:workSequence (scenarios/storage_*.ttl) and lay it higher in its stack (kbp:stackIndex)")
 
 
 @dataclass(frozen=True)
@@ -71,57 +83,149 @@ class ScenarioCheck:
         return self.total - len(self.failures)
 
 
-def _unloaded_destinations(plan: Plan) -> list[tuple[str, Pose2]]:
-    """(element IRI, destination) of each navigation before the element's first manipulation (the robot
-    holds nothing there: it drives to the pickup location), and the base pose of that manipulation (the
+def _unloaded_destinations(plan: Plan, iri: str) -> list[Pose2]:
+    """The destinations of element ``iri``'s navigations before its first manipulation (the robot holds
+    nothing there: it drives to the pickup location), and the base pose of that manipulation (the
     pick), where the navigation ends."""
-    out: list[tuple[str, Pose2]] = []
-    for e in plan.elements:
-        for s in plan.steps_for(e.iri):
-            dest = s.by_role("DestinationRole")
-            if isinstance(dest, list) and len(dest) == 6:  # a navigation (B4 may give it a base pose too)
-                x, y, _z, _r, _p, yaw = (float(v) for v in dest)  # type: ignore[arg-type,unused-ignore]
-                out.append((e.iri, Pose2(x, y, yaw)))
-            elif s.base_pose is not None:  # the pick: the navigation drives to its base pose
-                out.append((e.iri, s.base_pose))
-                break
+    out: list[Pose2] = []
+    for s in plan.steps_for(iri):
+        dest = s.by_role("DestinationRole")
+        if isinstance(dest, list) and len(dest) == 6:  # a navigation (B4 may give it a base pose too)
+            x, y, _z, _r, _p, yaw = (float(v) for v in dest)  # type: ignore[arg-type,unused-ignore]
+            out.append(Pose2(x, y, yaw))
+        elif s.base_pose is not None:  # the pick: the navigation drives to its base pose
+            out.append(s.base_pose)
+            break
     return out
 
 
-def unreached_pickups(plan: Plan, grid: OccupancyGrid, start: Pose2) -> dict[str, str]:
+def _release(plan: Plan, iri: str) -> SkillCall | None:
+    """The release step of an element the plan installs (every step feasible), else None."""
+    steps = plan.steps_for(iri)
+    if not steps or not all(s.feasible for s in steps):
+        return None
+    return next((s for s in reversed(steps) if s.skill_kind == KIND_RELEASE and s.base_pose is not None),
+                None)
+
+
+def installed_polygons(plan: Plan, world: World) -> dict[str, shapely.Geometry]:
+    """Element IRI -> its floor polygon at its installed pose (as B4 and the simulation mark it on the
+    map), for the elements the plan installs."""
+    out: dict[str, shapely.Geometry] = {}
+    for e in plan.elements:
+        release = _release(plan, e.iri)
+        we = world.element(e.iri)
+        if release is None or we is None or we.local_bounds is None:
+            continue
+        target = as_pose6_list(release.by_role("TargetPoseRole"))
+        inst = we.installed_pose
+        if target is None and inst is not None:
+            target = [inst.x, inst.y, inst.z, inst.roll, inst.pitch, inst.yaw]
+        if target is not None:
+            out[e.iri] = element_polygon(we.local_bounds, pose6_matrix(target))
+    return out
+
+
+def _way_closed_by(grid: OccupancyGrid, installed: list[tuple[str, str, shapely.Geometry]], fp: Footprint,
+                   start: Pose2, dest: Pose2) -> tuple[str, str] | None:
+    """The first element of ``installed`` (in install order) whose footprint, added to ``grid`` with those
+    before it, closes the robot's way from ``start`` to ``dest``; None when the way is closed without
+    them (bisection: reachability only shrinks as elements are added)."""
+    def reachable(k: int) -> bool:
+        g = grid
+        for _iri, _label, poly in installed[:k]:
+            g = mark_polygon(g, poly)
+        return CarryReach(g, (fp,), start, (dest.x, dest.y)).reaches(dest)
+
+    if not installed or not reachable(0):
+        return None
+    lo, hi = 0, len(installed)
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if reachable(mid):
+            lo = mid
+        else:
+            hi = mid
+    return installed[hi - 1][0], installed[hi - 1][1]
+
+
+def unreached_pickups(plan: Plan, grid: OccupancyGrid, start: Pose2,
+                      polygons: Mapping[str, shapely.Geometry] | None = None) -> dict[str, str]:
     """Element IRI -> reason, for the elements whose unloaded navigation goes to a pose the robot's base
-    footprint cannot reach from ``start`` on ``grid`` (the configuration-space test of the carry leg), or
-    all of them when the robot stands in collision at ``start`` (the navigation fails there)."""
+    footprint cannot reach (the configuration-space test of the carry leg), or all of them when the
+    robot stands in collision at ``start`` (the navigation fails there).
+
+    The way is followed as the simulation drives it: from ``start`` for the first element, then from
+    where the robot stood to install the element before, on ``grid`` with the elements installed so far
+    marked (``polygons``: :func:`installed_polygons`; without them the map stays as it is). A way closed by an
+    element installed before names it (``pickup way closed by <iri>``): installing this element first
+    opens it (:func:`pickup_blocker`)."""
     spec = load_robot_specs().get(robot_name(plan))
     if spec is None:
         return {}
     fp = spec.footprint()
-    reaches: dict[tuple[float, float, float], bool] = {}
     out: dict[str, str] = {}
+    size = f"the robot ({spec.base.length_m:.2f} x {spec.base.width_m:.2f} m)"
     if not PoseChecker(grid).free(fp, start.x, start.y, start.yaw):  # navigation does not start there
-        return {iri: (f"navigate to the pickup location: the robot ({spec.base.length_m:.2f} x "
-                      f"{spec.base.width_m:.2f} m) at its start ({start.x:.2f}, {start.y:.2f}) stands in "
-                      "collision (a storage or another object covers the start)")
-                for iri, _d in _unloaded_destinations(plan)}
-    for iri, dest in _unloaded_destinations(plan):
-        key = (round(dest.x, 3), round(dest.y, 3), round(dest.yaw, 3))
-        if key not in reaches:
-            reaches[key] = CarryReach(grid, (fp,), start, (dest.x, dest.y)).reaches(dest)
-        if not reaches[key]:
-            out[iri] = (f"navigate to the pickup location: the robot ({spec.base.length_m:.2f} x "
-                        f"{spec.base.width_m:.2f} m) cannot drive from its start ({start.x:.2f}, "
-                        f"{start.y:.2f}) to the pickup location ({dest.x:.2f}, {dest.y:.2f}): no way wide "
-                        "enough for its footprint on the task storey's map")
+        return {e.iri: (f"navigate to the pickup location: {size} at its start ({start.x:.2f}, "
+                        f"{start.y:.2f}) stands in collision (a storage or another object covers the start)")
+                for e in plan.elements if _unloaded_destinations(plan, e.iri)}
+    here, g = start, grid
+    installed: list[tuple[str, str, shapely.Geometry]] = []
+    for e in plan.elements:
+        for dest in _unloaded_destinations(plan, e.iri):
+            if CarryReach(g, (fp,), here, (dest.x, dest.y)).reaches(dest):
+                continue
+            text = (f"navigate to the pickup location: {size} cannot drive from "
+                    + (f"its start ({here.x:.2f}, {here.y:.2f})" if here is start else
+                       f"where it installed the element before ({here.x:.2f}, {here.y:.2f})")
+                    + f" to the pickup location ({dest.x:.2f}, {dest.y:.2f}): no way wide enough for its "
+                    "footprint on the task storey's map"
+                    + (f" with the {len(installed)} element(s) installed before it" if installed else ""))
+            closed = _way_closed_by(grid, installed, fp, here, dest) if installed else None
+            if closed is not None:
+                text += (f"; the way is open until {closed[1]} is installed "
+                         f"({PICKUP_BLOCKER_MARK}{closed[0]}): install this element before {closed[1]}")
+            out[e.iri] = text
+            break
+        if e.iri in out:
+            continue  # not installed: the robot stays where it was
+        release = _release(plan, e.iri)
+        if release is None or release.base_pose is None:
+            continue
+        here = release.base_pose
+        poly = (polygons or {}).get(e.iri)
+        if poly is not None:
+            g = mark_polygon(g, poly)
+            installed.append((e.iri, e.label, poly))
     return out
 
 
+PICKUP_BLOCKER_MARK = "pickup way closed by "
+
+
+def pickup_blocker(reason: str) -> str | None:
+    """The IRI of the element named as closing the way to the pickup in a reason of
+    :func:`unreached_pickups`."""
+    i = reason.find(PICKUP_BLOCKER_MARK)
+    if i < 0:
+        return None
+    return reason[i + len(PICKUP_BLOCKER_MARK):].split(")", 1)[0].strip() or None
+
+
 def check_scenario(stage: Path, scenario: str, task: str, seed: int,
-                   progress: Callable[[str, int, int], None] | None = None) -> ScenarioCheck:
+                   progress: Callable[[str, int, int], None] | None = None,
+                   loaded: tuple[ProjectData, World, OccupancyGrid] | None = None) -> ScenarioCheck:
     """Plan ``task`` of the project staged in ``stage`` under ``scenario`` as ``kbplanner plan`` does
-    (B1-B4), plus the robot's way to each pickup location (module docstring)."""
-    data = ProjectData.load(stage, scenario=scenario)
-    world = world_of(data, task_id=task)
-    grid = storey_map(world).grid
+    (B1-B4), plus the robot's way to each pickup location (module docstring). ``loaded``: the project
+    as staged now, its world of ``task`` and the task storey's grid, when the caller has them (else
+    loaded here)."""
+    if loaded is None:
+        data = ProjectData.load(stage, scenario=scenario)
+        world = world_of(data, task_id=task)
+        grid = storey_map(world).grid
+    else:
+        data, world, grid = loaded
     plan = plan_task(data, task, world=world)
     check = ScenarioCheck(scenario, len(plan.elements))
     if not plan.robot_id:
@@ -135,13 +239,16 @@ def check_scenario(stage: Path, scenario: str, task: str, seed: int,
     start = refined.robot_start
     if start is None and world.robot_start is not None:
         start = Pose2(world.robot_start.x, world.robot_start.y, world.robot_start.yaw)
-    unreached = unreached_pickups(refined, grid, start) if start is not None else {}
+    unreached = ({} if start is None else
+                 unreached_pickups(refined, grid, start, installed_polygons(refined, world)))
     for v in element_verdicts(refined):
         if not v.feasible:
             why = f"step {v.step} ({v.skill_id} {v.action}): {v.reason}"
             check.failures.append(Failure(v.iri, v.label, why, v.fix or ""))
         elif v.iri in unreached:
-            check.failures.append(Failure(v.iri, v.label, unreached[v.iri], UNREACHED_FIX))
+            why = unreached[v.iri]
+            check.failures.append(Failure(v.iri, v.label, why, CLOSED_FIX if pickup_blocker(why) else
+                                          UNREACHED_FIX))
     log.info("init: scenario %s plans %d of %d elements installable", scenario, check.installable,
              check.total)
     return check
