@@ -198,8 +198,7 @@ class ConfigurationSpace:
         # Correlation by FFT with the grid's transform computed once for all bins (the kernels are
         # padded to one size); hits < 0.5 means no occupied cell under the swept footprint. The
         # transform is circular: a length of at least the padded grid's keeps every wrapped-around
-        # term out of the cells kept (rows/columns size-1 .. size-1+n-1 of the correlation).
-        size = 2 * h + 1
+        # term out of the cells kept (rows/columns size-1 .. size-1+n-1, size = 2h + 1: see _hits).
         shape = tuple(sp_fft.next_fast_len(n, real=True) for n in padded.shape)
         grid_f = sp_fft.rfft2(padded, shape)
         ny, nx = grid.shape
@@ -209,11 +208,7 @@ class ConfigurationSpace:
             if j != k:  # e.g. a centrally symmetric footprint half a turn later
                 free[k] = free[j]
                 continue
-            hk = kern.shape[0] // 2
-            full = np.zeros((size, size), dtype=np.float32)
-            full[h - hk : h + hk + 1, h - hk : h + hk + 1] = kern
-            conv = sp_fft.irfft2(grid_f * sp_fft.rfft2(full[::-1, ::-1], shape), shape)
-            free[k] = conv[size - 1 : size - 1 + ny, size - 1 : size - 1 + nx] < 0.5
+            free[k] = _hits(grid_f, kern, h, shape, ny, nx) < 0.5
         log.debug("configuration space %s: %d bins, %.1f %% free at yaw 0", footprint.name, n_yaw_bins,
                   100.0 * free[0].mean())
         return cls(grid=grid, footprint=footprint, free=free, margin_m=margin_m)
@@ -409,3 +404,21 @@ class ConfigurationSpace:
     def free_any_yaw(self) -> BoolArray:
         """Cells where at least one yaw bin is free (where the robot's centre can be at all)."""
         return np.asarray(self.free.any(axis=0))
+
+
+def _hits(grid_f: npt.NDArray[np.complex64], kern: BoolArray, h: int, shape: tuple[int, ...], ny: int,
+          nx: int) -> npt.NDArray[np.float32]:
+    """How many occupied cells the kernel covers at each of the grid's cells (rows ``size - 1 ..`` and
+    columns ``size - 1 ..`` of the circular correlation of the padded grid, ``size = 2h + 1``): what
+    ``irfft2(grid_f * rfft2(flipped kernel in a size x size square, shape), shape)`` gives there, with the
+    two passes of each 2-D transform done by hand so that only rows that hold something are
+    transformed along x: the kernel's ``size`` rows (the others are zero) and, back, the ``ny`` rows
+    kept. Counts of cells; the rounding (float32) stays far below the 0.5 they are compared with."""
+    size = 2 * h + 1
+    hk = kern.shape[0] // 2
+    full = np.zeros((size, size), dtype=np.float32)
+    full[h - hk : h + hk + 1, h - hk : h + hk + 1] = kern
+    kern_f = sp_fft.fft(sp_fft.rfft(full[::-1, ::-1], n=shape[1], axis=1), n=shape[0], axis=0)
+    rows = sp_fft.ifft(grid_f * kern_f, axis=0)[size - 1 : size - 1 + ny]
+    out: npt.NDArray[np.float32] = sp_fft.irfft(rows, n=shape[1], axis=1)[:, size - 1 : size - 1 + nx]
+    return out
