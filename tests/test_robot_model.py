@@ -188,3 +188,45 @@ def test_urdf_text_is_deterministic_and_names_every_ur_joint() -> None:
     spec = robot_spec("husky_ur16e")
     assert urdf_text(spec) == urdf_text(spec)
     assert all(f'name="{j}"' in urdf_text(spec) for j in ARM_JOINT_NAMES)
+
+
+def _per_joint_reset(robot: RobotModel, q: tuple[float, ...]) -> None:
+    """The former ``set_arm``: one ``resetJointState`` per arm joint (velocity zero)."""
+    for j, v in zip(robot.arm_joints, q, strict=True):
+        p.resetJointState(robot.body, j, float(v), physicsClientId=robot.client)
+
+
+def _robot_state(robot: RobotModel) -> tuple[object, ...]:
+    joints = p.getJointStates(robot.body, robot.movable, physicsClientId=robot.client)
+    links = [p.getLinkState(robot.body, link, computeLinkVelocity=1, computeForwardKinematics=True,
+                            physicsClientId=robot.client)
+             for link in sorted(set(robot.links.values())) if link >= 0]
+    return (tuple(joints), tuple(links), robot.arm_clearance(), robot.tool_pose())
+
+
+def test_set_arm_gives_the_joint_states_poses_and_distances_of_one_reset_per_joint() -> None:
+    """``set_arm`` sets the six joints in one call: bit for bit the state of a reset per joint, also from
+    moving joints (velocities set to zero) and after stepping the simulation from it."""
+    a, b = RobotModel.load("husky_ur5"), RobotModel.load("husky_ur5")
+    try:
+        rng = np.random.default_rng(3)
+        lo, hi = a.arm_limits()
+        for k in range(60):
+            q = tuple(float(v) for v in rng.uniform(lo, hi))
+            base = (float(rng.uniform(-20, 20)), float(rng.uniform(-20, 20)), float(rng.uniform(-3, 3)))
+            for robot in (a, b):
+                robot.set_base_pose(*base)
+                if k % 3 == 0:  # joints moving before the reset
+                    for j in robot.arm_joints:
+                        p.resetJointState(robot.body, j, 0.3, targetVelocity=0.7,
+                                          physicsClientId=robot.client)
+            a.set_arm(q)
+            _per_joint_reset(b, q)
+            assert _robot_state(a) == _robot_state(b)
+            if k % 5 == 0:
+                for robot in (a, b):
+                    p.stepSimulation(physicsClientId=robot.client)
+                assert _robot_state(a) == _robot_state(b)
+    finally:
+        a.close()
+        b.close()

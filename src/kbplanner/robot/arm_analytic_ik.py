@@ -46,6 +46,7 @@ Example:
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -90,8 +91,9 @@ def _near(value: float, target: float) -> bool:
     return abs(diff) < _PARAM_TOL
 
 
+@functools.lru_cache(maxsize=64)
 def ur_structure(arm: DhArm) -> UrStructure | None:
-    """The UR structure of a DH table, or ``None`` if the closed form does not apply.
+    """The UR structure of a DH table, or ``None`` if the closed form does not apply (memoised per table).
 
     Example:
         >>> ur_structure(DhArm((0.3,) * 6, (0.2,) * 6, (0.0,) * 6)) is None

@@ -213,8 +213,7 @@ class _Analytic:
     exact: list[tuple[float, ...]]
     stretched: list[tuple[float, ...]]
     tried: set[tuple[float, ...]]
-    beyond_reach_m: float  # lower bound on how far the wrist centre is out of reach
-    tool_reach_m: float  # distance from the wrist centre to the tool point
+    target: Matrix  # the flange pose asked for, in DH frame 0
 
     @classmethod
     def start(cls, robot: RobotModel, model: AnalyticArm, target_xyz: Vec3, orn: Sequence[float],
@@ -224,9 +223,18 @@ class _Analytic:
                   @ _rigid_inv(model.tool_in_flange))
         exact = closed_form(model.arm, target, seeds[0]) if seeds else []
         stretched = ik_best_effort(model.arm, target, seeds[0]) if seeds and not exact else []
-        tool = (target @ model.tool_in_flange)[:3, 3]
-        tool_reach = float(np.linalg.norm(tool - wrist_centre(model.arm, target)))
-        return cls(model, exact, stretched, set(), beyond_reach_m(model.arm, target), tool_reach)
+        return cls(model, exact, stretched, set(), target)
+
+    @property
+    def beyond_reach_m(self) -> float:
+        """A lower bound on how far the wrist centre is out of reach (``method="auto"`` only asks it)."""
+        return beyond_reach_m(self.model.arm, self.target)
+
+    @property
+    def tool_reach_m(self) -> float:
+        """Distance from the wrist centre to the tool point."""
+        tool = (self.target @ self.model.tool_in_flange)[:3, 3]
+        return float(np.linalg.norm(tool - wrist_centre(self.model.arm, self.target)))
 
     def solve(self, robot: RobotModel, target_xyz: Vec3, orn: Sequence[float],
               seeds: Sequence[Sequence[float]], pos_tol_m: float, rot_tol_rad: float,
