@@ -154,13 +154,13 @@ def verdict_text(verdicts: list[ElementVerdict], figures: dict[str, str]) -> str
     return "\n".join(out) + "\n"
 
 
-def _refine(plan: Plan, world: World, grid: OccupancyGrid, seed: int) -> Plan:
+def _refine(plan: Plan, world: World, grid: OccupancyGrid, seed: int, cache_dir: Path | None) -> Plan:
     """B4 with progress on stderr (a bar on a terminal, plain count lines otherwise)."""
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     from kbplanner.cli.progress import plain_counter
-    from kbplanner.planning.manipulation import refine_plan
+    from kbplanner.planning.refine_cache import refine_kept
 
     console = Console(stderr=True)
     lines = plain_counter(console)
@@ -173,7 +173,7 @@ def _refine(plan: Plan, world: World, grid: OccupancyGrid, seed: int) -> Plan:
             if lines is not None:
                 lines.count("B4 arm and base poses", done, total)
 
-        return refine_plan(plan, world, seed=seed, grid=grid, progress=tell)
+        return refine_kept(plan, world, seed=seed, grid=grid, progress=tell, cache_dir=cache_dir)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -203,7 +203,7 @@ def run(args: argparse.Namespace) -> int:
         if plan.robot_id:
             grid = storey_map(world).grid
             seed = args.seed if args.seed is not None else project.manifest.seed
-            plan = _refine(plan, world, grid, seed)
+            plan = _refine(plan, world, grid, seed, project.cache_entry)
     verdicts = element_verdicts(plan)
     figures: dict[str, bytes] = {}
     names: dict[str, str] = {}

@@ -54,8 +54,8 @@ def run(args: argparse.Namespace) -> int:
     from rich.table import Table
 
     from kbplanner.cli.progress import plain_counter
-    from kbplanner.planning.manipulation import refine_plan
     from kbplanner.planning.planner import plan_task
+    from kbplanner.planning.refine_cache import refine_kept
     from kbplanner.project import Project
     from kbplanner.simulation.executor import INSTALLED, simulate
     from kbplanner.simulation.skills import ExecSettings
@@ -91,7 +91,8 @@ def run(args: argparse.Namespace) -> int:
             if lines is not None:
                 lines.count("B4 arm and base poses", done, total)
 
-        refined = refine_plan(plan, world, seed=seed, grid=grid, progress=refined_one)
+        refined = refine_kept(plan, world, seed=seed, grid=grid, progress=refined_one,
+                              cache_dir=project.cache_entry)  # B4, or the plan kept from an earlier run
         b5 = bar.add_task("B5 simulation", total=len(refined.steps))
 
         def tell(label: str, done: int, total: int) -> None:
