@@ -41,12 +41,18 @@ from typing import Any
 
 from _common import REPO, RESULTS_DIR, machine_info, run_measured, write_json
 
-# ``python -m kbplanner ARGS`` with B4 (manipulation.refine_plan) timed in CPU and wall seconds, the
+# ``python -m kbplanner ARGS`` with B4 (manipulation.refine_plan, never read from the refined-plan cache)
+# timed in CPU and wall seconds, the
 # configuration-space builds counted, and the CPU seconds of B4's parts (PARTS: each function's calls
 # that are not within another of its calls; wrapped by the same code in both trees, also where a module
 # imported it by name), written to the file named by the first argument.
 _TIMED = '''import json, sys, time
 import kbplanner.planning.manipulation as m
+try:  # B4 is measured: a refined plan kept by an earlier run (planning/refine_cache.py) is not read
+    import kbplanner.planning.refine_cache as rc
+    rc._read = lambda path: None
+except ImportError:  # a tree without the cache
+    pass
 from kbplanner.world.footprint import ConfigurationSpace
 builds = [0]
 build = ConfigurationSpace.build.__func__

@@ -49,9 +49,15 @@ def _export(ref: str, into: Path) -> Path:
 # ``python -m kbplanner ARGS`` with the simulation step (executor.simulate) timed in CPU and wall seconds
 # into the file named by the first argument: the same measurement for a baseline whose timing.json has
 # no CPU time.
-_TIMED = '''import json, sys, time
+_TIMED = '''import json, os, sys, time
 import kbplanner.simulation.executor as ex
 from kbplanner.cli import main
+if os.environ.get("BENCH_B4_CACHE") != "warm":
+    try:  # cold: B4 runs, a refined plan kept by an earlier command (planning/refine_cache.py) is not read
+        import kbplanner.planning.refine_cache as rc
+        rc._read = lambda path: None
+    except ImportError:  # a tree without the cache
+        pass
 inner = ex.simulate
 def timed(*args, **kwargs):
     c0, w0 = time.process_time(), time.perf_counter()
@@ -65,8 +71,17 @@ raise SystemExit(main(sys.argv[2:]))
 '''
 
 
-def _run(src: Path, scenario: str, seed: int, out: Path, log: Path) -> dict[str, Any]:
+def _prime(src: Path, scenario: str, seed: int, b4: bool, log: Path) -> None:
+    """Load the tree's project once (its project cache entry; with ``b4`` also B4, its refined plan kept)
+    so that the timed runs of both trees start from the same state of the caches."""
     env = dict(os.environ, PYTHONPATH=str(src))
+    cmd = [sys.executable, "-m", "kbplanner", "plan", str(src.parent / "data" / "case_study"), "--scenario",
+           scenario, "--seed", str(seed)] + ([] if b4 else ["--no-feasibility"])
+    run_measured(cmd, log=log, timeout_s=1800.0, env=env)
+
+
+def _run(src: Path, scenario: str, seed: int, out: Path, log: Path, b4_cache: str = "cold") -> dict[str, Any]:
+    env = dict(os.environ, PYTHONPATH=str(src), BENCH_B4_CACHE=b4_cache)
     step_file = log.with_suffix(".step.json")
     cmd = [sys.executable, "-c", _TIMED, str(step_file), "simulate", str(src.parent / "data" / "case_study"),
            "--scenario", scenario, "--seed", str(seed), "--out", str(out)]
@@ -90,20 +105,23 @@ def _median(rows: list[dict[str, Any]], key: str) -> float | None:
     return round(statistics.median(values), 3) if values else None
 
 
-def bench(before_src: Path, after_src: Path, scenario: str, seed: int, rounds: int, tmp: Path
-          ) -> dict[str, Any]:
+def bench(before_src: Path, after_src: Path, scenario: str, seed: int, rounds: int, tmp: Path,
+          b4_cache: str = "cold") -> dict[str, Any]:
     runs: dict[str, list[dict[str, Any]]] = {"before": [], "after": []}
     identical = True
+    for label, src in (("before", before_src), ("after", after_src)):
+        warm = b4_cache == "warm" and label == "after"
+        _prime(src, scenario, seed, warm, tmp / f"{scenario}-{label}-prime.log")
     for k in range(rounds):
         outs = {}
         for label, src in (("before", before_src), ("after", after_src)):
             out = tmp / f"{scenario}-{label}-{k}"
-            runs[label].append(_run(src, scenario, seed, out, tmp / f"{scenario}-{label}-{k}.log"))
+            runs[label].append(_run(src, scenario, seed, out, tmp / f"{scenario}-{label}-{k}.log", b4_cache))
             outs[label] = out
         identical = identical and all(
             (outs["before"] / f).read_bytes() == (outs["after"] / f).read_bytes() for f in DETERMINISTIC)
     row: dict[str, Any] = {"scenario": scenario, "seed": seed, "rounds": rounds,
-                           "outputs_identical": identical}
+                           "outputs_identical": identical, "b4_cache": b4_cache}
     for label in ("before", "after"):
         rs = runs[label]
         sim = _median(rs, "sim_time_s")
@@ -147,8 +165,13 @@ def markdown(out: dict[str, Any]) -> str:
     load = f"load average {out['load_average_start'][0]:.1f} -> {out['load_average_end'][0]:.1f}"
     rounds = out["scenarios"][0]["rounds"] if out["scenarios"] else 0
     lines.append("")
-    lines.append(f"(`bench_simspeed.py --before {out['before']} --rounds {rounds}`: medians of {rounds} "
-                 f"round(s), seed {out['scenarios'][0]['seed'] if out['scenarios'] else ''}; {load})")
+    cache = out.get("b4_cache", "")
+    flag = f" --b4-cache {cache}" if cache else ""
+    how = {"cold": "; B4 run by both (cold)",
+           "warm": "; this tree's B4 read from the refined-plan cache (warm)"}.get(cache, "")
+    seed = out["scenarios"][0]["seed"] if out["scenarios"] else ""
+    lines.append(f"(`bench_simspeed.py --before {out['before']} --rounds {rounds}{flag}`: medians of "
+                 f"{rounds} round(s), seed {seed}{how}; {load})")
     return "\n".join(lines) + "\n"
 
 
@@ -161,6 +184,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--rounds", type=int, default=1, help="before/after pairs per scenario (median)")
     ap.add_argument("--out", type=Path, default=RESULTS_DIR / "simspeed.json")
+    ap.add_argument("--b4-cache", choices=("cold", "warm"), default="cold",
+                    help="cold (default): B4 runs in every command; warm: this tree reads the refined plan "
+                         "its `kbplanner plan` kept before the rounds (planning/refine_cache.py)")
     args = ap.parse_args(argv)
     if args.markdown_from:
         sys.stdout.write(markdown(json.loads(args.markdown_from.read_text())))
@@ -170,8 +196,10 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as tmp_name:
         tmp = Path(tmp_name)
         before_src = _export(args.before, tmp)
-        rows = [bench(before_src, REPO / "src", s, args.seed, args.rounds, tmp) for s in scenarios]
+        rows = [bench(before_src, REPO / "src", s, args.seed, args.rounds, tmp, args.b4_cache)
+                for s in scenarios]
     out = {"machine": machine_info(("python", "cpus", "platform")), "before": args.before,
+           "b4_cache": args.b4_cache,
            "load_average_start": load_before, "load_average_end": list(os.getloadavg()), "scenarios": rows}
     write_json(args.out, out)
     w = sys.stdout.write
