@@ -48,11 +48,6 @@ from _common import REPO, RESULTS_DIR, machine_info, run_measured, write_json
 # imported it by name), written to the file named by the first argument.
 _TIMED = '''import json, sys, time
 import kbplanner.planning.manipulation as m
-try:  # B4 is measured: a refined plan kept by an earlier run (planning/refine_cache.py) is not read
-    import kbplanner.planning.refine_cache as rc
-    rc._read = lambda path: None
-except ImportError:  # a tree without the cache
-    pass
 from kbplanner.world.footprint import ConfigurationSpace
 builds = [0]
 build = ConfigurationSpace.build.__func__
@@ -96,6 +91,12 @@ def timed(*args, **kwargs):
                        "builds": builds[0] - b0,
                        "parts": {k: [v[0], round(v[1], 3)] for k, v in parts.items()}}, f)
 m.refine_plan = timed
+try:  # B4 is measured: a refined plan kept by an earlier run (planning/refine_cache.py) is not read
+    import kbplanner.planning.refine_cache as rc
+    rc._read = lambda path: None
+    rc.refine_plan = timed
+except ImportError:  # a tree without the cache
+    pass
 from kbplanner.cli import main
 raise SystemExit(main(sys.argv[2:]))
 '''

@@ -1,11 +1,12 @@
-"""B4's numeric IK polish (issue 14, item 2): could an exact reach bound skip it? A study, no timing.
+"""B4's numeric IK polish (issue 14, item 2): could an exact reach bound or a memo skip it? A study.
 
 B4 asks the closed-form IK (``RefineSettings.ik_method = "closed_form"``); a pose just out of its reach
 (the stretched arm within ``arm_ik.POLISH_RANGE`` position tolerances) is polished by PyBullet's numeric
 IK from the stretched poses, about a third of B4's CPU. A sound test that no joint angles put the tool
 within the tolerances (1 cm and 3 degrees; 5 mm and 1 degree for the place pose) would let B4 skip the
-polish exactly where it decides. This script runs B4 on the case study (both storage scenarios, seed 7)
-and, at every polish, records:
+polish exactly where it decides; a memo of IK results would skip queries asked again. This script runs B4
+on the case study (both storage scenarios, seed 7), counts the IK queries and those asked before with the
+same base pose, target and arguments, and, at every polish, records:
 
 - whether the polish found a pose (``reachable``) and its CPU seconds;
 - the exact reach gap: the distance of the shoulder point (DH frame 1's origin) from the circle the origin
@@ -108,15 +109,32 @@ def study(scenario: str, seed: int, trials: int) -> dict[str, Any]:
                      "pose_within_tolerances": exists, "numeric_error_m": round(result.position_error_m, 5)})
         return result
 
+    queries: dict[tuple[Any, ...], int] = {}
+    solve = ai.solve_ik
+
+    def counted(robot: Any, target_xyz: Any, target_rpy: Any = None, **kwargs: Any) -> Any:
+        key = (robot.base_pose(), robot.floor_z, tuple(target_xyz), target_rpy,
+               tuple(sorted((k, repr(v)) for k, v in kwargs.items())))
+        queries[key] = queries.get(key, 0) + 1
+        return solve(robot, target_xyz, target_rpy, **kwargs)
+
+    modules = [m for m in list(sys.modules.values()) if getattr(m, "__name__", "").startswith("kbplanner")
+               and getattr(m, "solve_ik", None) is solve]
     ai._solve_numeric = polish
+    for m in modules:
+        m.solve_ik = counted  # type: ignore[attr-defined]
     try:
         c0 = time.process_time()
         refine_plan(plan, world, seed=seed, grid=grid)
         b4_cpu = time.process_time() - c0
     finally:
         ai._solve_numeric = numeric
+        for m in modules:
+            m.solve_ik = solve  # type: ignore[attr-defined]
     failed = [r for r in rows if not r["reachable"]]
     return {"scenario": scenario, "seed": seed, "trials": trials, "b4_cpu_s_with_study": round(b4_cpu, 2),
+            "ik_queries": sum(queries.values()),
+            "ik_queries_asked_before": sum(queries.values()) - len(queries),
             "polishes": len(rows), "polish_cpu_s": round(sum(r["cpu_s"] for r in rows), 3),
             "found_a_pose": sum(r["reachable"] for r in rows),
             "decided_by_the_bound": sum(r["decided"] for r in rows),
@@ -137,7 +155,9 @@ def main(argv: list[str] | None = None) -> int:
     write_json(args.out, {"machine": machine_info(("python", "cpus", "platform")), "scenarios": results})
     for r in results:
         sys.stdout.write(
-            f"{r['scenario']}: {r['polishes']} polishes ({r['polish_cpu_s']} s CPU), {r['found_a_pose']} "
+            f"{r['scenario']}: {r['ik_queries']} IK queries, {r['ik_queries_asked_before']} asked before "
+            f"with the same base pose, target and arguments; {r['polishes']} polishes "
+            f"({r['polish_cpu_s']} s CPU), {r['found_a_pose']} "
             f"found a pose; the exact reach bound decides {r['decided_by_the_bound']} (wrongly: "
             f"{r['wrongly_decided']}); {r['failed_with_a_pose_within_tolerances']} of the {r['failed']} "
             "failed have a pose within the tolerances\n")
