@@ -16,7 +16,7 @@ from rdflib.term import Node
 
 from kbplanner.knowledge.knowledge_base import curie, select
 from kbplanner.knowledge.task_specs import RobotizedTask
-from kbplanner.model.ifc_geometry import Pose
+from kbplanner.model.poses import Pose
 from kbplanner.model.project_data import ProjectData
 from kbplanner.planning.plan_model import ElementInfo, Pose6
 from kbplanner.world.meshes import load_mesh

@@ -59,7 +59,7 @@ import trimesh
 
 from kbplanner.core.errors import WorldError
 from kbplanner.model.dates import parse_date
-from kbplanner.model.ifc_geometry import Pose
+from kbplanner.model.poses import Pose
 from kbplanner.world.meshes import (
     load_mesh,
 )

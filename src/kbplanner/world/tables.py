@@ -19,7 +19,7 @@ from kbplanner.core.iris import slug
 from kbplanner.core.named_queries import QueryResult, run_named
 from kbplanner.knowledge.material_flow import MaterialFlow, material_flow
 from kbplanner.knowledge.task_specs import robotized_tasks, task_specification
-from kbplanner.model.ifc_geometry import Pose, matrix_to_pose
+from kbplanner.model.poses import Pose, matrix_to_pose
 from kbplanner.world.world_types import (
     BUILT,
     IN_PROGRESS,

@@ -14,7 +14,7 @@ import numpy as np
 import numpy.typing as npt
 
 from kbplanner.core.vocab import KBP
-from kbplanner.model.ifc_geometry import Pose
+from kbplanner.model.poses import Pose
 
 if TYPE_CHECKING:
     pass
