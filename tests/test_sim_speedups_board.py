@@ -1,0 +1,67 @@
+"""B5 speed-ups of the board task's legs that claim identical results: the cell path kept per space and
+query (a leg planned again with other seeds takes it without searching again)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from kbplanner.simulation import cell_path, navigation
+from kbplanner.simulation.nav_path import NavSettings
+from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect
+from kbplanner.world.occupancy import OccupancyGrid
+
+
+def _space(read_only: bool, width_m: float = 0.3) -> ConfigurationSpace:
+    occ = np.zeros((60, 100), dtype=bool)
+    occ[[0, -1], :] = True
+    occ[:, [0, -1]] = True
+    occ[:, 48:52] = True
+    occ[26:36, 48:52] = False  # a 0.5 m door
+    cs = ConfigurationSpace.build(OccupancyGrid(occ, origin=(0.0, 0.0), resolution=0.05),
+                                  Footprint((Rect(0.0, 0.0, 0.5, width_m),)), 36)
+    if read_only:
+        cs.free.setflags(write=False)
+    return cs
+
+
+def test_a_kept_cell_path_is_the_path_searched_again(monkeypatch: pytest.MonkeyPatch) -> None:
+    searches = 0
+    search = cell_path.face_path
+
+    def counting(*args):  # type: ignore[no-untyped-def]
+        nonlocal searches
+        searches += 1
+        return search(*args)
+
+    monkeypatch.setattr(cell_path, "face_path", counting)
+    monkeypatch.setattr(cell_path, "_ROUTES", {})
+    start, goal = (0.8, 0.8, 0.3), (4.2, 2.2, 2.0)
+    kept, fresh = _space(read_only=True), _space(read_only=False)
+    paths = []
+    for seed in (1, 2, 3, 1):
+        settings = NavSettings(seed=seed, max_motion_checks=40)  # RRTConnect gives up: the cell path
+        got = navigation.plan_path(kept, start, goal, settings=settings)
+        want = navigation.plan_path(fresh, start, goal, settings=settings)  # writable maps: searched anew
+        assert got.ok and "cell search" in got.reason
+        assert (got.poses, got.reason, got.planner, got.length_m) == (
+            want.poses, want.reason, want.planner, want.length_m)
+        paths.append(got.poses)
+    assert len(set(paths)) == 1  # the cell path does not depend on the seed
+    assert searches == 4 + 1  # the writable space each time, the read-only one once
+    # another query on the same space is searched
+    other = navigation.plan_path(kept, start, (4.4, 1.0, 0.0), settings=NavSettings(max_motion_checks=40))
+    assert other.ok and other.poses[-1][:2] == (4.4, 1.0) and searches == 6
+
+
+def test_no_cell_path_is_kept_as_no_path(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(cell_path, "_ROUTES", {})
+    cs = _space(read_only=True, width_m=0.6)  # wider than the door whichever way it turns
+    settings = NavSettings(max_motion_checks=40)
+    start, goal = (0.8, 0.8, 0.3), (4.2, 2.2, 2.0)
+    for _ in range(2):
+        assert cell_path.cell_route(cs, start, goal, settings, 0.0, "no path") is None
+    key = (0.0, 0.0, 0.05, start, goal, "turn_drive_turn", True)
+    assert list(cell_path._ROUTES.values()) == [{key: "none"}]  # kept: not searched again
+    path = navigation.plan_path(cs, start, goal, settings=settings)
+    assert not path.ok and "walled off" in path.reason
