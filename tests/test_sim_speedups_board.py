@@ -1,15 +1,21 @@
-"""B5 speed-ups of the board task's legs that claim identical results: the cell path kept per space and
-query (a leg planned again with other seeds takes it without searching again)."""
+"""B5 speed-ups of the board task's legs: the cell path kept per space and query (a leg planned again with
+other seeds takes it without searching again: identical results), and the switch that skips those seed
+retries altogether (a behaviour change, off by default)."""
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from kbplanner.simulation import cell_path, navigation
+from kbplanner.simulation import carry_paths, cell_path, navigation
 from kbplanner.simulation.nav_path import NavSettings
+from kbplanner.simulation.skills import navigation as skill_navigation
 from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect
 from kbplanner.world.occupancy import OccupancyGrid
+
+CASE_STUDY = Path(__file__).resolve().parents[1] / "data" / "case_study"
 
 
 def _space(read_only: bool, width_m: float = 0.3) -> ConfigurationSpace:
@@ -65,3 +71,46 @@ def test_no_cell_path_is_kept_as_no_path(monkeypatch: pytest.MonkeyPatch) -> Non
     assert list(cell_path._ROUTES.values()) == [{key: "none"}]  # kept: not searched again
     path = navigation.plan_path(cs, start, goal, settings=settings)
     assert not path.ok and "walled off" in path.reason
+
+
+@pytest.mark.slow
+def test_board_legs_not_retried_after_a_cell_path_drive_the_same_on_the_case_study(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``ExecSettings.detour_retry_cell_paths`` False (a behaviour change, off by default) skips the seed
+    retries of detour legs that ended on the cell path: fewer planning queries, and on the case study's
+    board task outside (seed 7) the same outputs, for no retry there drove quicker."""
+    from kbplanner.model.dates import parse_date
+    from kbplanner.planning.manipulation import refine_plan
+    from kbplanner.planning.planner import plan_task
+    from kbplanner.project import Project
+    from kbplanner.simulation.executor import INSTALLED, simulate
+    from kbplanner.simulation.skills.base import ExecSettings
+    from kbplanner.world.build import build_world
+    from kbplanner.world.maps import storey_map
+
+    queries = 0
+    plan_path = navigation.plan_path
+
+    def counting(*args, **kwargs):  # type: ignore[no-untyped-def]
+        nonlocal queries
+        queries += 1
+        return plan_path(*args, **kwargs)
+
+    monkeypatch.setattr(navigation, "plan_path", counting)
+    monkeypatch.setattr(carry_paths, "plan_path", counting)
+    monkeypatch.setattr(skill_navigation, "plan_path", counting)
+    outputs, counts = [], []
+    for retry in (True, False):
+        project = Project.load(CASE_STUDY, scenario="storage-outside")
+        world = build_world(project, parse_date(str(project.manifest.simulation["date"])))
+        grid = storey_map(world).grid
+        plan = refine_plan(plan_task(project, "T-BOARD", world=world), world, seed=7, grid=grid)
+        queries = 0
+        out = tmp_path / f"retry-{retry}"
+        result = simulate(project, plan, seed=7, out_dir=out, world=world, grid=grid,
+                          settings=ExecSettings(keyframes=False, detour_retry_cell_paths=retry))
+        assert [e.outcome for e in result.elements] == [INSTALLED] * 5
+        counts.append(queries)
+        outputs.append([(out / f).read_bytes() for f in ("trajectories.csv", "events.jsonl", "metrics.json")])
+    assert counts[1] < counts[0]
+    assert outputs[0] == outputs[1]
