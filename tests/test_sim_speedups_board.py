@@ -79,7 +79,6 @@ def test_board_legs_not_retried_after_a_cell_path_drive_the_same_on_the_case_stu
     """``ExecSettings.detour_retry_cell_paths`` False (a behaviour change, off by default) skips the seed
     retries of detour legs that ended on the cell path: fewer planning queries, and on the case study's
     board task outside (seed 7) the same outputs, for no retry there drove quicker."""
-    from kbplanner.model.dates import parse_date
     from kbplanner.planning.manipulation import refine_plan
     from kbplanner.planning.planner import plan_task
     from kbplanner.project import Project
@@ -102,7 +101,7 @@ def test_board_legs_not_retried_after_a_cell_path_drive_the_same_on_the_case_stu
     outputs, counts = [], []
     for retry in (True, False):
         project = Project.load(CASE_STUDY, scenario="storage-outside")
-        world = build_world(project, parse_date(str(project.manifest.simulation["date"])))
+        world = build_world(project, project.world_date("T-BOARD"), "T-BOARD")
         grid = storey_map(world).grid
         plan = refine_plan(plan_task(project, "T-BOARD", world=world), world, seed=7, grid=grid)
         queries = 0
