@@ -70,7 +70,7 @@ def bfs_cells(free: npt.NDArray[np.bool_], src: tuple[int, int, int], dst: tuple
     So it is found without ordering the search: layers of distance to ``dst`` (vectorised, from
     ``dst`` until ``src`` is reached; ``src`` counts as free), then a walk from ``src`` that takes at
     each cell the first-ranked step to a cell one layer nearer. The same answers as the ordered search
-    (tests/test_sim_speedups_board.py), several times faster.
+    (tests/test_sim_speedups.py, against scipy), several times faster.
     """
     nb, ny, nx = free.shape
     s = (src[0] * ny + src[1]) * nx + src[2]
