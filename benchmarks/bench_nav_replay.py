@@ -10,7 +10,9 @@ poses). Ratios are baseline / this tree (> 1: faster now), medians over rounds; 
 whether every result of both trees is the same. This isolates B5's planning (OMPL with the Python
 checks, the walled-off question, the cell path, the path rewrites) from the rest of the step.
 
-Usage: .venv/bin/python benchmarks/bench_nav_replay.py [--before REF] [--scenario S ...] [--rounds N]
+Usage: .venv/bin/python benchmarks/bench_nav_replay.py [--before REF] [--scenario S ...] [--task T]
+[--rounds N]
+(``--task``: record one robotized task of the case study, e.g. T-BOARD, instead of the project's default task)
 Prints a table and writes benchmarks/results/nav_replay.json (or --out); ``--markdown-from JSON`` prints
 the Markdown table of such a result (for the docs) without running anything.
 """
@@ -76,12 +78,14 @@ def _median(values: list[float]) -> float:
     return round(statistics.median(values), 3)
 
 
-def bench(before_src: Path, after_src: Path, scenario: str, seed: int, rounds: int, tmp: Path
-          ) -> dict[str, Any]:
+def bench(before_src: Path, after_src: Path, scenario: str, seed: int, rounds: int, tmp: Path,
+          task: str | None = None) -> dict[str, Any]:
     queries = tmp / f"{scenario}.pkl"
     env = dict(os.environ, PYTHONPATH=str(after_src))
     cmd = [sys.executable, "-c", _RECORD, str(queries), "simulate", str(REPO / "data" / "case_study"),
            "--scenario", scenario, "--seed", str(seed), "--out", str(tmp / f"{scenario}-run")]
+    if task:
+        cmd += ["--task", task]
     recorded = run_measured(cmd, log=tmp / f"{scenario}-record.log", timeout_s=1800.0, env=env)
     if not queries.is_file():
         raise SystemExit(f"recording {scenario} wrote no queries (exit {recorded['exit']}): "
@@ -120,8 +124,9 @@ def markdown(out: dict[str, Any]) -> str:
     rounds = out["scenarios"][0]["rounds"] if out["scenarios"] else 0
     seed = out["scenarios"][0]["seed"] if out["scenarios"] else ""
     lines.append("")
-    lines.append(f"(`bench_nav_replay.py --before {out['before']} --rounds {rounds}`: medians of {rounds} "
-                 f"round(s), seed {seed}; load average {out['load_average_start'][0]:.1f} -> "
+    task = f" --task {out['task']}" if out.get("task") else ""
+    lines.append(f"(`bench_nav_replay.py --before {out['before']}{task} --rounds {rounds}`: medians of "
+                 f"{rounds} round(s), seed {seed}; load average {out['load_average_start'][0]:.1f} -> "
                  f"{out['load_average_end'][0]:.1f})")
     return "\n".join(lines) + "\n"
 
@@ -133,6 +138,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--before", default="main", help="git ref of the baseline (default main)")
     ap.add_argument("--scenario", action="append", help="scenario(s) (default: both storage scenarios)")
     ap.add_argument("--seed", type=int, default=7)
+    ap.add_argument("--task", help="robotized task to record (default: the project's [simulation] task)")
     ap.add_argument("--rounds", type=int, default=2, help="before/after pairs per scenario (median)")
     ap.add_argument("--out", type=Path, default=RESULTS_DIR / "nav_replay.json")
     args = ap.parse_args(argv)
@@ -144,8 +150,8 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as tmp_name:
         tmp = Path(tmp_name)
         before_src = _export(args.before, tmp)
-        rows = [bench(before_src, REPO / "src", s, args.seed, args.rounds, tmp) for s in scenarios]
-    out = {"machine": machine_info(("python", "cpus", "platform")), "before": args.before,
+        rows = [bench(before_src, REPO / "src", s, args.seed, args.rounds, tmp, args.task) for s in scenarios]
+    out = {"machine": machine_info(("python", "cpus", "platform")), "before": args.before, "task": args.task,
            "load_average_start": load_before, "load_average_end": list(os.getloadavg()), "scenarios": rows}
     write_json(args.out, out)
     sys.stdout.write(markdown(out))

@@ -6,7 +6,7 @@ temporary folder; both run the same command with the same shared virtualenv, one
 round (baseline first, then this tree; rounds alternate the machine's load between them), with
 ``PYTHONPATH`` pointing at their sources::
 
-    kbplanner simulate data/case_study --scenario S --seed N --out DIR
+    kbplanner simulate data/case_study --scenario S --seed N [--task T] --out DIR
 
 Per scenario it records each command's wall time (``os.wait4``, with CPU seconds and peak memory),
 the simulation step's wall time and real-time factor from the run's ``timing.json`` and its CPU
@@ -17,7 +17,8 @@ byte-identical (``outputs_identical``), and this tree's path-quality figures (``
 this tree (> 1: faster now), from the median over rounds. The load average is recorded before and
 after: on a shared machine absolute seconds vary, the ratios of one run much less.
 
-Usage: .venv/bin/python benchmarks/bench_simspeed.py [--before REF] [--scenario S ...] [--rounds N]
+Usage: .venv/bin/python benchmarks/bench_simspeed.py [--before REF] [--scenario S ...] [--task T] [--rounds N]
+(``--task``: one robotized task of the case study, e.g. T-BOARD, instead of the project's default task)
 Prints a table and writes benchmarks/results/simspeed.json (or --out); ``--markdown-from JSON`` prints
 the Markdown table of such a result (for the docs) without running anything.
 """
@@ -80,11 +81,14 @@ def _prime(src: Path, scenario: str, seed: int, b4: bool, log: Path) -> None:
     run_measured(cmd, log=log, timeout_s=1800.0, env=env)
 
 
-def _run(src: Path, scenario: str, seed: int, out: Path, log: Path, b4_cache: str = "cold") -> dict[str, Any]:
+def _run(src: Path, scenario: str, seed: int, out: Path, log: Path, b4_cache: str = "cold",
+         task: str | None = None) -> dict[str, Any]:
     env = dict(os.environ, PYTHONPATH=str(src), BENCH_B4_CACHE=b4_cache)
     step_file = log.with_suffix(".step.json")
     cmd = [sys.executable, "-c", _TIMED, str(step_file), "simulate", str(src.parent / "data" / "case_study"),
            "--scenario", scenario, "--seed", str(seed), "--out", str(out)]
+    if task:
+        cmd += ["--task", task]
     measured = run_measured(cmd, log=log, timeout_s=1800.0, env=env)
     step = json.loads(step_file.read_text()) if step_file.is_file() else {}
     if not (out / "timing.json").is_file():
@@ -106,7 +110,7 @@ def _median(rows: list[dict[str, Any]], key: str) -> float | None:
 
 
 def bench(before_src: Path, after_src: Path, scenario: str, seed: int, rounds: int, tmp: Path,
-          b4_cache: str = "cold") -> dict[str, Any]:
+          b4_cache: str = "cold", task: str | None = None) -> dict[str, Any]:
     runs: dict[str, list[dict[str, Any]]] = {"before": [], "after": []}
     identical = True
     for label, src in (("before", before_src), ("after", after_src)):
@@ -116,12 +120,15 @@ def bench(before_src: Path, after_src: Path, scenario: str, seed: int, rounds: i
         outs = {}
         for label, src in (("before", before_src), ("after", after_src)):
             out = tmp / f"{scenario}-{label}-{k}"
-            runs[label].append(_run(src, scenario, seed, out, tmp / f"{scenario}-{label}-{k}.log", b4_cache))
+            runs[label].append(_run(src, scenario, seed, out, tmp / f"{scenario}-{label}-{k}.log", b4_cache,
+                                    task))
             outs[label] = out
         identical = identical and all(
             (outs["before"] / f).read_bytes() == (outs["after"] / f).read_bytes() for f in DETERMINISTIC)
     row: dict[str, Any] = {"scenario": scenario, "seed": seed, "rounds": rounds,
                            "outputs_identical": identical, "b4_cache": b4_cache}
+    if task:
+        row["task"] = task
     for label in ("before", "after"):
         rs = runs[label]
         sim = _median(rs, "sim_time_s")
@@ -156,7 +163,7 @@ def markdown(out: dict[str, Any]) -> str:
         b, a = r["before"], r["after"]
         mem = [_median(side["runs"], "peak_rss_mb") for side in (b, a)]
         lines.append(
-            f"| {r['scenario']} | {a['sim_time_s']:,.1f} s "
+            f"| {r['scenario']}{' ' + r['task'] if r.get('task') else ''} | {a['sim_time_s']:,.1f} s "
             f"| {b['simulation_cpu_s']:.1f} / {a['simulation_cpu_s']:.1f} s (x{r['speedup_simulation_cpu']}) "
             f"| {b['x_real_time_simulation_cpu']:.0f}x -> {a['x_real_time_simulation_cpu']:.0f}x "
             f"| {b['command_cpu_s']:.1f} / {a['command_cpu_s']:.1f} s (x{r['speedup_command_cpu']}) "
@@ -164,13 +171,14 @@ def markdown(out: dict[str, Any]) -> str:
             f"| {mem[0]:.0f} / {mem[1]:.0f} MB | {'yes' if r['outputs_identical'] else 'no'} |")
     load = f"load average {out['load_average_start'][0]:.1f} -> {out['load_average_end'][0]:.1f}"
     rounds = out["scenarios"][0]["rounds"] if out["scenarios"] else 0
+    task = f" --task {out['task']}" if out.get("task") else ""
     lines.append("")
     cache = out.get("b4_cache", "")
     flag = f" --b4-cache {cache}" if cache else ""
     how = {"cold": "; B4 run by both (cold)",
            "warm": "; this tree's B4 read from the refined-plan cache (warm)"}.get(cache, "")
     seed = out["scenarios"][0]["seed"] if out["scenarios"] else ""
-    lines.append(f"(`bench_simspeed.py --before {out['before']} --rounds {rounds}{flag}`: medians of "
+    lines.append(f"(`bench_simspeed.py --before {out['before']}{task} --rounds {rounds}{flag}`: medians of "
                  f"{rounds} round(s), seed {seed}{how}; {load})")
     return "\n".join(lines) + "\n"
 
@@ -182,6 +190,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--before", default="main", help="git ref of the baseline (default main)")
     ap.add_argument("--scenario", action="append", help="scenario(s) (default: both storage scenarios)")
     ap.add_argument("--seed", type=int, default=7)
+    ap.add_argument("--task", help="robotized task to simulate (default: the project's [simulation] task)")
     ap.add_argument("--rounds", type=int, default=1, help="before/after pairs per scenario (median)")
     ap.add_argument("--out", type=Path, default=RESULTS_DIR / "simspeed.json")
     ap.add_argument("--b4-cache", choices=("cold", "warm"), default="cold",
@@ -196,10 +205,10 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as tmp_name:
         tmp = Path(tmp_name)
         before_src = _export(args.before, tmp)
-        rows = [bench(before_src, REPO / "src", s, args.seed, args.rounds, tmp, args.b4_cache)
+        rows = [bench(before_src, REPO / "src", s, args.seed, args.rounds, tmp, args.b4_cache, args.task)
                 for s in scenarios]
     out = {"machine": machine_info(("python", "cpus", "platform")), "before": args.before,
-           "b4_cache": args.b4_cache,
+           "b4_cache": args.b4_cache, "task": args.task,
            "load_average_start": load_before, "load_average_end": list(os.getloadavg()), "scenarios": rows}
     write_json(args.out, out)
     w = sys.stdout.write

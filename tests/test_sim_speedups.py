@@ -213,3 +213,45 @@ def test_the_cell_search_gives_the_path_of_scipys_breadth_first_search() -> None
         assert bfs_cells(free, a, b) == want, (trial, shape, a, b)  # type: ignore[arg-type]
         met[want is not None] += 1
     assert met[True] > 50 and met[False] > 10
+
+
+def test_the_cell_search_from_the_goal_agrees_on_rooms_doors_and_blocked_starts() -> None:
+    """The layered search from the goal and its first-ranked walk against scipy's ordered search:
+    rooms joined by doors (many shortest paths, so the tie-breaking decides), the yaw axis wrapping,
+    and a start in a blocked cell (the ordered search still leaves it)."""
+    from kbplanner.simulation.cell_path import bfs_cells
+
+    rng = np.random.default_rng(17)
+    met = {True: 0, False: 0}
+    for trial in range(120):
+        nb, ny, nx = int(rng.integers(1, 9)), int(rng.integers(8, 30)), int(rng.integers(8, 30))
+        free = np.ones((nb, ny, nx), dtype=bool)
+        wall = int(rng.integers(2, nx - 2))
+        free[:, :, wall] = False  # a wall with a door in some yaw bins only
+        door = int(rng.integers(0, ny))
+        free[rng.random(nb) < 0.6, door, wall] = True
+        free &= rng.random(free.shape) < rng.uniform(0.8, 1.0)
+        cells = np.argwhere(free)
+        if len(cells) < 2:
+            continue
+        a, b = (tuple(int(v) for v in cells[rng.integers(len(cells))]) for _ in range(2))
+        if trial % 5 == 0:
+            a = (int(rng.integers(0, nb)), int(rng.integers(0, ny)), wall)  # maybe in the wall
+        want = _bfs_scipy_from(free, a, b)
+        assert bfs_cells(free, a, b) == want, (trial, free.shape, a, b)  # type: ignore[arg-type]
+        met[want is not None] += 1
+    assert met[True] > 40 and met[False] > 5
+
+
+def _bfs_scipy_from(free: np.ndarray, src: tuple[int, int, int], dst: tuple[int, int, int]
+                    ) -> list[int] | None:
+    """:func:`_bfs_scipy`, also from a blocked start (the search leaves it for its free neighbours)."""
+    if free[src]:
+        return _bfs_scipy(free, src, dst)
+    opened = free.copy()
+    opened[src] = True
+    if src == dst:
+        return [int(np.ravel_multi_index(src, free.shape))]
+    if not free[dst]:
+        return None
+    return _bfs_scipy(opened, src, dst)

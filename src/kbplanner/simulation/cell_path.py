@@ -5,12 +5,14 @@ Takes a :class:`~kbplanner.world.footprint.ConfigurationSpace` and start and goa
 :func:`face_connected` says whether face-adjacent free (x, y, yaw bin) cells join them (asked by the
 OMPL query of :mod:`kbplanner.simulation.navigation` once RRTConnect has used its first budget),
 :func:`face_path` finds such cells by breadth-first search (:func:`bfs_cells`), and :func:`cell_route`
-shortens them with exact motion checks into a :class:`~kbplanner.simulation.nav_path.NavPath`.
+shortens them with exact motion checks into a :class:`~kbplanner.simulation.nav_path.NavPath` (kept per
+read-only space and query: the cell path does not depend on the planner's seed).
 """
 
 from __future__ import annotations
 
 import time
+import weakref
 
 import numpy as np
 import numpy.typing as npt
@@ -56,71 +58,139 @@ def bfs_cells(free: npt.NDArray[np.bool_], src: tuple[int, int, int], dst: tuple
     """Breadth-first search over face-adjacent free cells of ``free[bin, y, x]`` (the bin axis wraps):
     the flat indices of the cells from ``src`` to ``dst``, or None when they are not joined.
 
-    Layer by layer, vectorised, stopping when ``dst`` is reached. Each cell is reached from the first
-    cell of the previous layer (in the order cells were reached) that has it as a neighbour, the
-    neighbours taken in the order +x, +y, +bin, -bin, -y, -x (with the wrap from the last bin to the
-    first one before them, and from the first bin to the last one after them): the order in which
-    scipy's ``breadth_first_order`` on the undirected graph of these cells, indexed in array order,
-    visits them, so the path is the one that search gives.
+    The path of a breadth-first search from ``src`` in which each cell is reached from the first cell
+    of the previous layer (in the order cells were reached) that has it as a neighbour, the neighbours
+    taken in the order +x, +y, +bin, -bin, -y, -x (with the wrap from the last bin to the first one
+    before them and from the first bin to the last one after them): the order in
+    which scipy's ``breadth_first_order`` on the undirected graph of these cells, indexed in array
+    order, visits them, so the path is the one that search gives.
+
+    That path is, of all shortest paths, the one whose steps, ranked in that order, come first
+    lexicographically (each cell's place in the search is its parent's place, then its step's rank).
+    So it is found without ordering the search: layers of distance to ``dst`` (vectorised, from
+    ``dst`` until ``src`` is reached; ``src`` counts as free), then a walk from ``src`` that takes at
+    each cell the first-ranked step to a cell one layer nearer. The same answers as the ordered search
+    (tests/test_sim_speedups.py, against scipy), several times faster.
     """
     nb, ny, nx = free.shape
-    plane = ny * nx
-    flat = free.ravel()
     s = (src[0] * ny + src[1]) * nx + src[2]
     d = (dst[0] * ny + dst[1]) * nx + dst[2]
     if s == d:
         return [s]
-    if not flat[d]:
+    if not free.ravel()[d]:
         return None  # a blocked cell is never reached
-    parent = np.full(flat.size, -1, dtype=np.int32 if flat.size < 2**31 else np.int64)
-    open_ = np.append(flat, False)  # free and not reached yet; the last entry, at index -1: "no neighbour"
-    open_[s] = False
-    frontier = np.array([s], dtype=np.int64)
-    wrap_span = (nb - 1) * plane
-    unset = np.iinfo(np.int32).max
-    earliest = np.full(flat.size, unset, dtype=np.int32)  # per cell, its first place among the candidates
-    while frontier.size and open_[d]:
-        b = frontier // plane
-        rem = frontier - b * plane
-        y = rem // nx
-        x = rem - y * nx
-        cand = np.full((8, frontier.size), -1, dtype=np.int64)
-        for row, (mask, step) in enumerate(((b == nb - 1, -wrap_span), (x < nx - 1, 1), (y < ny - 1, nx),
-                                            (b < nb - 1, plane), (b > 0, -plane), (y > 0, -nx),
-                                            (x > 0, -1), (b == 0, wrap_span))):
-            cand[row, mask] = frontier[mask] + step
-        order = cand.T.ravel()  # cell by cell in queue order, each cell's neighbours in order
-        at = np.flatnonzero(open_[order])
-        order = order[at]
-        # Each new cell once, at its first place (np.unique's first occurrences, without sorting).
-        place = np.arange(order.size, dtype=np.int32)
-        np.minimum.at(earliest, order, place)
-        first = np.flatnonzero(earliest[order] == place)
-        earliest[order] = unset
-        new = order[first]
-        parent[new] = frontier[at[first] // 8]
-        open_[new] = False
-        frontier = new
-    if open_[d]:
+    # a blocked border round each plane: a step in x or y never leaves its plane
+    nyp, nxp = ny + 2, nx + 2
+    planep = nyp * nxp
+    padded = np.zeros((nb, nyp, nxp), dtype=bool)
+    padded[:, 1:-1, 1:-1] = free
+    open_ = padded.ravel()  # free and not reached yet
+    sp = (src[0] * nyp + src[1] + 1) * nxp + src[2] + 1
+    dp = (dst[0] * nyp + dst[1] + 1) * nxp + dst[2] + 1
+    open_[sp] = True  # the search from the start leaves it even where it is blocked
+    open_[dp] = False
+    layer_of = np.full(open_.size, -1, dtype=np.int32)
+    layer_of[dp] = 0
+    frontier = np.array([dp], dtype=np.int64)
+    span = nb * planep
+    layer = 0
+    while open_[sp]:
+        layer += 1
+        b = frontier // planep
+        up = frontier + planep
+        up[b == nb - 1] -= span
+        down = frontier - planep
+        down[b == 0] += span
+        parts = []
+        for cand in (frontier + 1, frontier - 1, frontier + nxp, frontier - nxp, up, down):
+            cand = cand[open_[cand]]  # one step is one-to-one: no cell twice within a part
+            open_[cand] = False  # nor in a later part
+            parts.append(cand)
+        frontier = np.concatenate(parts)
+        if frontier.size == 0:
+            return None
+        layer_of[frontier] = layer
+    wrap_span = (nb - 1) * planep
+    nodes = [s]
+    here = sp
+    for nearer in range(layer - 1, -1, -1):
+        b = here // planep
+        for step in (-wrap_span if b == nb - 1 else 0, 1, nxp, planep if b < nb - 1 else 0,
+                     -planep if b > 0 else 0, -nxp, -1, wrap_span if b == 0 else 0):
+            if step and layer_of[here + step] == nearer:
+                here += step
+                break
+        else:  # pragma: no cover - a cell of layer k > 0 always has a neighbour in layer k - 1
+            raise AssertionError("breadth-first layers without a step nearer")
+        k, rest = divmod(here, planep)
+        y, x = divmod(rest, nxp)
+        nodes.append((k * ny + y - 1) * nx + x - 1)
+    return nodes
+
+
+def cell_route(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSettings, t0: float,
+               ompl_reason: str) -> NavPath | None:
+    """The path of :func:`face_path`, shortened by exact motion checks (OMPL found none in its budget);
+    None where no face-adjacent free cells join start and goal.
+
+    The path depends on the space, start, goal and base motion only, not on the seed: where the free
+    maps cannot change (read-only, those of the space cache) it is kept per space and query, so a leg
+    planned again with other seeds (:mod:`kbplanner.simulation.skills.navigation`) that again ends on the
+    cell path takes it without searching again.
+    """
+    key = (float(cs.grid.origin[0]), float(cs.grid.origin[1]), float(cs.grid.resolution),
+           tuple(start), tuple(goal), settings.base_motion, settings.allow_reverse)
+    kept = _kept_routes(cs)
+    got = kept.get(key) if kept is not None else None
+    if got is None:
+        got = _cell_poses(cs, start, goal, settings)
+        if kept is not None:
+            kept[key] = got
+    planner, name = settings.planner, cs.footprint.name
+    if got == "none":
         return None
-    nodes = [d]
-    while nodes[-1] != s:
-        nodes.append(int(parent[nodes[-1]]))
-    return nodes[::-1]
+    if isinstance(got, str):  # "blocked"
+        return failed_path(f"{ompl_reason}; the cell path failed the exact check", planner, name,
+                           time.perf_counter() - t0)
+    poses, kept_mixed = got
+    how = f"cell search over free configuration cells (RRTConnect: {ompl_reason})"
+    if kept_mixed is not None:
+        how += "; turn-drive-turn" + (f" ({kept_mixed} segment(s) partly turning while driving)"
+                                      if kept_mixed else "")
+    return NavPath(poses=poses, length_m=path_length(poses), planning_time_s=time.perf_counter() - t0,
+                   planner=f"{planner}+cells", status=OK, reason=how, footprint=name)
 
 
-def cell_route(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, cells: list[Pose2D],
-                settings: NavSettings, t0: float, ompl_reason: str) -> NavPath:
-    """The path of :func:`face_path`, shortened by exact motion checks (OMPL found none in its budget)."""
+_CellPoses = tuple[tuple[Pose2D, ...], int | None] | str
+# Per read-only free map (by id, dropped with the map): cell paths by (origin, resolution, start, goal,
+# base motion, reversing).
+_ROUTES: dict[int, dict[tuple[object, ...], _CellPoses]] = {}
+
+
+def _kept_routes(cs: ConfigurationSpace) -> dict[tuple[object, ...], _CellPoses] | None:
+    free = cs.free
+    if free.flags.writeable:
+        return None  # the maps may still change
+    got = _ROUTES.get(id(free))
+    if got is None:
+        got = _ROUTES[id(free)] = {}
+        weakref.finalize(free, _ROUTES.pop, id(free), None)
+    return got
+
+
+def _cell_poses(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSettings) -> _CellPoses:
+    """:func:`cell_route`'s waypoints and its count of segments partly turning while driving (None
+    without turn-drive-turn); ``"none"`` without face-joined cells, ``"blocked"`` where the cell path
+    fails the exact check."""
+    cells = face_path(cs, start, goal)
+    if cells is None:
+        return "none"
     motion = ExactMotion(cs)
     poses: list[Pose2D] = [(start[0], start[1], wrap(start[2])), *cells, (goal[0], goal[1], wrap(goal[2]))]
     if not motion.path_free(poses):
-        return failed_path(f"{ompl_reason}; the cell path failed the exact check", settings.planner,
-                       cs.footprint.name, time.perf_counter() - t0)
+        return "blocked"
     poses = shortcut(motion, poses, cs.grid.resolution * 5)
-    how = f"cell search over free configuration cells (RRTConnect: {ompl_reason})"
+    mixed: int | None = None
     if settings.base_motion == "turn_drive_turn":
-        poses, kept = turn_drive_turn(cs, poses, allow_reverse=settings.allow_reverse)
-        how += "; turn-drive-turn" + (f" ({kept} segment(s) partly turning while driving)" if kept else "")
-    return NavPath(poses=tuple(poses), length_m=path_length(poses), planning_time_s=time.perf_counter() - t0,
-                   planner=f"{settings.planner}+cells", status=OK, reason=how, footprint=cs.footprint.name)
+        poses, mixed = turn_drive_turn(cs, poses, allow_reverse=settings.allow_reverse)
+    return tuple(poses), mixed

@@ -40,7 +40,7 @@ from ompl import geometric as og
 from ompl import util as ou
 
 from kbplanner.core.errors import KbplannerError
-from kbplanner.simulation.cell_path import cell_route, face_connected, face_path
+from kbplanner.simulation.cell_path import cell_route, face_connected
 from kbplanner.simulation.motion_check import ExactMotion, free_bytes, shortcut, turn_drive_turn
 from kbplanner.simulation.nav_path import (
     OK,
@@ -244,10 +244,8 @@ def plan_path(
         return failed_path("no path: the goal is walled off from the start for this footprint", name, fp)
     if result.ok or not (certain and certain[-1]):
         return result
-    cells = face_path(cs, start, goal)
-    if cells is None:
-        return result
-    return cell_route(cs, start, goal, cells, settings, t0, result.reason)
+    cells = cell_route(cs, start, goal, settings, t0, result.reason)
+    return result if cells is None else cells
 
 
 def _solve(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSettings, t0: float,

@@ -49,6 +49,11 @@ class ExecSettings:
     nav_time_limit_s: float = 120.0  # safety cap per OMPL query; the work budget (motion checks) decides
     window_margins_m: tuple[float | None, ...] = (4.0, 10.0, None)  # planning windows; None: the whole map
     carry_margin_m: float = 0.5  # narrow carry kept this far before and after where the normal one is blocked
+    # A leg that is a detour (skills/navigation.py DETOUR_RATIO) is planned again with other seeds; False: not
+    # when it ended on the cell path, which no seed changes (a behaviour change, off by default: only another
+    # seed's RRTConnect path, rarely found where the first try used its whole budget, could be kept;
+    # docs/scale.md "Session 9: boardfast")
+    detour_retry_cell_paths: bool = True
     default_stop_distance_m: float = 0.5
     lidar_step_deg: float | None = None  # None: the scanner's own resolution
     place_tol_m: float = 0.02

@@ -227,9 +227,12 @@ class NavigationSkill(Skill):
                  space: ConfigurationSpace | None) -> tuple[Route, ConfigurationSpace | None]:
         """A leg whose yardstick on its space is at least ``DETOUR_MIN_M`` and whose path is over
         ``DETOUR_RATIO`` x that (the planner went round the long way) is planned again with up to
-        ``DETOUR_RETRIES`` other seeds (derived from the step's); the quickest to drive is kept."""
+        ``DETOUR_RETRIES`` other seeds (derived from the step's); the quickest to drive is kept. With
+        ``ExecSettings.detour_retry_cell_paths`` False, not a leg that ended on the cell path."""
         best = grid_shortest_path_length(space, start, goal) if space is not None else math.inf
         if not (DETOUR_MIN_M <= best < math.inf) or route.length_m <= DETOUR_RATIO * best:
+            return route, space
+        if not self.c.settings.detour_retry_cell_paths and str(self.details["planner"]).endswith("+cells"):
             return route, space
         seconds = self._drive_s(route)
         for k in range(1, DETOUR_RETRIES + 1):
