@@ -188,6 +188,9 @@ def write_costs(project_dir: Path, measured: Mapping[str, float]) -> None:
 
     try:
         data = json.loads(path.read_text(encoding="utf-8")) if path.is_file() else {}
+    except (OSError, ValueError):  # unreadable: written anew
+        data = {}
+    try:
         if not isinstance(data, dict):
             data = {}
         entry = dict(data.get(str(project_dir.resolve()), {}))
