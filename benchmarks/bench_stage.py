@@ -21,7 +21,8 @@ the first run's, except the wall-clock ones (``run_timings.json``, ``tasks_timin
 
 Usage: .venv/bin/python benchmarks/bench_stage.py [--before REF] [--rounds N] [--warm] [--out FILE]
 Prints a table and writes benchmarks/results/stage.json (or --out); ``--markdown-from FILE`` prints
-the docs table of a written result without running anything.
+the docs table of a written result without running anything; ``--stage-of RUN --out FILE`` the stage's
+figures of one existing run folder (e.g. ``runs/case_study`` of ``make run``).
 """
 
 from __future__ import annotations
@@ -150,7 +151,20 @@ def main(argv: list[str] | None = None) -> int:
                     help="an untimed run first fills each tree's cache (else every command starts cold)")
     ap.add_argument("--out", type=Path, default=RESULTS_DIR / "stage.json")
     ap.add_argument("--markdown-from", type=Path, help="print the table of a written result and stop")
+    ap.add_argument("--stage-of", type=Path, metavar="RUN",
+                    help="the simulation stage's figures of an existing `kbplanner run --tasks all` folder "
+                         "(written to --out) and stop")
     args = ap.parse_args(argv)
+    if args.stage_of is not None:
+        figures = {"run": str(args.stage_of), "load_average": list(os.getloadavg()),
+                   "stage": _stage_figures(args.stage_of)}
+        write_json(args.out, figures)
+        st = figures["stage"]
+        sys.stdout.write(f"{st['sim_time_s']:,.1f} s simulated, stage {st['stage_wall_s']} s wall "
+                         f"({st['real_time_factor']}x); busiest process {st.get('critical_cpu_s')} s CPU "
+                         f"({st.get('real_time_factor_per_critical_cpu_s')}x per its CPU second), "
+                         f"per process {st.get('per_process_cpu_s')}\n")
+        return 0
     if args.markdown_from is not None:
         sys.stdout.write(markdown(json.loads(args.markdown_from.read_text(encoding="utf-8"))))
         return 0
