@@ -22,7 +22,8 @@ the first run's, except the wall-clock ones (``run_timings.json``, ``tasks_timin
 Usage: .venv/bin/python benchmarks/bench_stage.py [--before REF] [--rounds N] [--warm] [--out FILE]
 Prints a table and writes benchmarks/results/stage.json (or --out); ``--markdown-from FILE`` prints
 the docs table of a written result without running anything; ``--stage-of RUN --out FILE`` the stage's
-figures of one existing run folder (e.g. ``runs/case_study`` of ``make run``).
+figures of one existing run folder (e.g. ``runs/case_study`` of ``make run``); ``--spawn-costs --out
+FILE`` a spawned worker's start-up (bare and warmed) and the pickling of the main task's outcome.
 """
 
 from __future__ import annotations
@@ -95,6 +96,50 @@ def _stage_figures(out: Path) -> dict[str, Any]:
     return figures
 
 
+def _child_cpu() -> float:
+    import resource
+
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def spawn_costs(project: Path) -> dict[str, Any]:
+    """What a spawned worker costs (this tree): the wall seconds until a new process answers and its
+    CPU seconds, bare and warmed with the case study's two scenarios (``task_jobs.warm``); the pickled
+    size and the CPU seconds to pickle and unpickle the main task's outcome (with its run), which a
+    spawned process sends back."""
+    import multiprocessing
+    import pickle
+    import time
+    from concurrent.futures import ProcessPoolExecutor
+
+    sys.path.insert(0, str(REPO / "src"))
+    from kbplanner.scale.task_jobs import _Job, run_job, warm
+
+    scenarios = ("storage-inside", "storage-outside")
+    out: dict[str, Any] = {"load_average": list(os.getloadavg())}
+    for label, init, args in (("bare", None, ()), ("warm", warm, (project, scenarios))):
+        t0 = time.perf_counter()
+        ex = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"), initializer=init,
+                                 initargs=args)
+        cpu = ex.submit(_child_cpu).result()
+        out[f"spawn_{label}"] = {"wall_s": round(time.perf_counter() - t0, 2), "child_cpu_s": round(cpu, 2)}
+        ex.shutdown()
+    with tempfile.TemporaryDirectory(prefix="bench-stage-pickle-") as tmp:
+        warm(project, scenarios[:1])
+        job = _Job(project, scenarios[0], "T-FRAME", "T-FRAME", None, Path(tmp) / "run", "run", True, True,
+                   None)
+        outcome = run_job(job)
+        c0 = time.process_time()
+        data = pickle.dumps(outcome)
+        c1 = time.process_time()
+        pickle.loads(data)
+        out["main_task_outcome"] = {"mb": round(len(data) / 1e6, 2), "dumps_cpu_s": round(c1 - c0, 4),
+                                    "loads_cpu_s": round(time.process_time() - c1, 4),
+                                    "task_cpu_s": round(outcome.cpu_s, 2)}
+    return out
+
+
 def _run(src: Path, out: Path, cache: Path, log: Path, workers: int) -> dict[str, Any]:
     env = dict(os.environ, PYTHONPATH=str(src), PYTHONHASHSEED="0", KBPLANNER_CACHE_DIR=str(cache))
     cmd = [sys.executable, "-m", "kbplanner", "run", str(REPO / "data" / "case_study"), "--tasks", "all",
@@ -154,7 +199,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--stage-of", type=Path, metavar="RUN",
                     help="the simulation stage's figures of an existing `kbplanner run --tasks all` folder "
                          "(written to --out) and stop")
+    ap.add_argument("--spawn-costs", action="store_true",
+                    help="measure a spawned worker's start-up and the pickling of a task's outcome "
+                         "(to --out)")
     args = ap.parse_args(argv)
+    if args.spawn_costs:
+        costs = spawn_costs(REPO / "data" / "case_study")
+        write_json(args.out, costs)
+        sys.stdout.write(json.dumps(costs, indent=1) + "\n")
+        return 0
     if args.stage_of is not None:
         figures = {"run": str(args.stage_of), "load_average": list(os.getloadavg()),
                    "stage": _stage_figures(args.stage_of)}
