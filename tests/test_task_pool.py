@@ -115,3 +115,22 @@ def test_two_scenarios_sharing_two_processes_write_what_one_process_writes(
         ["second-copy", "storage-in-units"]
     costs = read_costs(project)
     assert set(costs) == {f"{s}|T-FRAME-L0{k}|1" for s in ("second-copy", "storage-in-units") for k in (1, 2)}
+
+
+def test_without_task_costs_the_run_folder_being_replaced_gives_the_start_order(tmp_path: Path) -> None:
+    from kbplanner.scale.task_pool import previous_costs
+
+    jobs = [_job("in", "FRAME", main=True), _job("in", "BOARD"), _job("out", "FRAME", main=True),
+            _job("out", "BOARD")]
+    sizes = [11, 5, 11, 5]
+    for scenario, walls in (("in", {"FRAME": 17.0, "BOARD": 6.5}), ("out", {"FRAME": 33.6, "BOARD": 40.0})):
+        tasks = tmp_path / scenario / "tasks"
+        tasks.mkdir(parents=True)
+        (tasks / "tasks_timings.json").write_text(json.dumps({"tasks": walls}), encoding="utf-8")
+        (tasks / "tasks.json").write_text(json.dumps({"tasks": [
+            {"task_id": "FRAME", "elements": 11}, {"task_id": "BOARD", "elements": 5}]}), encoding="utf-8")
+    previous = {s: tmp_path / s / "tasks" for s in ("in", "out")}
+    costs = previous_costs(jobs, sizes, previous)
+    assert start_order(jobs, sizes, costs) == [3, 2, 0, 1]
+    assert previous_costs(jobs, [11, 5, 11, 2], previous).get(cost_key(jobs[3])) is None  # other size
+    assert previous_costs(jobs, sizes, {"in": tmp_path / "nowhere"}) == {}

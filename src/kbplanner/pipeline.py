@@ -205,7 +205,8 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
                 sel_rows = [list(r) for r in sel.rows()]
         if parts:
             result.simulation = _simulate_every_task(project_dir, parts, clock, say, workers=workers,
-                                                     seed=seed, max_elements=max_elements, pool=pool)
+                                                     seed=seed, max_elements=max_elements, pool=pool,
+                                                     previous=out_dir)
             for truns in result.simulation.results:
                 summary = next(s for s in result.scenarios if s.name == truns.scenario)
                 summary.simulated, summary.installed, summary.elements = True, truns.installed, truns.elements
@@ -236,17 +237,21 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
 
 def _simulate_every_task(project_dir: Path, parts: list[ScenarioPart], clock: _Clock, say: Say, *,
                          workers: int, seed: int | None, max_elements: int | None,
-                         pool: TaskPool | None) -> SimulationStage:
+                         pool: TaskPool | None, previous: Path | None = None) -> SimulationStage:
     """Every robotized task of every scenario in ``parts`` (B1-B5), on ``workers`` processes shared by the
     scenarios (a long task of one runs beside the short ones of another). With one process, or one
     scenario, a stage per scenario as before; else one stage for all, and in ``run_timings.json``
     (``simulation``) each scenario's simulated seconds, its wall seconds (from the stage's start to its
-    last task's end) and real-time factor, and each task's wall and CPU seconds."""
+    last task's end) and real-time factor, and each task's wall and CPU seconds. ``previous`` (the run
+    folder this run replaces, if any) gives a start order when the project cache has no task costs."""
     from kbplanner.scale.task_runs import SimulationStage, simulate_scenarios
+
+    before = {p.scenario: previous / "scenarios" / (p.scenario or "") / "tasks" for p in parts} \
+        if previous is not None and previous.is_dir() else None
 
     def run(ps: list[ScenarioPart]) -> SimulationStage:
         return simulate_scenarios(project_dir, ps, seed=seed, workers=workers, keyframes=True, progress=say,
-                                  max_elements=max_elements, pool=pool)
+                                  max_elements=max_elements, pool=pool, previous=before)
 
     if workers == 1 or len(parts) == 1:
         stages = []

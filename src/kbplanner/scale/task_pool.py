@@ -6,8 +6,9 @@ the next job whenever it is free, as does each spawned process. What is written 
 ran what or when (results are kept by job index); only the wall time does, so the order matters: the
 longest jobs first leave fewer idle processes at the end. :func:`start_order` puts first the jobs
 that took most CPU in the last run of the same project (``task_costs.json`` in the project cache,
-:func:`read_costs` / :func:`write_costs`), else the ``[simulation]`` task (it draws key frames) and
-then the jobs with most elements.
+:func:`read_costs` / :func:`write_costs`), else most wall time in the run folder being replaced
+(:func:`previous_costs`), else the ``[simulation]`` task (it draws key frames) and then the jobs with
+most elements.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from collections import deque
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
+from typing import Any
 
 from kbplanner.scale.task_jobs import Outcome, _Job, run_job, warm
 
@@ -155,6 +157,33 @@ def start_order(jobs: Sequence[_Job], sizes: Sequence[float], costs: Mapping[str
     if jobs and all(c is not None for c in known):
         return sorted(range(len(jobs)), key=lambda i: (-(known[i] or 0.0), i))
     return _longest_first(jobs, sizes)
+
+
+def previous_costs(jobs: Sequence[_Job], sizes: Sequence[float],
+                   previous: Mapping[str | None, Path]) -> dict[str, float]:
+    """Each job's wall seconds in the run folder being replaced (``previous``: a scenario's tasks
+    directory there), when that run simulated the same number of elements of the task; a first
+    estimate for a project without ``task_costs.json`` (e.g. a fresh project cache). Only the start
+    order depends on it: anything unreadable is left out."""
+    out: dict[str, float] = {}
+    read: dict[str | None, tuple[dict[str, Any], dict[str, Any]]] = {}
+    for job, size in zip(jobs, sizes, strict=True):
+        where = previous.get(job.scenario)
+        if where is None:
+            continue
+        if job.scenario not in read:
+            try:
+                timing = json.loads((where / "tasks_timings.json").read_text(encoding="utf-8"))
+                walls = timing.get("tasks", {})
+                figures = json.loads((where / "tasks.json").read_text(encoding="utf-8")).get("tasks", [])
+                read[job.scenario] = (walls, {str(t.get("task_id")): t for t in figures})
+            except (OSError, ValueError, AttributeError):
+                read[job.scenario] = ({}, {})
+        walls, figures = read[job.scenario]
+        wall, fig = walls.get(job.task_id), figures.get(job.task_id)
+        if isinstance(wall, (int, float)) and isinstance(fig, dict) and fig.get("elements") == size:
+            out[cost_key(job)] = float(wall)
+    return out
 
 
 def _costs_path(project_dir: Path) -> Path | None:

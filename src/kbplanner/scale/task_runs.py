@@ -21,7 +21,7 @@ from __future__ import annotations
 import logging
 import os
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from datetime import datetime
 from pathlib import Path
@@ -39,6 +39,7 @@ from kbplanner.scale.task_pool import (
     _longest_first,
     cost_key,
     dispatch,
+    previous_costs,
     read_costs,
     start_order,
     write_costs,
@@ -270,14 +271,16 @@ def simulate_scenarios(
     progress: Say | None = None,
     max_elements: int | None = None,
     pool: TaskPool | None = None,
+    previous: Mapping[str | None, Path] | None = None,
 ) -> SimulationStage:
     """Simulate every robotized task (or ``tasks``) of several scenarios of one project on one set of
     ``workers`` processes (this one and ``workers - 1`` spawned, or ``pool``'s, warmed with these
     scenarios): the jobs of all scenarios share the processes, so a long task of one scenario runs
     beside the short ones of another. Each scenario's tables and run directories are written as by
     :func:`simulate_tasks` and are the same whatever the number of workers and the start order (from
-    the last run's CPU seconds per task, see :mod:`kbplanner.scale.task_pool`); the costs of this run are
-    recorded for the next.
+    the last run's CPU seconds per task, see :mod:`kbplanner.scale.task_pool`, else the wall seconds per
+    task in ``previous``, each scenario's tasks directory of the run folder being replaced); the costs
+    of this run are recorded for the next.
 
     Raises:
         KbplannerError: an unknown task id, fewer than one worker.
@@ -310,7 +313,12 @@ def simulate_scenarios(
         say(f"{job.scenario or 'bare'}: tasks {finished[k]}/{counts[k]} ({f.task_id}: {f.installed}/"
             f"{f.elements} installed, {f.sim_time_s / 60.0:.1f} min simulated in {res.wall_s:.0f} s)")
 
-    order = start_order(jobs, sizes, read_costs(project_dir)) if workers > 1 else list(range(len(jobs)))
+    order = list(range(len(jobs)))
+    if workers > 1:
+        costs = read_costs(project_dir)
+        if previous and not all(cost_key(j) in costs for j in jobs):
+            costs = previous_costs(jobs, sizes, previous)
+        order = start_order(jobs, sizes, costs)
     done = dispatch(jobs, order, workers, tell, pool, t0=t0) if jobs else {}
     wall = time.perf_counter() - t0
     for i, job in enumerate(jobs):
