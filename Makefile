@@ -18,7 +18,7 @@ setup: $(STAMP)
 
 ## The main job: the full pipeline on the bundled case study, every robotized task (framing, layout marking).
 run: $(STAMP)
-	$(BIN)/kbplanner run data/case_study --tasks all --out runs/case_study
+	$(BIN)/kbplanner run data/case_study --tasks all --workers 2 --out runs/case_study
 
 ## The tests: lint, types, then the default (fast) test suite.
 test: check

@@ -78,3 +78,19 @@ def test_an_iri_binding_must_be_an_absolute_iri_that_sparql_allows(value: str) -
     with pytest.raises(QueryError, match="not an absolute IRI"):
         to_term(value, "iri", param="box", query="plan_box")
     assert str(iri_term("urn:kbp:a#b")) == "urn:kbp:a#b"
+
+
+def test_every_named_query_is_prepared_once_and_gives_the_rows_of_its_text() -> None:
+    from kbplanner.core.named_queries import prepare_all, prepared, result_rows, run_text
+
+    assert prepare_all() == len(catalogue())  # every .rq file declares its prefixes
+    assert prepared("doors_and_widths") is prepared("doors_and_widths")  # parsed once per process
+    g = _graph()
+    doors = {"ifcClass": "IfcDoor", "storeyLabel": "Level 1"}
+    cases: tuple[tuple[str, dict[str, str]], ...] = (
+        ("doors_and_widths", {}), ("storeys", {}), ("elements_by_class_and_storey", doors))
+    for name, bindings in cases:
+        from_text = result_rows(run_text(g, get_query(name).text,
+                                         {k: Literal(v) for k, v in bindings.items()}))
+        assert run_named(g, name, **bindings) == from_text, name
+    assert run_named(g, "doors_and_widths").rows  # the comparison above compared rows, not two empty tables

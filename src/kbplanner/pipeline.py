@@ -3,9 +3,10 @@
 ``run_pipeline(project_dir, out_dir)`` loads the bare 4D model and derives the additional modeling
 requirements (A1-A3, with a Turtle template of what is missing), then for each scenario validates
 the augmented model (A4-A5), selects robots (B3), builds the world at the simulation date (A6) and
-simulates the robotized task (B1-B5) with the project's seed; finally it compares the scenarios,
-writes the simulated durations back to the 4D model and writes the report. Every stage is timed; the
-run directory is assembled in ``OUT.partial`` and renamed when complete.
+simulates the robotized task (B1-B5) with the project's seed (``tasks="all"``: every robotized task of
+every scenario, on processes the scenarios share, once each scenario's world is built); finally it
+compares the scenarios, writes the simulated durations back to the 4D model and writes the report.
+Every stage is timed; the run directory is assembled in ``OUT.partial`` and renamed when complete.
 """
 
 from __future__ import annotations
@@ -19,11 +20,14 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from kbplanner.analysis.comparison import Comparison, ScenarioRun, simulate_scenario, write_outputs
 from kbplanner.core.outputs import atomic_write_text, input_hashes, run_directory, versions, write_json
 from kbplanner.project import Project, read_manifest
+
+if TYPE_CHECKING:
+    from kbplanner.scale.task_runs import ScenarioPart, SimulationStage, TaskPool
 
 log = logging.getLogger(__name__)
 
@@ -76,6 +80,7 @@ class PipelineResult:
     timings: list[StageTiming] = field(default_factory=list)
     seconds: float = 0.0
     comparison: Comparison | None = None
+    simulation: SimulationStage | None = None  # --tasks all: every task's figures and wall-clock times
 
     @property
     def ok(self) -> bool:
@@ -147,20 +152,22 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
             out_dir=out_dir, project=bare.name, requirements=len(req.requirements),
             requirement_elements=sum(len(r.elements) for r in req.requirements),
         )
-        sims: list[ScenarioRun] = []
+        sims: dict[str, ScenarioRun] = {}
         task_tables: dict[str, tuple[list[str], list[list[Any]]]] = {}
         sel_rows: list[list[Any]] = []
+        every_task = simulate and tasks == "all"
+        parts: list[Any] = []  # kbplanner.scale.task_runs.ScenarioPart of each scenario to simulate
+        pool = None
         for name in names:
             sdir = stage / "scenarios" / name
             with clock.stage("load", name):
                 project = Project.load(project_dir, scenario=name)
-            pool = None
-            if simulate and tasks == "all" and workers > 1:
+            if every_task and workers > 1 and pool is None:
                 from kbplanner.scale.task_runs import TaskPool
 
-                # worker processes load the scenario (from the project cache now) while this one
-                # validates it, selects robots and builds the world
-                pool = later.enter_context(TaskPool(project_dir, name, workers))
+                # worker processes load the scenarios (the first from the project cache now) while this
+                # one validates them, selects robots and builds the worlds; one pool for every scenario
+                pool = later.enter_context(TaskPool(project_dir, names, workers))
             with clock.stage("validation", name):
                 val = project.validate()
                 val.write(sdir / "validation.ttl")
@@ -184,35 +191,37 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
                 map_cells=exported.map.grid.shape if exported.map is not None else (0, 0),
             )
             result.scenarios.append(summary)
-            if simulate and val.conforms and sel.fit and tasks == "all":
-                from kbplanner.scale.task_runs import simulate_tasks
+            if every_task and val.conforms and sel.fit:
+                from kbplanner.scale.task_runs import ScenarioPart
 
-                with clock.stage("simulation (every task)", name):
-                    truns = simulate_tasks(project_dir, name, out_dir=sdir / "tasks",
-                                           main_dir=sdir / "simulation", keyframes=True, workers=workers,
-                                           seed=seed, progress=say, project=project,
-                                           max_elements=max_elements, tables=tables, pool=pool)
-                summary.simulated, summary.installed, summary.elements = True, truns.installed, truns.elements
-                summary.tasks = len(truns.tasks)
-                summary.sim_time_s = truns.sim_time_s
-                if truns.main is not None:
-                    sims.append(truns.main)
-                from kbplanner.scale.task_runs import TASK_COLUMNS
-
-                task_tables[name] = (list(TASK_COLUMNS), truns.rows())
+                parts.append(ScenarioPart(name, sdir / "tasks", sdir / "simulation", project, tables))
                 sel_rows = [list(r) for r in sel.rows()]
             elif simulate and val.conforms and sel.fit:
                 with clock.stage("simulation", name):
                     srun = simulate_scenario(project_dir, name, seed=seed, out_dir=sdir / "simulation",
                                              progress=say, project=project, max_elements=max_elements)
                 summary.simulated, summary.installed, summary.elements = True, srun.installed, srun.elements
-                sims.append(srun)
+                sims[name] = srun
                 sel_rows = [list(r) for r in sel.rows()]
-            later.close()  # this scenario's worker processes end here
+        if parts:
+            result.simulation = _simulate_every_task(project_dir, parts, clock, say, workers=workers,
+                                                     seed=seed, max_elements=max_elements, pool=pool,
+                                                     previous=out_dir)
+            for truns in result.simulation.results:
+                summary = next(s for s in result.scenarios if s.name == truns.scenario)
+                summary.simulated, summary.installed, summary.elements = True, truns.installed, truns.elements
+                summary.tasks = len(truns.tasks)
+                summary.sim_time_s = truns.sim_time_s
+                if truns.main is not None:
+                    sims[summary.name] = truns.main
+                from kbplanner.scale.task_runs import TASK_COLUMNS
+
+                task_tables[summary.name] = (list(TASK_COLUMNS), truns.rows())
+        later.close()  # the worker processes end here
         if sims:
             with clock.stage("comparison and report"):
-                result.comparison = write_outputs(project_dir, sims, stage, requirements=req,
-                                                  selection=sel_rows, project=bare,
+                result.comparison = write_outputs(project_dir, [sims[n] for n in names if n in sims], stage,
+                                                  requirements=req, selection=sel_rows, project=bare,
                                                   task_tables=task_tables or None)
         result.timings = clock.timings
         result.seconds = round(time.perf_counter() - t_start, 3)
@@ -220,9 +229,40 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
             "stages": [asdict(t) for t in clock.timings],
             "total_seconds": result.seconds,
             "peak_rss_mb": round(peak_rss_mb(), 1),
+            **({"simulation": result.simulation.timing()} if result.simulation is not None else {}),
         })
         write_json(stage / "manifest.json", _manifest(bare, names, seed))
     return result
+
+
+def _simulate_every_task(project_dir: Path, parts: list[ScenarioPart], clock: _Clock, say: Say, *,
+                         workers: int, seed: int | None, max_elements: int | None,
+                         pool: TaskPool | None, previous: Path | None = None) -> SimulationStage:
+    """Every robotized task of every scenario in ``parts`` (B1-B5), on ``workers`` processes shared by the
+    scenarios (a long task of one runs beside the short ones of another). With one process, or one
+    scenario, a stage per scenario as before; else one stage for all, and in ``run_timings.json``
+    (``simulation``) each scenario's simulated seconds, its wall seconds (from the stage's start to its
+    last task's end) and real-time factor, and each task's wall and CPU seconds. ``previous`` (the run
+    folder this run replaces, if any) gives a start order when the project cache has no task costs."""
+    from kbplanner.scale.task_runs import SimulationStage, simulate_scenarios
+
+    before = {p.scenario: previous / "scenarios" / (p.scenario or "") / "tasks" for p in parts} \
+        if previous is not None and previous.is_dir() else None
+
+    def run(ps: list[ScenarioPart]) -> SimulationStage:
+        return simulate_scenarios(project_dir, ps, seed=seed, workers=workers, keyframes=True, progress=say,
+                                  max_elements=max_elements, pool=pool, previous=before)
+
+    if workers == 1 or len(parts) == 1:
+        stages = []
+        for part in parts:
+            with clock.stage("simulation (every task)", part.scenario):
+                stages.append(run([part]))
+        results = [r for s in stages for r in s.results]
+        return SimulationStage(results, sum(s.wall_s for s in stages), workers)
+    with clock.stage("simulation (every task)", None):
+        shared = run(parts)
+    return shared
 
 
 def _manifest(project: Project, scenarios: list[str], seed: int | None) -> dict[str, Any]:

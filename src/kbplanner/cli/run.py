@@ -56,6 +56,20 @@ def summary_table(result: PipelineResult) -> Table:
     return t
 
 
+def simulation_speed(result: PipelineResult) -> str:
+    """The simulation stage's speed in words (``--tasks all``): simulated, wall and CPU seconds and the
+    real-time factor of the stage and of each scenario (``run_timings.json``, ``simulation``)."""
+    sim = result.simulation
+    assert sim is not None
+    t = sim.timing()
+    lines = [f"Simulation of every task: {t['sim_time_s']:,.1f} s simulated in {t['wall_s']:.1f} s wall "
+             f"({t['real_time_factor']}x real time) on {sim.workers} process(es), {t['cpu_s']:.1f} s CPU"]
+    for name, sc in t["scenarios"].items():
+        lines.append(f"  {name}: {sc['sim_time_s']:,.1f} s simulated, its last task done after "
+                     f"{sc['wall_s']:.1f} s ({sc['real_time_factor']}x), {sc['cpu_s']:.1f} s CPU")
+    return "\n".join(lines)
+
+
 def run(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.table import Table
@@ -90,6 +104,8 @@ def run(args: argparse.Namespace) -> int:
     for tm in result.timings:
         stages.add_row(tm.stage, tm.scenario or "", f"{tm.seconds:.2f}", f"{tm.peak_rss_mb:.0f}")
     out.print(stages)
+    if result.simulation is not None:
+        out.print(simulation_speed(result))
     out.print(f"Total {result.seconds:.1f} s. Results in {result.out_dir}/")
     sys.stdout.flush()
     return 0 if result.ok else 1

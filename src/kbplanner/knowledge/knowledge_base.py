@@ -19,6 +19,7 @@ from rdflib.plugins.sparql import prepareQuery
 from rdflib.plugins.sparql.sparql import Query
 from rdflib.term import BNode, Identifier, Node
 
+from kbplanner.core.named_queries import evaluates_text, prepared
 from kbplanner.core.rdf_io import bind_prefixes, parse_turtle
 from kbplanner.core.resources import data_dir, ontology_files
 from kbplanner.core.vocab import KBP
@@ -133,10 +134,9 @@ def _text(name: str) -> str:
     return get_query(name).text
 
 
-@cache
 def _prepared(name: str) -> Query:
-    """The parsed query (parsing costs about 40 ms per query with rdflib; done once)."""
-    return prepareQuery(_text(name))
+    """The parsed query (parsing costs about 40 ms per query with rdflib; done once per process)."""
+    return prepared(name) or prepareQuery(_text(name))
 
 
 def select(graph: Graph, name: str, **bindings: Identifier) -> list[dict[str, Node | None]]:
@@ -146,7 +146,7 @@ def select(graph: Graph, name: str, **bindings: Identifier) -> list[dict[str, No
     ``initBindings``. Unlike :func:`kbplanner.core.named_queries.run_named`, nothing is converted to Python.
     """
     query: str | Query = _prepared(name)
-    if "oxigraph" in type(graph.store).__name__.lower() or hasattr(graph.store, "query_endpoint"):
+    if evaluates_text(graph):
         # oxrdflib and SPARQL endpoint stores (kbplanner.core.stores) evaluate query text themselves
         query = _text(name)
     result = graph.query(query, initBindings=dict(bindings))

@@ -18,70 +18,51 @@ Example:
 
 from __future__ import annotations
 
-import contextlib
 import logging
-import multiprocessing
 import os
-import threading
 import time
-from collections import deque
-from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from datetime import datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from kbplanner.analysis.comparison import ScenarioRun, simulate_scenario
-from kbplanner.analysis.report import scenario_figures
-from kbplanner.analysis.run_record import RunRecord
-from kbplanner.analysis.work_done import work_done
+from kbplanner.analysis.comparison import ScenarioRun
 from kbplanner.core.errors import KbplannerError
-from kbplanner.core.output_dirs import current_command, output_options
+from kbplanner.core.output_dirs import current_command
 from kbplanner.core.outputs import atomic_write_text, write_json
 from kbplanner.core.tables import render
 from kbplanner.model.project_data import ProjectData
+from kbplanner.scale.task_jobs import TASK_COLUMNS, Outcome, TaskFigures, _Job, keep
+from kbplanner.scale.task_pool import (
+    TaskPool,
+    _longest_first,
+    cost_key,
+    dispatch,
+    previous_costs,
+    read_costs,
+    start_order,
+    write_costs,
+)
 
 if TYPE_CHECKING:
     from kbplanner.world.tables import WorldTables
+
+__all__ = ["TASK_COLUMNS", "ScenarioPart", "SimulationStage", "TaskFigures", "TaskPool", "TaskRunsResult",
+           "_Job", "_longest_first", "robotized_tasks", "simulate_scenarios", "simulate_tasks"]
 
 log = logging.getLogger(__name__)
 
 Say = Callable[[str], None]
 
-TASK_COLUMNS = ["task", "label", "world date", "installed", "elements", "simulated (min)",
-                "per element (min)", "min separation (m)", "time < 1 m (s)", "stops for workers", "work done"]
-
-
-@dataclass(frozen=True)
-class TaskFigures:
-    """What the simulation of one robotized task gave (deterministic: no wall times)."""
-
-    task_id: str
-    label: str
-    world_date: str
-    installed: int
-    elements: int
-    sim_time_s: float
-    per_element_min: float | None
-    min_separation_m: float
-    below_threshold_s: float
-    worker_stops: int
-    run_dir: str  # relative to the tasks directory (``out_dir``)
-    work: str = ""  # what the run did in words (kbplanner.analysis.work_done)
-
-    def row(self) -> list[Any]:
-        """One row of ``tasks.csv``."""
-        return [self.task_id, self.label, self.world_date, self.installed, self.elements,
-                round(self.sim_time_s / 60.0, 2),
-                None if self.per_element_min is None else round(self.per_element_min, 2),
-                round(self.min_separation_m, 2), round(self.below_threshold_s, 1), self.worker_stops,
-                self.work]
-
 
 @dataclass
 class TaskRunsResult:
-    """Every task of one scenario: figures in task order, the main task's run, wall times."""
+    """Every task of one scenario: figures in task order, the main task's run, wall and CPU times.
+
+    ``wall_s`` is the scenario's part of the simulation stage: from the stage's start to the end of its
+    last task (with a pool shared by several scenarios the processes also ran the others' tasks in that
+    time: ``stage`` holds the whole stage's figures)."""
 
     scenario: str | None
     out_dir: Path
@@ -90,6 +71,9 @@ class TaskRunsResult:
     wall_s: float = 0.0
     task_wall_s: dict[str, float] = field(default_factory=dict)
     workers: int = 1
+    task_cpu_s: dict[str, float] = field(default_factory=dict)
+    task_span_s: dict[str, tuple[float, float, int]] = field(default_factory=dict)
+    stage: dict[str, Any] = field(default_factory=dict)
 
     @property
     def installed(self) -> int:
@@ -105,6 +89,11 @@ class TaskRunsResult:
     def sim_time_s(self) -> float:
         """Simulated seconds over all tasks."""
         return sum(t.sim_time_s for t in self.tasks)
+
+    @property
+    def cpu_s(self) -> float:
+        """CPU seconds of the tasks (in the processes that ran them)."""
+        return sum(self.task_cpu_s.values())
 
     def rows(self) -> list[list[Any]]:
         """The table of ``tasks.csv`` with a totals row."""
@@ -122,6 +111,22 @@ class TaskRunsResult:
         """The table as aligned text."""
         return render(TASK_COLUMNS, self.rows())
 
+    def timing(self) -> dict[str, Any]:
+        """Wall-clock figures (not deterministic): the scenario's simulated, wall and CPU seconds, its
+        real-time factor (simulated / wall) and each task's simulated, wall and CPU seconds, start and
+        end (from the stage's start) and process (0: the command's own)."""
+        sim = {t.task_id: t.sim_time_s for t in self.tasks}
+        return {
+            "sim_time_s": round(self.sim_time_s, 1), "wall_s": round(self.wall_s, 3),
+            "cpu_s": round(self.cpu_s, 3),
+            "real_time_factor": round(self.sim_time_s / self.wall_s, 1) if self.wall_s > 0 else None,
+            "per_task": {k: {"sim_time_s": round(sim.get(k, 0.0), 1), "wall_s": round(w, 3),
+                             "cpu_s": round(self.task_cpu_s.get(k, 0.0), 3),
+                             "start_s": self.task_span_s.get(k, (0.0, 0.0, 0))[0],
+                             "end_s": self.task_span_s.get(k, (0.0, 0.0, 0))[1],
+                             "process": self.task_span_s.get(k, (0.0, 0.0, 0))[2]}
+                         for k, w in self.task_wall_s.items()}}
+
     def write(self, out_dir: Path) -> None:
         """``tasks.csv``, ``tasks.json`` (deterministic) and ``tasks_timings.json`` (wall times)."""
         atomic_write_text(out_dir / "tasks.csv", render(TASK_COLUMNS, self.rows(), fmt="csv"))
@@ -129,168 +134,50 @@ class TaskRunsResult:
             "scenario": self.scenario, "tasks": [asdict(t) for t in self.tasks], "installed": self.installed,
             "elements": self.elements, "sim_time_s": round(self.sim_time_s, 3)})
         write_json(out_dir / "tasks_timings.json", {
-            "workers": self.workers, "wall_s": round(self.wall_s, 3),
-            "real_time_factor": round(self.sim_time_s / self.wall_s, 1) if self.wall_s > 0 else None,
-            "tasks": {k: round(v, 3) for k, v in self.task_wall_s.items()}})
+            "workers": self.workers, **self.timing(),
+            "tasks": {k: round(v, 3) for k, v in self.task_wall_s.items()}, "stage": self.stage})
 
 
-@dataclass(frozen=True)
-class _Job:
-    project_dir: Path
+@dataclass
+class ScenarioPart:
+    """One scenario of a simulation stage: where its tasks go and, when loaded already, the scenario."""
+
     scenario: str | None
-    task_id: str
-    label: str
-    seed: int | None
     out_dir: Path
-    rel_dir: str
-    keyframes: bool
-    main: bool
-    max_elements: int | None
-    command: str = ""  # recorded in each run folder's marker, whichever process writes it
+    main_dir: Path | None = None
+    project: ProjectData | None = None
+    tables: WorldTables | None = None
 
 
-_LOADED: dict[tuple[str, str | None], ProjectData] = {}
-_TABLES: dict[tuple[str, str | None], WorldTables] = {}
+@dataclass
+class SimulationStage:
+    """Every task of one or more scenarios simulated on one set of processes."""
 
+    results: list[TaskRunsResult]
+    wall_s: float
+    workers: int
 
-def _loaded(project_dir: Path, scenario: str | None) -> ProjectData:
-    """The loaded scenario, once per process (a worker process simulates several tasks)."""
-    key = (str(project_dir.resolve()), scenario)
-    if key not in _LOADED:
-        _LOADED.clear()
-        _TABLES.clear()
-        _LOADED[key] = ProjectData.load(project_dir, scenario=scenario)
-    return _LOADED[key]
+    @property
+    def sim_time_s(self) -> float:
+        """Simulated seconds over every task."""
+        return sum(r.sim_time_s for r in self.results)
 
+    @property
+    def cpu_s(self) -> float:
+        """CPU seconds of every task."""
+        return sum(r.cpu_s for r in self.results)
 
-def _project(project_dir: Path, scenario: str | None) -> tuple[ProjectData, WorldTables]:
-    """The loaded scenario and its world tables, once per process (each task's world is built from the
-    same tables instead of reading the building again)."""
-    from kbplanner.world.tables import world_tables
-
-    project = _loaded(project_dir, scenario)
-    key = (str(project_dir.resolve()), scenario)
-    tables = _TABLES.get(key)
-    if tables is None or tables.model_id != id(project.model):
-        tables = _TABLES[key] = world_tables(project)
-    return project, tables
-
-
-_Outcome = tuple[TaskFigures, ScenarioRun | None, float]
-
-
-def _warm(project_dir: Path, scenario: str | None) -> None:
-    """A new worker process loads the scenario before its first task (its world tables at the first
-    task: by then the project cache holds their rows). An error is left for the task to raise (with
-    its message) when it loads the scenario again."""
-    try:
-        _loaded(project_dir, scenario)
-    except Exception as exc:  # the task raises it again, as a task's error
-        log.info("worker process could not load %s (%s): %s", project_dir, scenario, exc)
-
-
-def _started() -> None:
-    """Nothing: submitted once per worker process so that each starts (and warms up) at once."""
-
-
-class TaskPool:
-    """The ``workers - 1`` spawned processes of :func:`simulate_tasks`, started ahead of it.
-
-    Each process loads the scenario as soon as it starts, so a caller that has other work first (the
-    pipeline: validation, the world) hands over warm processes.
-    Use as a context manager; leaving it on an error stops the processes without waiting.
-    """
-
-    def __init__(self, project_dir: Path, scenario: str | None, workers: int) -> None:
-        self.children = max(0, workers - 1)
-        self.executor: ProcessPoolExecutor | None = None
-        if self.children:
-            self.executor = ProcessPoolExecutor(max_workers=self.children,
-                                                mp_context=multiprocessing.get_context("spawn"),
-                                                initializer=_warm, initargs=(project_dir, scenario))
-            for _ in range(self.children):  # the pool starts a process per submission while none is idle
-                self.executor.submit(_started)
-
-    def __enter__(self) -> TaskPool:
-        return self
-
-    def __exit__(self, exc_type: type[BaseException] | None, *_exc: object) -> None:
-        if self.executor is None:
-            return
-        if exc_type is not None:  # an error: do not wait for a process still loading the project
-            for proc in list(getattr(self.executor, "_processes", {}).values()):
-                proc.terminate()
-        self.executor.shutdown(wait=exc_type is None, cancel_futures=True)
-
-
-def _run(job: _Job) -> _Outcome:
-    t0 = time.perf_counter()
-    project, tables = _project(job.project_dir, job.scenario)
-    with output_options(command=job.command or None):
-        run = simulate_scenario(job.project_dir, job.scenario, seed=job.seed, out_dir=job.out_dir,
-                                keyframes=job.keyframes, task_id=job.task_id, project=project,
-                                max_elements=job.max_elements, tables=tables)
-    rec = RunRecord.load(job.out_dir)
-    fig = scenario_figures(rec, rec.proximity(threshold_m=1.0))
-    world_date = project.world_date(job.task_id).isoformat()  # the date simulate_scenario's world used
-    figures = TaskFigures(
-        task_id=job.task_id, label=job.label, world_date=world_date, installed=fig.installed,
-        elements=fig.elements, sim_time_s=float(rec.metrics.get("totals", {}).get("sim_time_s", 0.0)),
-        per_element_min=fig.per_element_min, min_separation_m=fig.min_separation_m,
-        below_threshold_s=fig.below_threshold_s, worker_stops=fig.worker_stops, run_dir=job.rel_dir,
-        work=work_done(rec.metrics))
-    return figures, (run if job.main else None), time.perf_counter() - t0
-
-
-def _dispatch(jobs: Sequence[_Job], order: Sequence[int], workers: int,
-              tell: Callable[[_Job, _Outcome], None], pool: TaskPool | None = None) -> dict[int, _Outcome]:
-    """Run ``jobs`` (taken in ``order``) on ``workers`` processes: this one and ``workers - 1`` spawned.
-
-    This process takes the next job whenever it is free, and so does each spawned process (one thread
-    here waits for each); results are kept by job index, so what is written does not depend on who
-    ran what or when. The first error (in job order) is raised once every started job has ended.
-    """
-    pending = deque(order)
-    lock = threading.Lock()
-    done: dict[int, _Outcome] = {}
-    failed: dict[int, BaseException] = {}
-
-    def take() -> int | None:
-        with lock:
-            return pending.popleft() if pending and not failed else None
-
-    def record(i: int, outcome: _Outcome | None, error: BaseException | None) -> None:
-        with lock:
-            if error is not None:
-                failed[i] = error
-            elif outcome is not None:
-                done[i] = outcome
-                tell(jobs[i], outcome)
-
-    def feed(pool: ProcessPoolExecutor | None) -> None:
-        assert pool is not None  # a thread per spawned process
-        while (i := take()) is not None:
-            try:
-                record(i, pool.submit(_run, jobs[i]).result(), None)
-            except BaseException as exc:  # raised again in the calling thread
-                record(i, None, exc)
-
-    with (TaskPool(jobs[0].project_dir, jobs[0].scenario, min(workers, len(jobs))) if pool is None
-          else contextlib.nullcontext(pool)) as tp:
-        children = min(tp.children, len(jobs) - 1)
-        threads = [threading.Thread(target=feed, args=(tp.executor,), daemon=True) for _ in range(children)]
-        for t in threads:
-            t.start()
-        while (i := take()) is not None:
-            try:
-                record(i, _run(jobs[i]), None)
-            except BaseException as exc:  # raised below, once the others ended
-                record(i, None, exc)
-        for t in threads:
-            t.join()
-    if failed:
-        raise failed[min(failed)]
-    return done
+    def timing(self) -> dict[str, Any]:
+        """The stage's wall-clock figures: simulated, wall and CPU seconds, the real-time factor
+        (simulated / wall) and how busy the processes were (CPU / (wall x processes)); per scenario
+        :meth:`TaskRunsResult.timing`."""
+        procs = max(1, min(self.workers, sum(len(r.tasks) for r in self.results)))
+        return {
+            "workers": self.workers, "sim_time_s": round(self.sim_time_s, 1), "wall_s": round(self.wall_s, 3),
+            "cpu_s": round(self.cpu_s, 3),
+            "real_time_factor": round(self.sim_time_s / self.wall_s, 1) if self.wall_s > 0 else None,
+            "busy": round(self.cpu_s / (self.wall_s * procs), 3) if self.wall_s > 0 else None,
+            "scenarios": {r.scenario or "": r.timing() for r in self.results}}
 
 
 def robotized_tasks(project: ProjectData) -> list[tuple[str, str, datetime | None]]:
@@ -309,12 +196,6 @@ def _robotized(project: ProjectData) -> list[tuple[str, str, datetime | None, in
         out.append((str(task_id), str(label or task_id),
                     when.replace(tzinfo=None) if isinstance(when, datetime) else None, int(elements or 0)))
     return out
-
-
-def _longest_first(jobs: Sequence[_Job], sizes: Sequence[int]) -> list[int]:
-    """Job indices in the order to start them on several processes: the main task first (it draws key
-    frames), then by elements, most first, then in schedule order; fewer idle processes at the end."""
-    return sorted(range(len(jobs)), key=lambda i: (not jobs[i].main, -sizes[i], i))
 
 
 def simulate_tasks(
@@ -346,11 +227,15 @@ def simulate_tasks(
     Raises:
         KbplannerError: an unknown task id, fewer than one worker.
     """
-    say = progress or (lambda _m: None)
-    if workers < 1:
-        raise KbplannerError(f"workers must be at least 1, got {workers}", element="--workers",
-                             fix="give --workers 1 or more (the number of cores is a good choice)")
-    project = project or ProjectData.load(project_dir, scenario=scenario)
+    part = ScenarioPart(scenario, out_dir, main_dir, project, tables)
+    stage = simulate_scenarios(project_dir, [part], tasks=tasks, seed=seed, workers=workers,
+                               keyframes=keyframes, progress=progress, max_elements=max_elements, pool=pool)
+    return stage.results[0]
+
+
+def _jobs_of(project_dir: Path, part: ScenarioPart, project: ProjectData, tasks: Sequence[str] | None,
+             seed: int | None, keyframes: bool, max_elements: int | None) -> tuple[list[_Job], list[int]]:
+    """The jobs of one scenario, in schedule order, and their element counts (for the start order)."""
     main_task = str(project.manifest.simulation.get("task") or "")
     known = _robotized(project)
     if tasks is not None:
@@ -368,40 +253,93 @@ def simulate_tasks(
     sizes = [min(n, max_elements) if max_elements is not None else n for *_k, n in known]
     for task_id, label, _start, _n in known:
         is_main = task_id == main_task
-        where = main_dir if (is_main and main_dir is not None) else out_dir / task_id
-        rel = Path(os.path.relpath(where.resolve(), out_dir.resolve())).as_posix()
-        jobs.append(_Job(project_dir, scenario, task_id, label, seed, where, rel,
+        where = part.main_dir if (is_main and part.main_dir is not None) else part.out_dir / task_id
+        rel = Path(os.path.relpath(where.resolve(), part.out_dir.resolve())).as_posix()
+        jobs.append(_Job(project_dir, part.scenario, task_id, label, seed, where, rel,
                          keyframes and is_main, is_main, max_elements, current_command()))
-    key = (str(project_dir.resolve()), scenario)
-    _LOADED.clear()
-    _TABLES.clear()
-    _LOADED[key] = project
-    if tables is not None:
-        _TABLES[key] = tables
-    result = TaskRunsResult(scenario=scenario, out_dir=out_dir, workers=workers)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    return jobs, sizes
+
+
+def simulate_scenarios(
+    project_dir: Path,
+    parts: Sequence[ScenarioPart],
+    *,
+    tasks: Sequence[str] | None = None,
+    seed: int | None = None,
+    workers: int = 1,
+    keyframes: bool = False,
+    progress: Say | None = None,
+    max_elements: int | None = None,
+    pool: TaskPool | None = None,
+    previous: Mapping[str | None, Path] | None = None,
+) -> SimulationStage:
+    """Simulate every robotized task (or ``tasks``) of several scenarios of one project on one set of
+    ``workers`` processes (this one and ``workers - 1`` spawned, or ``pool``'s, warmed with these
+    scenarios): the jobs of all scenarios share the processes, so a long task of one scenario runs
+    beside the short ones of another. Each scenario's tables and run directories are written as by
+    :func:`simulate_tasks` and are the same whatever the number of workers and the start order (from
+    the last run's CPU seconds per task, see :mod:`kbplanner.scale.task_pool`, else the wall seconds per
+    task in ``previous``, each scenario's tasks directory of the run folder being replaced); the costs
+    of this run are recorded for the next.
+
+    Raises:
+        KbplannerError: an unknown task id, fewer than one worker.
+    """
+    say = progress or (lambda _m: None)
+    if workers < 1:
+        raise KbplannerError(f"workers must be at least 1, got {workers}", element="--workers",
+                             fix="give --workers 1 or more (the number of cores is a good choice)")
+    jobs: list[_Job] = []
+    sizes: list[int] = []
+    owner: list[int] = []
+    for k, part in enumerate(parts):
+        project = part.project or ProjectData.load(project_dir, scenario=part.scenario)
+        keep(project_dir, part.scenario, project, part.tables)
+        pjobs, psizes = _jobs_of(project_dir, part, project, tasks, seed, keyframes, max_elements)
+        jobs += pjobs
+        sizes += psizes
+        owner += [k] * len(pjobs)
+    results = [TaskRunsResult(scenario=p.scenario, out_dir=p.out_dir, workers=workers) for p in parts]
+    for part in parts:
+        part.out_dir.mkdir(parents=True, exist_ok=True)
+    counts = [owner.count(k) for k in range(len(parts))]
+    finished = [0] * len(parts)
     t0 = time.perf_counter()
-    done: dict[str, _Outcome] = {}
 
-    def tell(job: _Job, res: _Outcome) -> None:
-        done[job.task_id] = res
-        f = res[0]
-        say(f"{scenario or 'bare'}: tasks {len(done)}/{len(jobs)} ({f.task_id}: {f.installed}/{f.elements} "
-            f"installed, {f.sim_time_s / 60.0:.1f} min simulated in {res[2]:.0f} s)")
+    def tell(job: _Job, res: Outcome) -> None:
+        k = next(i for i, p in enumerate(parts) if p.scenario == job.scenario)
+        finished[k] += 1
+        f = res.figures
+        say(f"{job.scenario or 'bare'}: tasks {finished[k]}/{counts[k]} ({f.task_id}: {f.installed}/"
+            f"{f.elements} installed, {f.sim_time_s / 60.0:.1f} min simulated in {res.wall_s:.0f} s)")
 
-    if workers == 1 or len(jobs) <= 1:
-        for job in jobs:
-            tell(job, _run(job))
-    else:
-        _dispatch(jobs, _longest_first(jobs, sizes), workers, tell, pool)
-    result.wall_s = time.perf_counter() - t0
-    for job in jobs:
-        fig, run, wall = done[job.task_id]
-        result.tasks.append(fig)
-        result.task_wall_s[job.task_id] = wall
-        if run is not None:
-            result.main = run
-    result.write(out_dir)
-    log.info("%d tasks of %s: %d/%d installed, %.0f s simulated in %.0f s wall", len(jobs), scenario,
-             result.installed, result.elements, result.sim_time_s, result.wall_s)
-    return result
+    order = list(range(len(jobs)))
+    if workers > 1:
+        costs = read_costs(project_dir)
+        if previous and not all(cost_key(j) in costs for j in jobs):
+            costs = previous_costs(jobs, sizes, previous)
+        order = start_order(jobs, sizes, costs)
+    done = dispatch(jobs, order, workers, tell, pool, t0=t0) if jobs else {}
+    wall = time.perf_counter() - t0
+    for i, job in enumerate(jobs):
+        res = done[i]
+        r = results[owner[i]]
+        r.tasks.append(res.figures)
+        r.task_wall_s[job.task_id] = res.wall_s
+        r.task_cpu_s[job.task_id] = res.cpu_s
+        r.task_span_s[job.task_id] = (res.start_s, res.end_s, res.process)
+        r.wall_s = max(r.wall_s, res.end_s)
+        if res.run is not None:
+            r.main = res.run
+    stage = SimulationStage(results, wall, workers)
+    shared = stage.timing()
+    shared.pop("scenarios")
+    shared["scenarios_sharing"] = [p.scenario or "" for p in parts]
+    for r in results:
+        if len(parts) > 1:
+            r.stage = shared
+        r.write(r.out_dir)
+        log.info("%d tasks of %s: %d/%d installed, %.0f s simulated in %.0f s wall", len(r.tasks), r.scenario,
+                 r.installed, r.elements, r.sim_time_s, r.wall_s)
+    write_costs(project_dir, {cost_key(job): done[i].cpu_s for i, job in enumerate(jobs)})
+    return stage
