@@ -49,6 +49,9 @@ class ExecSettings:
     nav_time_limit_s: float = 120.0  # safety cap per OMPL query; the work budget (motion checks) decides
     window_margins_m: tuple[float | None, ...] = (4.0, 10.0, None)  # planning windows; None: the whole map
     carry_margin_m: float = 0.5  # narrow carry kept this far before and after where the normal one is blocked
+    # NV-2: a leg whose normal carry must pass a narrow passage takes the cell route without trying
+    # RRTConnect first (NavSettings.carry_cells_first; docs/scale.md "Session 9: carryroute")
+    carry_cells_first: bool = False
     default_stop_distance_m: float = 0.5
     lidar_step_deg: float | None = None  # None: the scanner's own resolution
     place_tol_m: float = 0.02
