@@ -51,7 +51,7 @@ class ExecSettings:
     carry_margin_m: float = 0.5  # narrow carry kept this far before and after where the normal one is blocked
     # NV-2: a leg whose normal carry must pass a narrow passage takes the cell route without trying
     # RRTConnect first (NavSettings.carry_cells_first; docs/scale.md "Session 9: carryroute")
-    carry_cells_first: bool = False
+    carry_cells_first: bool = True
     default_stop_distance_m: float = 0.5
     lidar_step_deg: float | None = None  # None: the scanner's own resolution
     place_tol_m: float = 0.02
