@@ -3,6 +3,7 @@ cell route without RRTConnect's try; a leg without one is planned as before."""
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import pytest
@@ -102,3 +103,29 @@ def test_cells_first_answers_only_when_asked(passage: OccupancyGrid) -> None:
     assert routed is not None and routed.ok and math.isfinite(routed.length_m)
     blocked = (4.1, 0.2, 0.0)  # in the wall
     assert cells_first(cs, START, blocked, NavSettings(carry_cells_first=True)) is None
+
+
+def test_the_corridor_search_returns_free_face_adjacent_cells_near_the_shortest_path(
+    passage: OccupancyGrid,
+) -> None:
+    from kbplanner.simulation.corridor_cells import corridor_cells
+    from kbplanner.simulation.grid_yardstick import shortest_cells
+
+    cs = ConfigurationSpace.build(passage, WIDE)
+    cells = corridor_cells(cs, START, GOAL, radius_m=0.5)
+    assert cells is not None
+    g = cs.grid
+    idx = [(cs.yaw_bin(t), *reversed(g.cell_of(x, y))) for x, y, t in cells]
+    assert idx[0] == (cs.yaw_bin(START[2]), *reversed(g.cell_of(*START[:2])))
+    assert idx[-1] == (cs.yaw_bin(GOAL[2]), *reversed(g.cell_of(*GOAL[:2])))
+    assert all(cs.free[c] for c in idx)
+    for (b0, y0, x0), (b1, y1, x1) in itertools.pairwise(idx):
+        db = min((b1 - b0) % cs.n_bins, (b0 - b1) % cs.n_bins)
+        assert abs(y1 - y0) + abs(x1 - x0) + db == 1  # one face-adjacent step
+    line = shortest_cells(cs, START, GOAL)
+    assert line is not None
+    for _, y, x in idx:
+        assert min(math.hypot(y - ly, x - lx) for ly, lx in line) * g.resolution <= 0.5 + 1e-9
+    # a corridor of the path's own cells leaves no room to turn the load: none there (cells_first then
+    # searches the whole window)
+    assert corridor_cells(cs, START, GOAL, radius_m=0.0) is None

@@ -9,8 +9,10 @@ marks the stretches of the path where the wide load does not fit, with "rotate t
 With ``NavSettings.carry_cells_first``, a leg whose normal carry must pass a narrow passage
 (:func:`kbplanner.simulation.narrow_passage.narrow_passage`: on every way the load fits at fewer than
 ``narrow_passage_deg`` of headings somewhere) takes the cell route over free configuration cells
-(:mod:`kbplanner.simulation.cell_path`) without RRTConnect's try, which there mostly used its whole
-normal-carry budget before the same cell route was taken (docs/scale.md "Session 9: carryroute").
+(:mod:`kbplanner.simulation.cell_path`; the cells searched in a corridor round the grid's shortest
+path first, :mod:`kbplanner.simulation.corridor_cells`) without RRTConnect's try, which there often
+used its whole normal-carry budget before the cell route was taken (docs/scale.md "Session 9:
+carryroute").
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ import numpy as np
 import numpy.typing as npt
 
 from kbplanner.simulation.cell_path import cell_route, face_path
+from kbplanner.simulation.corridor_cells import corridor_cells
 from kbplanner.simulation.narrow_passage import narrow_passage
 from kbplanner.simulation.nav_path import (
     OK,
@@ -166,7 +169,9 @@ def cells_first(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: N
     t0 = time.perf_counter()
     if not narrow_passage(cs, start, goal, settings.narrow_passage_deg):
         return None
-    cells = face_path(cs, start, goal)
+    cells = corridor_cells(cs, start, goal)  # near the grid's shortest path first, else the whole window
+    if cells is None:
+        cells = face_path(cs, start, goal)
     if cells is None:
         return None
     why = (f"not tried: a narrow passage, the load fits at under {settings.narrow_passage_deg:g} deg of "
