@@ -5,17 +5,29 @@ wide, and narrow, on its side); :func:`plan_with_carry_modes` plans with the nor
 :func:`kbplanner.simulation.navigation.plan_path`); where that fails, it plans with the narrow one and
 marks the stretches of the path where the wide load does not fit, with "rotate to narrow" before and
 "rotate back" after each (extended by a margin). Returns a :class:`CarryPlan`.
+
+With ``NavSettings.carry_cells_first``, a leg whose normal carry must pass a narrow passage
+(:func:`kbplanner.simulation.narrow_passage.narrow_passage`: on every way the load fits at fewer than
+``narrow_passage_deg`` of headings somewhere) takes the cell route over free configuration cells
+(:mod:`kbplanner.simulation.cell_path`; the cells searched in a corridor round the grid's shortest
+path first, :mod:`kbplanner.simulation.corridor_cells`) without RRTConnect's try, which there often
+used its whole normal-carry budget before the cell route was taken (docs/scale.md "Session 9:
+carryroute").
 """
 
 from __future__ import annotations
 
 import itertools
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 import numpy.typing as npt
 
+from kbplanner.simulation.cell_path import cell_route, face_path
+from kbplanner.simulation.corridor_cells import corridor_cells
+from kbplanner.simulation.narrow_passage import narrow_passage
 from kbplanner.simulation.nav_path import (
     OK,
     NavPath,
@@ -146,6 +158,28 @@ def _insert_at(poses: list[Pose2D], s_target: float) -> int:
     return i
 
 
+def cells_first(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSettings) -> NavPath | None:
+    """The cell route for a leg through a narrow passage (``settings.carry_cells_first``), RRTConnect not
+    tried; None where the setting is off, the passage is not narrow, an end is blocked or free cells do
+    not join start and goal (then the planner is tried as before)."""
+    if not settings.carry_cells_first:
+        return None
+    if not (cs.is_free(*start) and cs.is_free(*goal)):
+        return None
+    t0 = time.perf_counter()
+    if not narrow_passage(cs, start, goal, settings.narrow_passage_deg):
+        return None
+    cells = corridor_cells(cs, start, goal)  # near the grid's shortest path first, else the whole window
+    if cells is None:
+        cells = face_path(cs, start, goal)
+    if cells is None:
+        return None
+    why = (f"not tried: a narrow passage, the load fits at under {settings.narrow_passage_deg:g} deg of "
+           "headings on every way")
+    path = cell_route(cs, start, goal, cells, settings, t0, why)
+    return path if path.ok else None
+
+
 def plan_with_carry_modes(
     grid: OccupancyGrid,
     start: Pose2D,
@@ -159,7 +193,8 @@ def plan_with_carry_modes(
 
     If the normal footprint finds a path (within ``settings.normal_carry_checks`` motion checks, or by
     the cell path where free cells certainly join start and goal), that is the plan (mode
-    ``"normal"``). Otherwise the path is
+    ``"normal"``; with ``settings.carry_cells_first`` a leg through a narrow passage takes the cell path
+    without trying RRTConnect, :func:`cells_first`). Otherwise the path is
     planned with the narrow footprint, and each stretch where the normal footprint is blocked,
     grown by ``margin_m`` on both sides, becomes a :class:`CarrySegment` with a
     ``rotate_to_narrow`` event at its start and a ``rotate_back`` event at its end (new waypoints
@@ -167,6 +202,10 @@ def plan_with_carry_modes(
     """
     settings = settings or NavSettings()
     cs_normal = configuration_space(grid, normal, settings.n_yaw_bins, settings.margin_m)  # kept per process
+    routed = cells_first(cs_normal, start, goal, settings)
+    if routed is not None:
+        return CarryPlan(path=routed, mode="normal", normal_attempt=routed, space=cs_normal,
+                         normal_space=cs_normal)
     checks = min(settings.max_motion_checks, settings.normal_carry_checks)
     first = plan_path(cs_normal, start, goal, settings=replace(settings, max_motion_checks=checks))
     if first.ok:

@@ -96,6 +96,21 @@ def grid_shortest_path_length(
     return _shortest_length(ConfigurationSpace.build(grid, footprint, n_yaw_bins), start, goal)
 
 
+def shortest_cells(cs: ConfigurationSpace, start: Pose2D | tuple[float, float],
+                   goal: Pose2D | tuple[float, float]) -> list[tuple[int, int]] | None:
+    """Cells (iy, ix) of the 8-connected shortest path over the cells where the footprint fits at some
+    yaw, from start's cell to goal's (the search :func:`grid_shortest_path_length` shortens), or None."""
+    free = cs.free_any_yaw()
+    g = cs.grid
+    ny, nx = g.shape
+    (sx, sy), (gx, gy) = g.cell_of(start[0], start[1]), g.cell_of(goal[0], goal[1])
+    if not (0 <= sx < nx and 0 <= sy < ny and 0 <= gx < nx and 0 <= gy < ny):
+        return None
+    if not (free[sy, sx] and free[gy, gx]):
+        return None
+    return _dijkstra_cells(free, (sy, sx), (gy, gx))
+
+
 # the lengths found in a configuration space (the skills ask again for the leg they planned)
 _Ends = tuple[tuple[float, ...], tuple[float, ...]]
 _LENGTHS: weakref.WeakKeyDictionary[ConfigurationSpace, dict[_Ends, float]] = weakref.WeakKeyDictionary()

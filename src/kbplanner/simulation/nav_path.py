@@ -52,6 +52,11 @@ class NavSettings:
     # (where free cells do not certainly join start and goal) and the narrow carry is planned, instead
     # of spending the whole budget on a passage the wide load rarely gets through.
     normal_carry_checks: int = 100_000
+    # NV-2: where the normal carry must pass a narrow passage (fits at fewer than ``narrow_passage_deg`` of
+    # headings on every way between start and goal; :mod:`kbplanner.simulation.narrow_passage`), take the
+    # cell route over free configuration cells straight away instead of trying RRTConnect first
+    carry_cells_first: bool = False
+    narrow_passage_deg: float = 45.0
     n_yaw_bins: int = 72
     seed: int = 1
     simplify: bool = True

@@ -54,6 +54,9 @@ class ExecSettings:
     # seed's RRTConnect path, rarely found where the first try used its whole budget, could be kept;
     # docs/scale.md "Session 9: boardfast")
     detour_retry_cell_paths: bool = True
+    # NV-2: a leg whose normal carry must pass a narrow passage takes the cell route without trying
+    # RRTConnect first (NavSettings.carry_cells_first; docs/scale.md "Session 9: carryroute")
+    carry_cells_first: bool = True
     default_stop_distance_m: float = 0.5
     lidar_step_deg: float | None = None  # None: the scanner's own resolution
     place_tol_m: float = 0.02

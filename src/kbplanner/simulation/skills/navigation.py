@@ -178,7 +178,8 @@ class NavigationSkill(Skill):
     def _settings(self) -> NavSettings:
         seed = zlib.crc32(f"{self.c.seed}/{self.step.step}/{self.replans}".encode()) % (2**31 - 1) + 1
         return NavSettings(time_limit_s=self.c.settings.nav_time_limit_s, seed=seed,
-                           allow_reverse=self.c.settings.monitoring == "off")
+                           allow_reverse=self.c.settings.monitoring == "off",
+                           carry_cells_first=self.c.settings.carry_cells_first)
 
     def _leg(self, grid: OccupancyGrid, start: Pose2D, goal: Pose2D, fp: Footprint,
              narrow: Footprint | None) -> Route | str:

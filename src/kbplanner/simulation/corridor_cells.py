@@ -1,0 +1,55 @@
+"""Navigation (B5, NV-2), the cell route's search in a corridor: free configuration cells joining start
+and goal, searched only near the grid's shortest path.
+
+Takes a :class:`~kbplanner.world.footprint.ConfigurationSpace` and start and goal poses;
+:func:`corridor_cells` finds the 8-connected shortest path over the cells where the footprint fits at
+some heading (the path-quality yardstick's search, :mod:`kbplanner.simulation.grid_yardstick`), keeps the
+free (x, y, yaw bin) cells within ``radius_m`` of it, and searches those breadth-first over face-adjacent
+cells (:func:`kbplanner.simulation.cell_path.bfs_cells`): a fraction of the volume the whole window's
+search visits. Every cell it returns is free, so the path is as certain as the whole window's; where
+the corridor holds none (the load must swing out further to turn), None, and the caller searches the
+whole window. Used by :func:`kbplanner.simulation.carry_paths.cells_first`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from kbplanner.simulation.cell_path import bfs_cells
+from kbplanner.simulation.grid_yardstick import shortest_cells
+from kbplanner.simulation.nav_path import Pose2D, wrap
+from kbplanner.world.footprint import ConfigurationSpace
+
+CORRIDOR_RADIUS_M = 0.5  # free cells this close to the grid's shortest path are searched
+
+
+def corridor_cells(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D,
+                   radius_m: float = CORRIDOR_RADIUS_M) -> list[Pose2D] | None:
+    """Cell centres (yaw at the bin centre) of a path through face-adjacent free cells within
+    ``radius_m`` of the grid's shortest path from start to goal, or None (no such path, or none there)."""
+    from scipy import ndimage
+
+    g = cs.grid
+    ny, nx = g.shape
+    ends = []
+    for p in (start, goal):
+        ix, iy = g.cell_of(p[0], p[1])
+        if not (0 <= ix < nx and 0 <= iy < ny):
+            return None
+        ends.append((cs.yaw_bin(p[2]), iy, ix))
+    if not (cs.free[ends[0]] and cs.free[ends[1]]):
+        return None
+    path = shortest_cells(cs, start, goal)
+    if path is None:
+        return None
+    off = np.ones(g.shape, dtype=bool)
+    ys, xs = zip(*path, strict=True)
+    off[list(ys), list(xs)] = False
+    near = ndimage.distance_transform_edt(off) <= radius_m / g.resolution
+    nodes = bfs_cells(cs.free & near[None, :, :], ends[0], ends[1])
+    if nodes is None:
+        return None
+    cell = np.asarray(np.unravel_index(np.asarray(nodes, dtype=np.int64), cs.free.shape), dtype=np.int64).T
+    res, (ox, oy), w = g.resolution, g.origin, cs.bin_width
+    return [(ox + (float(x) + 0.5) * res, oy + (float(y) + 0.5) * res, wrap(float(b) * w))
+            for b, y, x in cell.tolist()]
