@@ -176,8 +176,8 @@ def cells_first(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: N
         return None
     why = (f"not tried: a narrow passage, the load fits at under {settings.narrow_passage_deg:g} deg of "
            "headings on every way")
-    path = cell_route(cs, start, goal, cells, settings, t0, why)
-    return path if path.ok else None
+    path = cell_route(cs, start, goal, settings, t0, why, cells)
+    return path if path is not None and path.ok else None
 
 
 def plan_with_carry_modes(

@@ -129,23 +129,28 @@ def bfs_cells(free: npt.NDArray[np.bool_], src: tuple[int, int, int], dst: tuple
 
 
 def cell_route(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSettings, t0: float,
-               ompl_reason: str) -> NavPath | None:
-    """The path of :func:`face_path`, shortened by exact motion checks (OMPL found none in its budget);
-    None where no face-adjacent free cells join start and goal.
+               ompl_reason: str, cells: list[Pose2D] | None = None) -> NavPath | None:
+    """The path of :func:`face_path` (or of the given ``cells``, e.g. a corridor's), shortened by exact
+    motion checks (OMPL found none in its budget or was not tried); None where no face-adjacent free cells
+    join start and goal.
 
-    The path depends on the space, start, goal and base motion only, not on the seed: where the free
-    maps cannot change (read-only, those of the space cache) it is kept per space and query, so a leg
-    planned again with other seeds (:mod:`kbplanner.simulation.skills.navigation`) that again ends on the
-    cell path takes it without searching again.
+    Without ``cells`` the path depends on the space, start, goal and base motion only, not on the seed:
+    where the free maps cannot change (read-only, those of the space cache) it is kept per space and query,
+    so a leg planned again with other seeds (:mod:`kbplanner.simulation.skills.navigation`) that again ends
+    on the cell path takes it without searching again.
     """
-    key = (float(cs.grid.origin[0]), float(cs.grid.origin[1]), float(cs.grid.resolution),
-           tuple(start), tuple(goal), settings.base_motion, settings.allow_reverse)
-    kept = _kept_routes(cs)
-    got = kept.get(key) if kept is not None else None
-    if got is None:
-        got = _cell_poses(cs, start, goal, settings)
-        if kept is not None:
-            kept[key] = got
+    if cells is not None:
+        got: _CellPoses = _poses_of_cells(cs, start, goal, settings, cells)
+    else:
+        key = (float(cs.grid.origin[0]), float(cs.grid.origin[1]), float(cs.grid.resolution),
+               tuple(start), tuple(goal), settings.base_motion, settings.allow_reverse)
+        kept = _kept_routes(cs)
+        found = kept.get(key) if kept is not None else None
+        if found is None:
+            found = _cell_poses(cs, start, goal, settings)
+            if kept is not None:
+                kept[key] = found
+        got = found
     planner, name = settings.planner, cs.footprint.name
     if got == "none":
         return None
@@ -185,6 +190,12 @@ def _cell_poses(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: N
     cells = face_path(cs, start, goal)
     if cells is None:
         return "none"
+    return _poses_of_cells(cs, start, goal, settings, cells)
+
+
+def _poses_of_cells(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSettings,
+                    cells: list[Pose2D]) -> _CellPoses:
+    """The waypoints through ``cells`` shortened by exact motion checks (see :func:`_cell_poses`)."""
     motion = ExactMotion(cs)
     poses: list[Pose2D] = [(start[0], start[1], wrap(start[2])), *cells, (goal[0], goal[1], wrap(goal[2]))]
     if not motion.path_free(poses):
