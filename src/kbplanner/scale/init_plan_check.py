@@ -18,7 +18,10 @@ When an element installed before closes that way, it is named (``pickup way clos
 moves this element before it (:func:`kbplanner.scale.init_proposals.next_move`).
 
 Takes the staged project folder, the scenario name and the seed; gives a :class:`ScenarioCheck`
-(installable count, the order, each failing element with its reason and fix).
+(installable count, the order, each failing element with its reason and fix). Given ``beat`` (what the
+best proposal so far installs), the check is abandoned as soon as the proposal can no longer install more
+(B4's ``stop`` hook: the elements B4 failed so far leave at most ``beat`` installable); it is then marked
+``abandoned`` and is never kept.
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 
 import shapely
@@ -34,7 +38,8 @@ from kbplanner.model.project_data import ProjectData
 from kbplanner.planning.base_poses import PoseChecker, element_polygon, mark_polygon
 from kbplanner.planning.carry_reach import CarryReach
 from kbplanner.planning.feasibility import element_verdicts
-from kbplanner.planning.manipulation import KIND_RELEASE, refine_plan, robot_name
+from kbplanner.planning.install_order import installable
+from kbplanner.planning.manipulation import KIND_RELEASE, STOPPED, refine_plan, robot_name
 from kbplanner.planning.plan_model import Plan, Pose2, SkillCall
 from kbplanner.planning.planner import plan_task
 from kbplanner.planning.pose_frames import as_pose6_list, pose6_matrix
@@ -77,6 +82,7 @@ class ScenarioCheck:
     failures: list[Failure] = field(default_factory=list)
     note: str = ""  # why nothing was planned (no robot fits), else empty
     plan: Plan | None = None  # the plan refined by B4 (None: no robot fits)
+    abandoned: str = ""  # why B4 was stopped before the end (it could no longer beat the best), else empty
 
     @property
     def installable(self) -> int:
@@ -213,13 +219,22 @@ def pickup_blocker(reason: str) -> str | None:
     return reason[i + len(PICKUP_BLOCKER_MARK):].split(")", 1)[0].strip() or None
 
 
+def cannot_beat(beat: int, plan: Plan) -> bool:
+    """Whether a plan B4 has refined so far can no longer install more than ``beat`` elements: its
+    elements with an infeasible step (B4 never makes one feasible again) leave at most ``beat``."""
+    return installable(plan) <= beat
+
+
 def check_scenario(stage: Path, scenario: str, task: str, seed: int,
                    progress: Callable[[str, int, int], None] | None = None,
-                   loaded: tuple[ProjectData, World, OccupancyGrid] | None = None) -> ScenarioCheck:
+                   loaded: tuple[ProjectData, World, OccupancyGrid] | None = None,
+                   beat: int | None = None) -> ScenarioCheck:
     """Plan ``task`` of the project staged in ``stage`` under ``scenario`` as ``kbplanner plan`` does
     (B1-B4), plus the robot's way to each pickup location (module docstring). ``loaded``: the project
     as staged now, its world of ``task`` and the task storey's grid, when the caller has them (else
-    loaded here)."""
+    loaded here). ``beat``: the check is abandoned (``abandoned`` says when) as soon as B4 has failed so
+    many elements that at most ``beat`` are left installable (None: planned to the end); a check that
+    is not abandoned is the same as without ``beat``."""
     if loaded is None:
         data = ProjectData.load(stage, scenario=scenario)
         world = world_of(data, task_id=task)
@@ -233,9 +248,18 @@ def check_scenario(stage: Path, scenario: str, task: str, seed: int,
         check.failures = [Failure(e.iri, e.label, check.note, "see `kbplanner robots`")
                           for e in plan.elements]
         return check
-    refined = refine_plan(plan, world, seed=seed, grid=grid, progress=progress)
+    refined = refine_plan(plan, world, seed=seed, grid=grid, progress=progress,
+                          stop=None if beat is None else partial(cannot_beat, beat))
     check.plan = refined
     check.order = [e.iri for e in refined.elements]
+    if refined.notes and refined.notes[-1].startswith(STOPPED):
+        check.failures = [Failure(v.iri, v.label, f"step {v.step} ({v.skill_id} {v.action}): {v.reason}",
+                                  v.fix or "") for v in element_verdicts(refined) if not v.feasible]
+        check.abandoned = (f"abandoned after {refined.notes[-1].removeprefix(STOPPED)}: "
+                           f"{len(check.failures)} cannot be installed, so at most {check.installable} "
+                           f"of {check.total} can (the best so far installs {beat})")
+        log.info("init: scenario %s %s", scenario, check.abandoned)
+        return check
     start = refined.robot_start
     if start is None and world.robot_start is not None:
         start = Pose2(world.robot_start.x, world.robot_start.y, world.robot_start.yaw)
