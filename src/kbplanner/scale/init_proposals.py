@@ -229,6 +229,7 @@ def propose(
         got = check_scenario(stage, place.key, site.FRAME_TASK, seed, partial(_tell, say, place.key, k),
                              (data, world, grid_k), beat=_beat(best))
         if got.abandoned:  # it cannot install more than the best: neither kept nor laid again
+            say(f"{place.key} proposal {k + 1}: {got.abandoned}")
             lines.append(_summary(k, spots, f"plan {got.abandoned}{_failing(got)}"))
             continue
         lines.append(_summary(k, spots, f"plan installs {got.installable} of {got.total}{_failing(got)}"))

@@ -1,0 +1,136 @@
+"""``kbplanner init`` before/after B4's stop hook (issue 10): wall and CPU seconds, same proposals kept.
+
+Runs ``kbplanner init IFC --task frame-interior-walls --out P`` (the CLI, with the plan check, in a child
+process: wall seconds and the CPU seconds of its process tree, :func:`_common.run_measured`) on the code of
+a git ref (``--before``, exported with ``git archive``) and on this tree, one after the other, per model:
+the fixtures of ``tests/`` chosen with ``--fixtures`` (indices of ``benchmarks/init_models.py``'s list;
+default 4 and 7, the split level and the geometry kinds, whose first placements do not install every
+frame) and the Duplex with ``--duplex``. Compares the written projects: every file equal but the comment
+lines of the scenarios (which list each proposal tried, and now which were abandoned) means the same
+proposals kept, in the same order; prints per model the seconds, what each scenario's plan installs, and
+the proposals abandoned, and writes ``benchmarks/results/init_stop.json``.
+
+    .venv/bin/python benchmarks/init_stop.py [--before main] [--fixtures 4,7] [--duplex]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from _common import REPO, RESULTS_DIR, machine_info, run_measured, write_json
+
+RESULTS = RESULTS_DIR / "init_stop.json"
+DUPLEX = REPO.parent / "shared" / "data" / "ifc" / "Duplex_A_20110907.ifc"
+
+
+def _export(ref: str, into: Path) -> tuple[Path, str]:
+    sha = subprocess.run(["git", "-C", str(REPO), "rev-parse", "--short", ref], check=True,
+                         capture_output=True, text=True).stdout.strip()
+    archive = subprocess.run(["git", "-C", str(REPO), "archive", ref], check=True, capture_output=True).stdout
+    into.mkdir(parents=True)
+    subprocess.run(["tar", "-x", "-C", str(into)], input=archive, check=True)
+    return into / "src", sha
+
+
+def _files(project: Path) -> dict[str, list[str]]:
+    """Relative path -> lines, the comment lines of the scenario files left out."""
+    out = {}
+    for p in sorted(project.rglob("*")):
+        if not p.is_file() or ".kbplanner-cache" in p.parts:
+            continue
+        rel = str(p.relative_to(project))
+        try:
+            lines = p.read_text(encoding="utf-8").splitlines()
+        except UnicodeDecodeError:
+            lines = [p.read_bytes().hex()]
+        if rel.startswith("scenarios/"):
+            lines = [line for line in lines if not line.startswith("#")]
+        out[rel] = lines
+    return out
+
+
+def _comments(project: Path) -> dict[str, list[str]]:
+    return {p.name: [line[2:] for line in p.read_text(encoding="utf-8").splitlines()
+                     if line.startswith("# proposal ") or line.startswith("# the kept proposal")]
+            for p in sorted((project / "scenarios").glob("*.ttl"))}
+
+
+def _init(src: Path, ifc: Path, out: Path, log: Path) -> dict[str, Any]:
+    env = dict(os.environ, PYTHONPATH=str(src))
+    cmd = [sys.executable, "-m", "kbplanner", "init", str(ifc), "--task", "frame-interior-walls",
+           "--out", str(out)]
+    measured = run_measured(cmd, log=log, timeout_s=7200.0, env=env)
+    text = log.read_text(encoding="utf-8", errors="replace")
+    measured["plans"] = dict(re.findall(r"scenario (storage-\w+): \d+ frame storage\(s\); plan \(B1-B4\): "
+                                        r"(\d+ of \d+)", text))
+    measured["traceback"] = "Traceback (most recent call last)" in text
+    measured["tried"] = _comments(out) if (out / "scenarios").is_dir() else {}
+    return measured
+
+
+def bench(label: str, ifc: Path, before_src: Path, tmp: Path) -> dict[str, Any]:
+    row: dict[str, Any] = {"model": label}
+    projects = {}
+    for which, src in (("before", before_src), ("after", REPO / "src")):
+        folder = tmp / which / ifc.stem
+        folder.mkdir(parents=True)
+        projects[which] = folder / "p"  # the same name in both: files may name the project
+        row[which] = _init(src, ifc, projects[which], folder / "init.log")
+        r = row[which]
+        print(f"{label} {which}: exit {r['exit']}, {r['seconds']:.0f} s wall, {r['cpu_s']:.0f} s CPU, plans "
+              f"{r['plans']}", flush=True)
+    a, b = _files(projects["after"]), _files(projects["before"])
+    row["same_files"] = a == b
+    row["differing"] = sorted(k for k in set(a) | set(b) if a.get(k) != b.get(k))
+    row["abandoned"] = sum(line.count("abandoned after") for lines in row["after"]["tried"].values()
+                           for line in lines)
+    print(f"{label}: same files but the scenarios' comments: {row['same_files']} {row['differing']}; "
+          f"{row['abandoned']} check(s) abandoned; wall {row['before']['seconds']:.0f} -> "
+          f"{row['after']['seconds']:.0f} s, CPU {row['before']['cpu_s']:.0f} -> "
+          f"{row['after']['cpu_s']:.0f} s", flush=True)
+    for name, lines in row["after"]["tried"].items():
+        for line in lines:
+            print(f"    {name}: {line}")
+    return row
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--before", default="main", help="git ref of the baseline (default main)")
+    ap.add_argument("--fixtures", default="4,7",
+                    help="indices of benchmarks/init_models.py's fixtures (default 4,7); '' for none")
+    ap.add_argument("--duplex", action="store_true", help=f"also the Duplex ({DUPLEX})")
+    ap.add_argument("--results", type=Path, default=RESULTS, help=f"the JSON (default {RESULTS})")
+    args = ap.parse_args()
+    sys.path.insert(0, str(REPO / "benchmarks"))
+    from init_models import fixtures
+
+    load = [os.getloadavg()[0]]
+    rows: list[dict[str, Any]] = []
+    with tempfile.TemporaryDirectory() as tmp_name:
+        tmp = Path(tmp_name)
+        before_src, sha = _export(args.before, tmp / "before-tree")
+        models: list[tuple[str, Path]] = []
+        if args.fixtures:
+            wanted = {int(i) for i in args.fixtures.split(",")}
+            models += [(label, path) for i, (label, path, _walls) in enumerate(fixtures(tmp / "fixtures"))
+                       if i in wanted]
+        if args.duplex:
+            models.append(("Duplex_A_20110907.ifc", DUPLEX))
+        for label, ifc in models:
+            rows.append(bench(label, ifc, before_src, tmp))
+            load.append(os.getloadavg()[0])
+            write_json(args.results, {"before": f"{args.before} ({sha})", "machine": machine_info(),
+                                      "load_average_1min": load, "models": rows})
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
