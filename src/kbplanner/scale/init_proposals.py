@@ -38,6 +38,7 @@ from kbplanner.model.project_data import ProjectData
 from kbplanner.planning.install_order import blocked_move, move_before
 from kbplanner.planning.pose_search import RefineSettings
 from kbplanner.scale import init_site as site
+from kbplanner.scale.init_floor import with_floor
 from kbplanner.scale.init_ifc import FrameRecord
 from kbplanner.scale.init_plan_check import Failure, ScenarioCheck, check_scenario, pickup_blocker
 from kbplanner.scale.init_storage import ENTRANCE_KEEP, Spot, place_storages
@@ -278,6 +279,9 @@ def propose(
     path.write_text(site.scenario(base, place.key, place.label, storages, order or None, note),
                     encoding="utf-8")
     write_toml(place.key, rel)
+    if any(UNBOUND in f.reason for f in got.failures):  # what takes the floor there, on the kept world
+        world = world_of(ProjectData.load(stage, scenario=place.key), task_id=site.FRAME_TASK)
+        got = replace(got, failures=with_floor(world, storey_map(world), got.failures, UNBOUND))
     return Proposal(storages, got, lines)
 
 
