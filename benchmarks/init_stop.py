@@ -32,6 +32,7 @@ from _common import REPO, RESULTS_DIR, machine_info, run_measured, write_json
 
 RESULTS = RESULTS_DIR / "init_stop.json"
 BEGIN, END = "<!-- init-stop:begin -->", "<!-- init-stop:end -->"
+MARKER = ".kbplanner-run"  # the output folder's marker: the command, which names the folder (not compared)
 DUPLEX = REPO.parent / "shared" / "data" / "ifc" / "Duplex_A_20110907.ifc"
 
 
@@ -45,10 +46,11 @@ def _export(ref: str, into: Path) -> tuple[Path, str]:
 
 
 def _files(project: Path) -> dict[str, list[str]]:
-    """Relative path -> lines, the comment lines of the scenario files left out."""
+    """Relative path -> lines, the comment lines of the scenario files left out (and the folder's
+    :data:`MARKER`)."""
     out = {}
     for p in sorted(project.rglob("*")):
-        if not p.is_file() or ".kbplanner-cache" in p.parts:
+        if not p.is_file() or ".kbplanner-cache" in p.parts or p.name == MARKER:
             continue
         rel = str(p.relative_to(project))
         try:
@@ -118,7 +120,8 @@ def render(result: dict[str, Any]) -> str:
     for r in result["models"]:
         b, a = r["before"], r["after"]
         plans = ", ".join(f"{k.removeprefix('storage-')} {v}" for k, v in a["plans"].items()) or "-"
-        same = "yes" if r["same_files"] else "no: " + ", ".join(r["differing"])
+        differing = [d for d in r["differing"] if d != MARKER]
+        same = "no: " + ", ".join(differing) if differing else "yes"
         lines.append(f"| {r['model']} | {b['seconds']:.0f} / {a['seconds']:.0f} s | {b['cpu_s']:.0f} / "
                      f"{a['cpu_s']:.0f} s ({a['cpu_s'] / b['cpu_s']:.2f}x) | {plans} | {r['abandoned']} | "
                      f"{same} |")
