@@ -57,9 +57,13 @@ def floor_around(world: World, storey_map: StoreyMap, x: float, y: float) -> str
     for o in world.site_objects:  # storages, site offices, no-go zones: what the map holds
         if not (o.obstructs or o.is_no_go):
             continue
-        d = max(0.0, math.hypot(o.pose.x - x, o.pose.y - y) - math.hypot(o.size[0], o.size[1]) / 2)
+        c, s = math.cos(o.pose.yaw), math.sin(o.pose.yaw)
+        hx, hy = o.size[0] / 2, o.size[1] / 2
+        corners = [(o.pose.x + c * u - s * v, o.pose.y + s * u + c * v)
+                   for u, v in ((-hx, -hy), (hx, -hy), (hx, hy), (-hx, hy))]
+        d = float(shapely.Polygon(corners).distance(here))
         if d <= NEAR_M:
-            found.append((d, f"{o.label} ({o.kind}) about {d:.2f} m away"))
+            found.append((d, f"{o.label} ({o.kind}) {d:.2f} m away"))
     found.sort()
     named = ", ".join(text for _d, text in found[:NAMED]) or "no element or site object"
     share = 100.0 * occupied / cells if cells else 100.0
