@@ -7,6 +7,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 from ifc_traits import write_traits
 from kbplanner.cli import main
 from kbplanner.model.project_data import ProjectData
@@ -18,6 +20,7 @@ from kbplanner.world.build import world_of
 from kbplanner.world.maps import storey_map
 
 
+@pytest.mark.slow  # init and a world: about 35 s on a busy machine
 def test_the_corner_frame_of_the_split_level_names_the_raised_floor_and_the_wall(tmp_path: Path) -> None:
     ifc = tmp_path / "split.ifc"
     write_traits(ifc)
