@@ -221,3 +221,23 @@ def test_the_split_levels_way_back_to_the_pickup_is_judged_as_simulate_drives_it
     on_the_way = [iri for iri, why in failed.items() if "navigate to frame pickup location" in why]
     assert on_the_way  # measured: F004 and F006, after three panels stand
     assert all("navigate to the pickup location" in f.reason for f in check.failures if f.iri in on_the_way)
+
+
+def test_the_bound_counts_a_closed_way_back_to_the_pickup_as_a_failure() -> None:
+    """init's stop for B4 (scale/init_plan_check.Bound): after E1, both can still be installed; after
+    E2, whose way back E1 closes, only one can: a proposal that must install more than one is
+    abandoned there, with the reason the check after B4 would give."""
+    from kbplanner.scale.init_plan_check import Bound
+
+    occ = np.zeros((120, 200), dtype=bool)
+    occ[:, 100] = True
+    occ[46:74, 100] = False
+    grid = OccupancyGrid(occ, origin=(0.0, 0.0), resolution=0.05)
+    plan = _two_elements((8.0, 3.0), (3.5, 3.0))
+    panel = shapely.box(4.8, 2.2, 5.2, 3.8)
+    start = Pose2(7.0, 1.0, 0.0)
+    bound = Bound(1, plan, grid, start, lambda _p, iri: panel if iri == "urn:E" else None)
+    assert bound(plan) is False  # after E1: 2 may be installed
+    assert bound(plan) is True  # after E2: 1
+    assert bound.unreached == unreached_pickups(plan, grid, start, {"urn:E": panel})
+    assert Bound(0, plan, grid, start, lambda _p, _i: None)(plan) is False  # 0 can always be beaten

@@ -358,6 +358,10 @@ def robot_name(plan: Plan) -> str:
     return plan.robot_id.replace("-", "_")
 
 
+#: The start of the note of a plan whose B4 the caller's ``stop`` ended (:func:`refine_plan`).
+STOPPED = "B4 stopped by the caller after "
+
+
 def refine_plan(
     plan: Plan,
     world: World,
@@ -367,6 +371,7 @@ def refine_plan(
     settings: RefineSettings | None = None,
     progress: Callable[[str, int, int], None] | None = None,
     reorder: bool = True,
+    stop: Callable[[Plan], bool] | None = None,
 ) -> Plan:
     """B4: a copy of ``plan`` with base and arm poses for every step (see module docstring).
 
@@ -376,6 +381,11 @@ def refine_plan(
     and B4 runs again (:mod:`kbplanner.planning.install_order`; kept when more elements become
     installable, and said in ``order_rule`` and the notes).
 
+    ``stop(plan)`` (default: never) is asked after each element of the first pass with the copy refined
+    so far (the elements not reached yet keep their B1-B3 steps); when it answers True, B4 ends there and
+    returns that copy, without the order feedback, its last note starting with :data:`STOPPED` (a caller
+    abandons a plan that can no longer beat another: ``kbplanner init``'s storage proposals).
+
     Raises:
         InputFileError: the plan names a robot whose URDF cannot be loaded.
     """
@@ -383,8 +393,8 @@ def refine_plan(
         from kbplanner.world.maps import storey_map
 
         grid = storey_map(world).grid
-    out = _refine_once(plan, world, seed=seed, grid=grid, settings=settings, progress=progress)
-    if not reorder or not out.robot_id or grid is None:
+    out = _refine_once(plan, world, seed=seed, grid=grid, settings=settings, progress=progress, stop=stop)
+    if not reorder or not out.robot_id or grid is None or (out.notes and out.notes[-1].startswith(STOPPED)):
         return out
     used = settings or RefineSettings()
     current = plan
@@ -424,8 +434,9 @@ def _refine_once(
     grid: OccupancyGrid | None,
     settings: RefineSettings | None,
     progress: Callable[[str, int, int], None] | None,
+    stop: Callable[[Plan], bool] | None = None,
 ) -> Plan:
-    """B4 once, in the plan's order."""
+    """B4 once, in the plan's order (until ``stop`` answers True: :func:`refine_plan`)."""
     out = copy.deepcopy(plan)
     if not out.robot_id:
         out.notes.append("B4 not run: no robot selected")
@@ -438,6 +449,7 @@ def _refine_once(
     robot = RobotModel.load(robot_name(out))
     robot.floor_z = float(out.storey_elevation_m)  # the robot works on the task's storey
     fallbacks = 0
+    stopped = ""
     try:
         if robot.spec.arm is None:
             for s in out.steps:
@@ -451,6 +463,9 @@ def _refine_once(
             refiner.element(iri)
             if progress is not None:
                 progress(iri, n, len(order))
+            if stop is not None and stop(out):
+                stopped = f"{STOPPED}{n} of {len(order)} elements"
+                break
         fallbacks = refiner.fallbacks
     finally:
         robot.close()
@@ -458,4 +473,6 @@ def _refine_once(
     again = (f"; {fallbacks} element(s) tried again with the {used.fallback_ik_method} IK"
              if fallbacks else "")
     out.notes.append(f"B4: arm and base poses by the {used.ik_method} IK (seed {seed}){again}")
+    if stopped:
+        out.notes.append(stopped)
     return out

@@ -38,6 +38,7 @@ from kbplanner.model.project_data import ProjectData
 from kbplanner.planning.install_order import blocked_move, move_before
 from kbplanner.planning.pose_search import RefineSettings
 from kbplanner.scale import init_site as site
+from kbplanner.scale.init_floor import with_floor
 from kbplanner.scale.init_ifc import FrameRecord
 from kbplanner.scale.init_plan_check import Failure, ScenarioCheck, check_scenario, pickup_blocker
 from kbplanner.scale.init_storage import ENTRANCE_KEEP, Spot, place_storages
@@ -150,6 +151,17 @@ def _step(reason: str) -> str:
     return "the way to the pickup" if "pickup" in reason.split(":", 1)[0] else reason.split(":", 1)[0]
 
 
+def _beat(best: tuple[list[site.Storage], ScenarioCheck | None] | None) -> int | None:
+    """What a next proposal must install more than to be kept: the best's installable count (None: no
+    checked proposal yet, so the check runs to the end)."""
+    return None if best is None or best[1] is None else best[1].installable
+
+
+def _outcome(got: ScenarioCheck) -> str:
+    """``installs 12 of 14``, or why its B4 was abandoned."""
+    return got.abandoned or f"installs {got.installable} of {got.total}"
+
+
 def _summary(k: int, spots: Sequence[Spot], what: str) -> str:
     where = ", ".join(f"({s.x:.2f}, {s.y:.2f})" for s in spots)
     return f"proposal {k + 1} (storages at {where}): {what}"
@@ -216,7 +228,11 @@ def propose(
             break
         say(f"planning {place.key} (proposal {k + 1}) as `kbplanner plan` does (B1-B4)")
         got = check_scenario(stage, place.key, site.FRAME_TASK, seed, partial(_tell, say, place.key, k),
-                             (data, world, grid_k))
+                             (data, world, grid_k), beat=_beat(best))
+        if got.abandoned:  # it cannot install more than the best: neither kept nor laid again
+            say(f"{place.key} proposal {k + 1}: {got.abandoned}")
+            lines.append(_summary(k, spots, f"plan {got.abandoned}{_failing(got)}"))
+            continue
         lines.append(_summary(k, spots, f"plan installs {got.installable} of {got.total}{_failing(got)}"))
         if best is None or best[1] is None or got.installable > best[1].installable:
             best = (storages, got)
@@ -246,10 +262,9 @@ def propose(
         # checked again would plan the same
         path.write_text(site.scenario(base, place.key, place.label, storages), encoding="utf-8")
         say(f"planning {place.key} again in the stack-by-stack order")
-        other = check_scenario(stage, place.key, site.FRAME_TASK, seed)
-        lines.append(f"the kept proposal in the stack-by-stack order: plan installs {other.installable} of "
-                     f"{other.total}{_failing(other)}" + ("" if other.installable > kept.installable else
-                                                          ", not kept"))
+        other = check_scenario(stage, place.key, site.FRAME_TASK, seed, beat=kept.installable)
+        lines.append(f"the kept proposal in the stack-by-stack order: plan {_outcome(other)}{_failing(other)}"
+                     + ("" if other.installable > kept.installable else ", not kept"))
         if other.installable > kept.installable:
             kept = other
     if kept.failures and storages is not restacked_best:  # the stacks laid again for the elements
@@ -264,6 +279,9 @@ def propose(
     path.write_text(site.scenario(base, place.key, place.label, storages, order or None, note),
                     encoding="utf-8")
     write_toml(place.key, rel)
+    if any(UNBOUND in f.reason for f in got.failures):  # what takes the floor there, on the kept world
+        world = world_of(ProjectData.load(stage, scenario=place.key), task_id=site.FRAME_TASK)
+        got = replace(got, failures=with_floor(world, storey_map(world), got.failures, UNBOUND))
     return Proposal(storages, got, lines)
 
 
@@ -309,11 +327,11 @@ def _restack(stage: Path, base: str, place: Place, storages: list[site.Storage],
         again = restacked(storages, order)
         path.write_text(site.scenario(base, place.key, place.label, again, order), encoding="utf-8")
         say(f"planning {place.key} again with {move[0].rsplit('/', 1)[-1]} laid higher (round {n + 1})")
-        new = check_scenario(stage, place.key, site.FRAME_TASK, seed)
+        new = check_scenario(stage, place.key, site.FRAME_TASK, seed, beat=got.installable)
         labels = {e.iri: e.label for e in got.plan.elements}
         what.append(f"the kept proposal with {labels.get(move[0], move[0])} installed before "
-                    f"{labels.get(move[1], move[1])} (laid higher in its stack): plan installs "
-                    f"{new.installable} of {new.total}{_failing(new)}"
+                    f"{labels.get(move[1], move[1])} (laid higher in its stack): plan {_outcome(new)}"
+                    f"{_failing(new)}"
                     + ("" if new.installable > got.installable else ", not kept"))
         if new.installable > got.installable:
             storages, got = again, new
