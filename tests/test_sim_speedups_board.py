@@ -78,7 +78,9 @@ def test_board_legs_not_retried_after_a_cell_path_drive_the_same_on_the_case_stu
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """``ExecSettings.detour_retry_cell_paths`` False (a behaviour change, off by default) skips the seed
     retries of detour legs that ended on the cell path: fewer planning queries, and on the case study's
-    board task outside (seed 7) the same outputs, for no retry there drove quicker."""
+    board task outside (seed 7) the same outputs, for no retry there drove quicker. With the carry legs'
+    cell route first (``carry_cells_first``, the default) those legs no longer try RRTConnect at all, so
+    the retries are looked at with it off, where they still happen."""
     from kbplanner.planning.manipulation import refine_plan
     from kbplanner.planning.planner import plan_task
     from kbplanner.project import Project
@@ -107,7 +109,8 @@ def test_board_legs_not_retried_after_a_cell_path_drive_the_same_on_the_case_stu
         queries = 0
         out = tmp_path / f"retry-{retry}"
         result = simulate(project, plan, seed=7, out_dir=out, world=world, grid=grid,
-                          settings=ExecSettings(keyframes=False, detour_retry_cell_paths=retry))
+                          settings=ExecSettings(keyframes=False, carry_cells_first=False,
+                                                detour_retry_cell_paths=retry))
         assert [e.outcome for e in result.elements] == [INSTALLED] * 5
         counts.append(queries)
         outputs.append([(out / f).read_bytes() for f in ("trajectories.csv", "events.jsonl", "metrics.json")])
