@@ -38,7 +38,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument(
         "--task",
         default="frame-interior-walls",
-        help=f"task type ({', '.join(TASK_TYPES)}) or a task specification id of that kind "
+        help="task type (" + ", ".join(TASK_TYPES) + ") or a task specification id of that kind "
         "(default frame-interior-walls)",
     )
     p.add_argument(

@@ -220,12 +220,14 @@ def scenario(base: str, name: str, label: str, storages: Sequence[Storage],
     if sequence is None:
         sequence = [r.global_id for s in storages for r in s.panels]
         lines = [
-            f"# Work sequence of {FRAME_TASK}: stack by stack (the walls farthest from the entrance first),",
+            "# Work sequence of " + FRAME_TASK + ": stack by stack"
+            " (the walls farthest from the entrance first),",
             "# in a stack the panel farthest from its pickup first (the first installed lies on top).",
         ]
     else:
         lines = [
-            f"# Work sequence of {FRAME_TASK}: the order `kbplanner plan` (B4) found for these stacks; in a",
+            "# Work sequence of " + FRAME_TASK + ": the order `kbplanner plan` (B4)"
+            " found for these stacks; in a",
             "# stack the first installed lies on top.",
         ]
     labels = {r.global_id: r.panel_id for s in storages for r in s.panels}
