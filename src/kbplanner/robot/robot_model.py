@@ -112,6 +112,11 @@ class RobotModel:
         # pose's bytes (signed zeros told apart) and the base frame's (x, y, yaw) computed from it
         self._inv_com = p.invertTransform(self._com_pos, self._com_orn)
         self._base_read: tuple[bytes, tuple[float, float, float]] | None = None
+        # kinematic: nothing but set_base_pose moves the base (no physics step in the client, e.g. the
+        # simulation environment, which calls forget_base() when it steps): the last pose read stands
+        # until the next set_base_pose, without asking PyBullet again
+        self.kinematic = False
+        self._base_fresh = False
 
     @classmethod
     def load(
@@ -177,23 +182,33 @@ class RobotModel:
         pos, orn = p.multiplyTransforms((x, y, z), p.getQuaternionFromEuler((0.0, 0.0, yaw)),
                                         self._com_pos, self._com_orn)
         p.resetBasePositionAndOrientation(self.body, pos, orn, physicsClientId=self.client)
+        self._base_fresh = False
+
+    def forget_base(self) -> None:
+        """The base may have moved other than by :meth:`set_base_pose` (physics stepped): read it again."""
+        self._base_fresh = False
 
     def base_pose(self) -> tuple[float, float, float]:
         """(x, y, yaw) of the base frame in the site frame.
 
         (Computed again only when PyBullet's pose of the body differs, bit for bit, from the last one
-        read: the same numbers, a fraction of the calls.)"""
+        read: the same numbers, a fraction of the calls; for a :attr:`kinematic` robot not even read
+        again until the base is set.)"""
         import pybullet as p
 
+        if self._base_fresh and self._base_read is not None:
+            return self._base_read[1]
         com_pos, com_orn = p.getBasePositionAndOrientation(self.body, physicsClientId=self.client)
         key = struct.pack("7d", *com_pos, *com_orn)
         if self._base_read is not None and self._base_read[0] == key:
+            self._base_fresh = self.kinematic
             return self._base_read[1]
         pos, orn = p.multiplyTransforms(com_pos, com_orn, self._inv_com[0], self._inv_com[1])
         orn = (float(orn[0]), float(orn[1]), float(orn[2]), float(orn[3]))
         yaw = p.getEulerFromQuaternion(orn)[2]
         out = (float(pos[0]), float(pos[1]), float(yaw))
         self._base_read = (key, out)
+        self._base_fresh = self.kinematic
         return out
 
     # --- arm ----------------------------------------------------------------------------------

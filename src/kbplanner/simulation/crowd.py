@@ -36,10 +36,11 @@ import numpy.typing as npt
 
 from kbplanner.simulation.separation import WORKER_RADIUS_M, reach_m, rects_distance
 from kbplanner.simulation.social_force import (
+    SMALL_CROWD,
     Obstacle,
     SocialForceParams,
     accelerations,
-    cap_speed,
+    accelerations_of,
     constants_of,
 )
 from kbplanner.simulation.walk_checks import (
@@ -155,6 +156,8 @@ class Crowd:
         self._active = np.ones(len(self.agents), dtype=bool)
         self._k = constants_of(self._params)
         self._vmax = self._v0 * self._k["vmax_factor"]  # cap_speed's limits: the same product
+        self._vmax_list: list[float] = self._vmax.tolist()
+        self._walk = free_cell_check(self.router.free, self.router.grid)  # the walking map is fixed
         self._active.flags.writeable = False
         self._one_delay = len(self._masks) == 1 and bool(self._masks[0].all())
         self._no_detour: dict[int, tuple[bytes, tuple[object, ...]]] = {}  # detours looked for in vain
@@ -164,7 +167,11 @@ class Crowd:
 
     # ---- route following ---------------------------------------------------------------------------
     def _desired(self) -> FloatArray:
-        """The desired velocity (n, 2) of every worker: along their route, or back to their anchor.
+        """The desired velocity (n, 2) of every worker: along their route, or back to their anchor."""
+        return np.array(self._desired_rows(), dtype=np.float64).reshape(-1, 2)
+
+    def _desired_rows(self) -> list[tuple[float, float]]:
+        """:meth:`_desired` as (x, y) float pairs.
 
         (In plain floats: the same subtractions, divisions and products as on numpy rows, ``math.hypot``
         where the former code took it and ``np.hypot`` where it did, so the numbers are identical.)"""
@@ -208,7 +215,7 @@ class Crowd:
                 rows.append((dx / d * f, dy / d * f))
             else:
                 rows.append((0.0, 0.0))
-        return np.array(rows, dtype=np.float64).reshape(-1, 2)
+        return rows
 
     def _way_target(self, a: _Agent, p: FloatArray) -> FloatArray:
         """Where a waiting worker heads for: their anchor, along a walking path (the router's) when it is
@@ -251,57 +258,90 @@ class Crowd:
 
     # ---- stepping ----------------------------------------------------------------------------------
     def step(self, robot: Obstacle | None) -> None:
-        """Advance one control period with the robot where it is now (workers see it with a delay)."""
+        """Advance one control period with the robot where it is now (workers see it with a delay).
+
+        (On plain floats: the same additions, products and divisions as the former numpy rows, numpy's
+        ``hypot`` and ``arctan2`` on whole arrays where it took them, so the numbers are identical.)"""
         self._history.append(robot)
         self._release(robot)
         if robot is not None:
             self._detours(robot)
-        desired = self._desired()
-        params = self._params
-        v0 = self._v0
-        active = self._active
+        rows = self._desired_rows()
+        n = len(self.agents)
+        pos = self.pos.tolist()
+        vel0 = self.vel.tolist()
+        xs, ys = [p[0] for p in pos], [p[1] for p in pos]
+        vxs, vys = [v[0] for v in vel0], [v[1] for v in vel0]
+        on = [True] * n
         if len(self._delays) == 1 and self._one_delay:  # everyone sees the robot with the same delay
             idx = len(self._history) - 1 - self._delays[0]
-            acc = accelerations(self.pos, self.vel, desired, params, self._history[max(idx, 0)], active,
-                                constants=self._k)
+            ax, ay = self._accelerations(xs, ys, vxs, vys, rows, self._history[max(idx, 0)], on)
         else:
-            acc = np.zeros_like(self.pos)
+            ax, ay = [0.0] * n, [0.0] * n
             for delay, mask in zip(self._delays, self._masks, strict=True):
                 idx = len(self._history) - 1 - delay
                 seen = self._history[max(idx, 0)]
                 if mask.any():
-                    a_all = accelerations(self.pos, self.vel, desired, params, seen, active,
-                                          constants=self._k)
-                    acc[mask] = a_all[mask]
-        vel = cap_speed(self.vel + acc * self.dt, v0, params, vmax=self._vmax)
-        new = self.pos + vel * self.dt
+                    bx, by = self._accelerations(xs, ys, vxs, vys, rows, seen, on)
+                    for i in np.flatnonzero(mask).tolist():
+                        ax[i], ay[i] = bx[i], by[i]
+        dt = self.dt
+        # cap_speed: limited to vmax (the same products and quotient)
+        ux = [vxs[i] + ax[i] * dt for i in range(n)]
+        uy = [vys[i] + ay[i] * dt for i in range(n)]
+        sp = _hypot(np.array(ux, dtype=np.float64), np.array(uy, dtype=np.float64)).tolist() if n else []
+        vmax = self._vmax_list
+        for i in range(n):
+            f = vmax[i] / max(sp[i], 1e-12) if sp[i] > vmax[i] else 1.0
+            ux[i], uy[i] = ux[i] * f, uy[i] * f
         near_m = WORKER_RADIUS_M + CONTACT_MARGIN_M + 1e-6  # maybe_within's bound
         reach = reach_m(robot.rects) if robot is not None else 0.0
         rx, ry = (robot.pose[0], robot.pose[1]) if robot is not None else (0.0, 0.0)
-        walk = free_cell_check(self.router.free, self.router.grid)
-        dt = self.dt
-        for i, ((ox, oy), (qx, qy)) in enumerate(zip(self.pos.tolist(), new.tolist(), strict=True)):
+        walk = self._walk
+        nxs: list[float] = []
+        nys: list[float] = []
+        for i in range(n):
+            ox, oy, vx, vy = xs[i], ys[i], ux[i], uy[i]
+            qx, qy = ox + vx * dt, oy + vy * dt
             if robot is not None and math.hypot(qx - rx, qy - ry) - reach <= near_m:
-                new[i], vel[i] = self._constrain(self.pos[i], new[i], vel[i], robot)
+                q, v = self._constrain(np.array([ox, oy]), np.array([qx, qy]), np.array([vx, vy]), robot)
+                (qx, qy), (vx, vy) = q.tolist(), v.tolist()
             elif walk is not None and not walk(qx, qy) and walk(ox, oy):
                 # certainly clear of the robot, out of the walkable cells: :meth:`_constrain`'s wall
                 # rule in plain floats (the same numbers): slide along one axis, else stay
                 if walk(qx, oy):
-                    new[i], vel[i] = (qx, oy), ((qx - ox) / dt, (oy - oy) / dt)
+                    qx, qy, vx, vy = qx, oy, (qx - ox) / dt, (oy - oy) / dt
                 elif walk(ox, qy):
-                    new[i], vel[i] = (ox, qy), ((ox - ox) / dt, (qy - oy) / dt)
+                    qx, qy, vx, vy = ox, qy, (ox - ox) / dt, (qy - oy) / dt
                 else:
-                    new[i], vel[i] = (ox, oy), (0.0, 0.0)
+                    qx, qy, vx, vy = ox, oy, 0.0, 0.0
             a = self.agents[i]
-            if a.making_way and desired[i].any() and (not vel[i].any() or a.way_slow_s >= STUCK_S):
+            dx, dy = rows[i]
+            if a.making_way and (dx != 0 or dy != 0) and ((vx == 0 and vy == 0) or a.way_slow_s >= STUCK_S):
                 # pinned (the robot's push against a wall) or held in place by its push for STUCK_S: making
                 # way, the worker walks the way they want (still never into the robot or a wall)
-                new[i], vel[i] = self._constrain(self.pos[i], self.pos[i] + desired[i] * self.dt, desired[i],
-                                                 robot)
+                old, want = np.array([ox, oy]), np.array([dx, dy])
+                q, v = self._constrain(old, old + want * dt, want, robot)
+                (qx, qy), (vx, vy) = q.tolist(), v.tolist()
+            nxs.append(qx)
+            nys.append(qy)
+            ux[i], uy[i] = vx, vy
+        vel = np.array([ux, uy], dtype=np.float64).T.reshape(n, 2)
         moving = np.hypot(vel[:, 0], vel[:, 1]) > 0.05
-        self.heading = np.where(moving, np.arctan2(vel[:, 1], vel[:, 0]), self.heading)
-        self.pos, self.vel = new, vel
+        if moving.any():
+            self.heading = np.where(moving, np.arctan2(vel[:, 1], vel[:, 0]), self.heading)
+        self.pos, self.vel = np.array([nxs, nys], dtype=np.float64).T.reshape(n, 2), vel
         self.t += self.dt
+
+    def _accelerations(self, xs: list[float], ys: list[float], vxs: list[float], vys: list[float],
+                       rows: list[tuple[float, float]], seen: Obstacle | None, on: list[bool]
+                       ) -> tuple[list[float], list[float]]:
+        """The social-force accelerations (:func:`accelerations`), on plain floats for a few workers."""
+        if len(xs) <= SMALL_CROWD:
+            return accelerations_of(xs, ys, vxs, vys, rows, self._k, seen, on)
+        acc = accelerations(self.pos, self.vel, np.array(rows, dtype=np.float64).reshape(-1, 2), self._params,
+                            seen, self._active, constants=self._k)
+        return acc[:, 0].tolist(), acc[:, 1].tolist()
 
     def _detours(self, robot: Obstacle) -> None:
         """A walking worker held up by the robot for STUCK_S walks round it: a via point beside the

@@ -335,9 +335,24 @@ def separation(
     return np.asarray(np.maximum(np.hypot(d, dz_m) - radius_m, 0.0), dtype=np.float64)
 
 
+_REACH_SEEN: dict[int, tuple[tuple[Rect, ...], float]] = {}  # id of a rects sequence: its rects, reach
+
+
 def reach_m(rects: Sequence[Rect]) -> float:
-    """The farthest footprint corner from the base centre (m)."""
-    return _reach(tuple(rects))
+    """The farthest footprint corner from the base centre (m).
+
+    (Asked several times per control period of the same footprint list: kept per list object and
+    given again while the list holds the same rectangles - a tuple comparison that finds the same
+    objects without hashing them - else computed, or read from the cache of the rectangles.)"""
+    key = tuple(rects)
+    hit = _REACH_SEEN.get(id(rects))
+    if hit is not None and hit[0] == key:
+        return hit[1]
+    if len(_REACH_SEEN) >= 256:
+        _REACH_SEEN.clear()
+    reach = _reach(key)
+    _REACH_SEEN[id(rects)] = (key, reach)
+    return reach
 
 
 @functools.lru_cache(maxsize=256)

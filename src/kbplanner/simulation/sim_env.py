@@ -161,6 +161,7 @@ class SimEnv:
         self.sim = load_world(self.world, self.client, visuals=self.visuals or mode == p.GUI)
         self._robot = RobotModel.load(self.robot_name, client=self.client)
         self._robot.floor_z = self.robot_floor_z
+        self._robot.kinematic = True  # only settle() steps physics here (and tells the robot)
         start = self.world.robot_start
         self._robot.set_base_pose(start.x if start else 0.0, start.y if start else 0.0,
                                   start.yaw if start else 0.0)
@@ -407,6 +408,7 @@ class SimEnv:
         p.setTimeStep(time_step_s, physicsClientId=self.client)
         for _ in range(max(1, round(seconds / time_step_s))):
             p.stepSimulation(physicsClientId=self.client)
+        self.robot.forget_base()
         moved = 0.0
         for i, b in bodies.items():
             now = np.array(p.getBasePositionAndOrientation(b, physicsClientId=self.client)[0])

@@ -162,73 +162,92 @@ def accelerations(pos: FloatArray, vel: FloatArray, desired: FloatArray, params:
 
 def _accelerations_few(pos: FloatArray, vel: FloatArray, desired: FloatArray, k: dict[str, FloatArray],
                        seen: Obstacle | None, active: BoolArray) -> FloatArray:
-    """:func:`accelerations` for a few workers in plain floats: the same operations in the same order,
-    element by element, with numpy's ``hypot``, ``exp`` and row sums where the array code takes them
-    (Python's ``math.hypot`` and ``math.exp`` may differ in the last bit), so the results are
-    bit-identical; a few dozen microseconds less per step than some fifty numpy calls on tiny arrays."""
+    """:func:`accelerations` for a few workers in plain floats (:func:`accelerations_of`)."""
     n = len(pos)
+    on = active.tolist()
+    ax, ay = accelerations_of(pos[:, 0].tolist(), pos[:, 1].tolist(), vel[:, 0].tolist(), vel[:, 1].tolist(),
+                              desired.tolist(), k, seen, on)
+    acc = np.array([ax, ay], dtype=np.float64).T.reshape(n, 2)
+    return acc if all(on) else np.where(active[:, None], acc, 0.0)
+
+
+def accelerations_of(xs: list[float], ys: list[float], vxs: list[float], vys: list[float],
+                     des: Sequence[Sequence[float]], k: dict[str, FloatArray], seen: Obstacle | None,
+                     on: list[bool]) -> tuple[list[float], list[float]]:
+    """:func:`accelerations` on plain floats (positions, velocities, desired velocities as lists; ``k``
+    the crowd's :func:`constants_of`): the x and y accelerations, inactive workers' too (the caller
+    zeroes them). The same operations in the same order, element by element, with numpy's ``hypot``,
+    ``exp`` and row sums where the array code takes them (Python's ``math.hypot`` and ``math.exp`` may
+    differ in the last bit; numpy's give the same number for an element wherever it is in an array,
+    so one call serves all the centre distances and speeds, one all the exponentials, one all the row
+    sums), so the results are bit-identical; a few dozen microseconds less per step than some fifty
+    numpy calls on tiny arrays."""
+    n = len(xs)
     c = _lists(k)
     tau, lam, oml = c["tau"], c["lam"], c["one_minus_lam"]
-    xs, ys = pos[:, 0].tolist(), pos[:, 1].tolist()
-    vxs, vys = vel[:, 0].tolist(), vel[:, 1].tolist()
-    des = desired.tolist()
     ax = [(des[i][0] - vxs[i]) / tau[i] for i in range(n)]
     ay = [(des[i][1] - vys[i]) / tau[i] for i in range(n)]
-    on = active.tolist()
+    near = points_rects_distance(xs, ys, seen.pose, seen.rects) if seen is not None else None
+    expo: list[float] = []
     if n > 1:
-        d = pos[:, None, :] - pos[None, :, :]
-        dist = np.hypot(d[..., 0], d[..., 1])
-        np.fill_diagonal(dist, np.inf)
-        dl = dist.tolist()
-        sp = np.hypot(vel[:, 0:1], vel[:, 1:2])[:, 0].tolist()
-        s_p, neg_s_p, neg_b_p, a_over_b_p = c["s_p"], c["neg_s_p"], c["neg_b_p"], c["a_over_b_p"]
-        expo = [[max(dl[i][j] - 2 * WORKER_RADIUS_M - s_p[i], neg_s_p[i]) / neg_b_p[i] for j in range(n)]
-                for i in range(n)]
-        e = np.exp(np.array(expo, dtype=np.float64)).tolist()
-        fx: list[list[float]] = []
-        fy: list[list[float]] = []
+        # centre distances (n x n, row i: from worker i to each j) and speeds, in one hypot call
+        h = _hypot(np.array([xi - xj for xi in xs for xj in xs] + vxs, dtype=np.float64),
+                   np.array([yi - yj for yi in ys for yj in ys] + vys, dtype=np.float64)).tolist()
         inf = math.inf
         for i in range(n):
+            h[i * n + i] = inf  # fill_diagonal
+        s_p, neg_s_p, neg_b_p = c["s_p"], c["neg_s_p"], c["neg_b_p"]
+        two_r = 2 * WORKER_RADIUS_M
+        expo = [max(h[i * n + j] - two_r - s_p[i], neg_s_p[i]) / neg_b_p[i]
+                for i in range(n) for j in range(n)]
+    if near is not None:
+        s_c, neg_s_c, neg_b_r = c["s_c"], c["neg_s_c"], c["neg_b_r"]
+        expo += [max(near[i][0] - WORKER_RADIUS_M - s_c[i], neg_s_c[i]) / neg_b_r[i] for i in range(n)]
+    e = np.exp(np.array(expo, dtype=np.float64)).tolist() if expo else []
+    if n > 1:
+        a_over_b_p = c["a_over_b_p"]
+        rows: list[list[float]] = []
+        fy: list[list[float]] = []
+        for i in range(n):
             xi, yi, vx, vy = xs[i], ys[i], vxs[i], vys[i]
-            moving, m = sp[i] > 1e-9, max(sp[i], 1e-9)
-            li, oi, ai, dli, ei = lam[i], oml[i], a_over_b_p[i], dl[i], e[i]
+            spi = h[n * n + i]
+            moving, m = spi > 1e-9, max(spi, 1e-9)
+            li, oi, ai = lam[i], oml[i], a_over_b_p[i]
+            base = i * n
             rx, ry = [], []
             for j in range(n):
-                dij = dli[j]
+                dij = h[base + j]
                 norm = dij if dij > 0 else 1.0
                 nx, ny = (xi - xs[j]) / norm, (yi - ys[j]) / norm
-                mag = ai * ei[j] if dij < inf and on[j] else 0.0  # (a distance is never -inf)
+                mag = ai * e[base + j] if dij < inf and on[j] else 0.0  # (a distance is never -inf)
                 cos_phi = -(nx * vx + ny * vy) / m if moving else 1.0
                 mw = mag * (li + oi * (1 + cos_phi) / 2)
                 rx.append(mw * nx)
                 ry.append(mw * ny)
-            fx.append(rx)
+            rows.append(rx)
             fy.append(ry)
-        sx = np.array(fx, dtype=np.float64).sum(axis=1).tolist()
-        sy = np.array(fy, dtype=np.float64).sum(axis=1).tolist()
-        ax = [ax[i] + sx[i] for i in range(n)]
-        ay = [ay[i] + sy[i] for i in range(n)]
+        sums = np.array(rows + fy, dtype=np.float64).sum(axis=1).tolist()  # row by row, as before
+        ax = [ax[i] + sums[i] for i in range(n)]
+        ay = [ay[i] + sums[n + i] for i in range(n)]
     if seen is not None:
+        assert near is not None
         px, py = seen.pose[0], seen.pose[1]
-        s_c, neg_s_c, neg_b_r, a_over_b_r = c["s_c"], c["neg_s_c"], c["neg_b_r"], c["a_over_b_r"]
-        near = points_rects_distance(xs, ys, seen.pose, seen.rects)
-        expo_r = [max(near[i][0] - WORKER_RADIUS_M - s_c[i], neg_s_c[i]) / neg_b_r[i] for i in range(n)]
-        er = np.exp(np.array(expo_r, dtype=np.float64)).tolist()
+        a_over_b_r = c["a_over_b_r"]
+        off = n * n if n > 1 else 0
         for i in range(n):
             _, ux, uy = near[i]
             if ux == 0 and uy == 0:  # inside the footprint: away from the robot's centre
                 cx, cy = xs[i] - px, ys[i] - py
                 cn = max(float(_hypot(cx, cy)), 1e-9)
                 ux, uy = cx / cn, cy / cn
-            mag = a_over_b_r[i] * er[i]
+            mag = a_over_b_r[i] * e[off + i]
             if -(ux * vxs[i] + uy * vys[i]) > 0:
                 ax[i] += mag * (_COS_R * ux - _SIN_R * uy)
                 ay[i] += mag * (_SIN_R * ux + _COS_R * uy)
             else:
                 ax[i] += mag * ux
                 ay[i] += mag * uy
-    acc = np.array([ax, ay], dtype=np.float64).T.reshape(n, 2)
-    return acc if all(on) else np.where(active[:, None], acc, 0.0)
+    return ax, ay
 
 
 _LISTS: dict[int, tuple[dict[str, FloatArray], dict[str, list[float]]]] = {}
