@@ -24,6 +24,7 @@ from kbplanner.world.occupancy import OccupancyGrid
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
+_hypot = np.hypot  # on two floats: the numbers of np.hypot on numpy rows
 
 
 def maybe_within(p: FloatArray, robot: Obstacle, limit_m: float) -> bool:
@@ -128,10 +129,48 @@ def legs_clear_of(legs: Sequence[FloatArray], robot: Obstacle | None, clear_m: f
     return out
 
 
+LEAVES_SOON_SAMPLES = 12  # clear_legs first looks this far along each leg for a step off the walking map
+
+
+def _leaves_soon(p: FloatArray, q: FloatArray, walk: Callable[[float, float], bool]) -> bool:
+    """Whether the leg p -> q, sampled as :func:`clear_legs` samples it (the same count, fractions and
+    points), steps out of the walkable cells within its first :data:`LEAVES_SOON_SAMPLES` samples:
+    then it is not walkable, whatever the rest of it (and its distances) are."""
+    px, py = float(p[0]), float(p[1])
+    dx, dy = float(q[0]) - px, float(q[1]) - py
+    n = max(int(float(_hypot(dx, dy)) / 0.1) + 1, 2)
+    was = walk(px, py)  # the first sample: fraction 0.0
+    for f in unit_steps(n)[1 : LEAVES_SOON_SAMPLES + 1].tolist():
+        now = walk(px + f * dx, py + f * dy)
+        if was and not now:
+            return True
+        was = now
+    return False
+
+
 def clear_legs(legs: Sequence[tuple[FloatArray, FloatArray]], robot: Obstacle, free: BoolArray | None,
                g: OccupancyGrid | None) -> list[bool]:
     """Per leg (p, q): sampled every 0.1 m, clear of the footprint and walkable. All legs at once
-    (element-wise the same numbers as one query per leg and :func:`walkable_along` per leg)."""
+    (element-wise the same numbers as one query per leg and :func:`walkable_along` per leg).
+
+    (A leg that steps off the walking map within its first samples is not walkable: told without
+    sampling it all (:func:`_leaves_soon`); the others are sampled together, each on its own, so
+    the answers are those of sampling every leg.)"""
+    if not legs:
+        return []
+    walk = free_cell_check(free, g)
+    if walk is not None:
+        soon = [_leaves_soon(p, q, walk) for p, q in legs]
+        if any(soon):
+            rest = iter(_clear_legs([leg for leg, out in zip(legs, soon, strict=True) if not out], robot,
+                                    free, g))
+            return [False if out else next(rest) for out in soon]
+    return _clear_legs(legs, robot, free, g)
+
+
+def _clear_legs(legs: Sequence[tuple[FloatArray, FloatArray]], robot: Obstacle, free: BoolArray | None,
+                g: OccupancyGrid | None) -> list[bool]:
+    """:func:`clear_legs` by sampling every leg whole."""
     if not legs:
         return []
     ps = np.array([p for p, _ in legs], dtype=np.float64).reshape(-1, 2)
