@@ -483,7 +483,7 @@ class Crowd:
 
     def _clear_many(self, legs: Sequence[tuple[FloatArray, FloatArray]], robot: Obstacle) -> list[bool]:
         """Per leg (p, q): sampled every 0.1 m, clear of the footprint and walkable (:func:`clear_legs`)."""
-        return clear_legs(legs, robot, self.router.free, self.router.grid)
+        return clear_legs(legs, robot, self.router.free, self.router.grid, self._walk)
 
     def _free_at(self, q: FloatArray) -> bool:
         """Whether a worker may stand at ``q`` (a free cell of the walking map; no map: anywhere)."""

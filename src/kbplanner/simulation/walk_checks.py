@@ -104,11 +104,12 @@ def free_cell_check(free: BoolArray | None, g: OccupancyGrid | None) -> Callable
         return None
     ox, oy, res = g.origin[0], g.origin[1], g.resolution
     ny, nx = free.shape
+    cells = np.ascontiguousarray(free, dtype=bool).tobytes()  # row-major, one byte a cell (a copy)
 
     def ok(x: float, y: float) -> bool:
         ix = math.floor((x - ox) / res)
         iy = math.floor((y - oy) / res)
-        return 0 <= iy < ny and 0 <= ix < nx and bool(free[iy, ix])
+        return 0 <= iy < ny and 0 <= ix < nx and cells[iy * nx + ix] != 0
 
     return ok
 
@@ -149,16 +150,18 @@ def _leaves_soon(p: FloatArray, q: FloatArray, walk: Callable[[float, float], bo
 
 
 def clear_legs(legs: Sequence[tuple[FloatArray, FloatArray]], robot: Obstacle, free: BoolArray | None,
-               g: OccupancyGrid | None) -> list[bool]:
+               g: OccupancyGrid | None, walk: Callable[[float, float], bool] | None = None) -> list[bool]:
     """Per leg (p, q): sampled every 0.1 m, clear of the footprint and walkable. All legs at once
     (element-wise the same numbers as one query per leg and :func:`walkable_along` per leg).
 
     (A leg that steps off the walking map within its first samples is not walkable: told without
     sampling it all (:func:`_leaves_soon`); the others are sampled together, each on its own, so
-    the answers are those of sampling every leg.)"""
+    the answers are those of sampling every leg. ``walk``: :func:`free_cell_check` of ``free`` and
+    ``g`` when the caller keeps it.)"""
     if not legs:
         return []
-    walk = free_cell_check(free, g)
+    if walk is None:
+        walk = free_cell_check(free, g)
     if walk is not None:
         soon = [_leaves_soon(p, q, walk) for p, q in legs]
         if any(soon):
