@@ -157,6 +157,7 @@ class Crowd:
         self._k = constants_of(self._params)
         self._vmax = self._v0 * self._k["vmax_factor"]  # cap_speed's limits: the same product
         self._vmax_list: list[float] = self._vmax.tolist()
+        self._speeds: tuple[FloatArray, list[float]] | None = None  # the speeds of ``vel`` (that array)
         self._walk = free_cell_check(self.router.free, self.router.grid)  # the walking map is fixed
         self._active.flags.writeable = False
         self._one_delay = len(self._masks) == 1 and bool(self._masks[0].all())
@@ -327,10 +328,12 @@ class Crowd:
             nys.append(qy)
             ux[i], uy[i] = vx, vy
         vel = np.array([ux, uy], dtype=np.float64).T.reshape(n, 2)
-        moving = np.hypot(vel[:, 0], vel[:, 1]) > 0.05
+        speed = np.hypot(vel[:, 0], vel[:, 1])
+        moving = speed > 0.05
         if moving.any():
             self.heading = np.where(moving, np.arctan2(vel[:, 1], vel[:, 0]), self.heading)
         self.pos, self.vel = np.array([nxs, nys], dtype=np.float64).T.reshape(n, 2), vel
+        self._speeds = (vel, speed.tolist())
         self.t += self.dt
 
     def _accelerations(self, xs: list[float], ys: list[float], vxs: list[float], vys: list[float],
@@ -348,7 +351,8 @@ class Crowd:
         robot's footprint (its reach plus the comfort distance, 16 bearings), the one that keeps the
         walk shortest with both legs walkable and clear of the footprint."""
 
-        sp = np.hypot(self.vel[:, 0], self.vel[:, 1])
+        kept = self._speeds
+        sp = kept[1] if kept is not None and kept[0] is self.vel else np.hypot(self.vel[:, 0], self.vel[:, 1])
         for i, a in enumerate(self.agents):
             if not a.walking or sp[i] >= STUCK_SPEED_MPS:
                 a.slow_s = 0.0

@@ -216,6 +216,10 @@ def accelerations_of(xs: list[float], ys: list[float], vxs: list[float], vys: li
             base = i * n
             rx, ry = [], []
             for j in range(n):
+                if j == i:  # oneself: at an infinite distance, no force (0.0 * 0.0, as the former code)
+                    rx.append(0.0)
+                    ry.append(0.0)
+                    continue
                 dij = h[base + j]
                 norm = dij if dij > 0 else 1.0
                 nx, ny = (xi - xs[j]) / norm, (yi - ys[j]) / norm
