@@ -215,6 +215,23 @@ def _point_rects_distance(
     return best, (c * bx - s * by) / best, (s * bx + c * by) / best
 
 
+_RECT_CONSTANTS: dict[int, tuple[tuple[Rect, ...], list[tuple[float, float, float, float, float, float]]]] = {}
+
+
+def _rect_constants(rects: Sequence[Rect]) -> list[tuple[float, float, float, float, float, float]]:
+    """Per rectangle: centre x, y, cos and sin of its yaw, half length, half width (the same numbers
+    as computed from it each time), kept per footprint list while it holds the same rectangles."""
+    key = tuple(rects)
+    hit = _RECT_CONSTANTS.get(id(rects))
+    if hit is not None and hit[0] == key:
+        return hit[1]
+    if len(_RECT_CONSTANTS) >= 256:
+        _RECT_CONSTANTS.clear()
+    out = [(r.cx, r.cy, math.cos(r.yaw), math.sin(r.yaw), r.length / 2, r.width / 2) for r in rects]
+    _RECT_CONSTANTS[id(rects)] = (key, out)
+    return out
+
+
 def points_rects_distance(
     xs: Sequence[float], ys: Sequence[float], pose: tuple[float, float, float], rects: Sequence[Rect]
 ) -> list[tuple[float, float, float]]:
@@ -223,17 +240,18 @@ def points_rects_distance(
     element of an array as for two floats), so the results are bit-identical."""
     c, s = math.cos(pose[2]), math.sin(pose[2])
     x0, y0 = pose[0], pose[1]
-    trig = [(math.cos(r.yaw), math.sin(r.yaw)) for r in rects]
+    consts = _rect_constants(rects)
     exs: list[float] = []
     eys: list[float] = []
     for x, y in zip(xs, ys, strict=True):
         dx, dy = x - x0, y - y0
         lx, ly = c * dx + s * dy, -s * dx + c * dy
-        for r, (cr, sr) in zip(rects, trig, strict=True):
-            qx, qy = lx - r.cx, ly - r.cy
+        for rcx, rcy, cr, sr, hl, hw in consts:
+            qx, qy = lx - rcx, ly - rcy
             ux, uy = cr * qx + sr * qy, -sr * qx + cr * qy
-            exs.append(((ux > 0) - (ux < 0)) * max(abs(ux) - r.length / 2, 0.0))
-            eys.append(((uy > 0) - (uy < 0)) * max(abs(uy) - r.width / 2, 0.0))
+            exs.append(((ux > 0) - (ux < 0)) * max(abs(ux) - hl, 0.0))
+            eys.append(((uy > 0) - (uy < 0)) * max(abs(uy) - hw, 0.0))
+    trig = [(k[2], k[3]) for k in consts]
     norms = _hypot(np.array(exs, dtype=np.float64), np.array(eys, dtype=np.float64)).tolist()
     out = []
     k = 0
