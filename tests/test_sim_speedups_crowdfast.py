@@ -94,3 +94,13 @@ def test_a_kinematic_robots_kept_base_pose_is_the_one_pybullet_gives() -> None:
     finally:
         robot.close()
         free.close()
+
+
+def test_separation_of_one_speed_in_floats_is_the_arrays() -> None:
+    rng = np.random.default_rng(24)
+    for _ in range(2000):
+        ssm = separation.SsmParameters(*rng.uniform(0.0, 3.0, 2).tolist(), float(rng.uniform(0.1, 5.0)),
+                                       *rng.uniform(0.0, 0.5, 2).tolist())
+        v = float(rng.normal() * 10.0 ** rng.uniform(-9, 1))
+        assert ssm.separation_at(v) == float(ssm.separation_m(v))
+        assert ssm.separation_at(0.0) == float(ssm.separation_m(0.0))

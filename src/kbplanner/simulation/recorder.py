@@ -76,7 +76,7 @@ class Recorder:
         x, y, yaw = env.base_pose()
         q = env.robot.arm_positions()
         robot = _fixed(self._robot_format % (env.t, x, y, yaw, *q))
-        workers = [v for _slug, wx, wy in env.worker_positions() for v in (wx, wy)]
+        workers = [v for wx, wy, _ in env.worker_poses() for v in (wx, wy)]  # in env.workers' order
         tail = "".join([",", carried, ",", carry_mode, ",", "" if step is None else str(step)])
         self.rows.append(robot + tail + (_fixed(self._worker_format % tuple(workers)) if workers else ""))
 

@@ -102,6 +102,15 @@ class SsmParameters:
             dtype=np.float64,
         )
 
+    def separation_at(self, v: float) -> float:
+        """:meth:`separation_m` of one speed in plain floats: the same operations in the same order
+        (numpy's float64 arithmetic is IEEE's, as Python's), the same number without the fixed cost of
+        numpy calls on a scalar (the monitor asks every control period)."""
+        v = abs(float(v))
+        a = self.deceleration_mps2
+        s_h = self.human_speed_mps * (self.reaction_time_s + v / a)
+        return float(s_h + v * self.reaction_time_s + v * v / (2 * a) + self.intrusion_m + self.uncertainty_m)
+
     def allowed_speed(self, separation_m: float) -> float:
         """The largest speed v >= 0 with S_p(v) <= ``separation_m`` (0 when even S_p(0) is larger).
 
@@ -215,10 +224,11 @@ def _point_rects_distance(
     return best, (c * bx - s * by) / best, (s * bx + c * by) / best
 
 
-_RECT_CONSTANTS: dict[int, tuple[tuple[Rect, ...], list[tuple[float, float, float, float, float, float]]]] = {}
+_RectConstants = list[tuple[float, float, float, float, float, float]]
+_RECT_CONSTANTS: dict[int, tuple[tuple[Rect, ...], _RectConstants]] = {}
 
 
-def _rect_constants(rects: Sequence[Rect]) -> list[tuple[float, float, float, float, float, float]]:
+def _rect_constants(rects: Sequence[Rect]) -> _RectConstants:
     """Per rectangle: centre x, y, cos and sin of its yaw, half length, half width (the same numbers
     as computed from it each time), kept per footprint list while it holds the same rectangles."""
     key = tuple(rects)

@@ -175,10 +175,10 @@ class SeparationMonitor:
         lin = math.hypot(nxt[0] - here[0], nxt[1] - here[1]) * hz
         turn = abs(math.atan2(math.sin(nxt[2] - here[2]), math.cos(nxt[2] - here[2]))) * hz
         v_nom = lin + turn * reach_m(rects) + sweep_mps
-        protective = float(self.ssm.separation_m(v_nom))
+        protective = self.ssm.separation_at(v_nom)
         if not self.enabled or v_nom <= 1e-9:
             return Decision(1.0, None, protective, False)
-        horizon = float(self.ssm.separation_m(max(v_nom, self.max_speed))) + 0.5
+        horizon = self.ssm.separation_at(max(v_nom, self.max_speed)) + 0.5
         seen = self.sense(rects, horizon_m=horizon)
         if not seen:
             return self._hysteresis(Decision(1.0, None, protective, False), math.inf)  # nobody: no step back
@@ -189,7 +189,7 @@ class SeparationMonitor:
             ),
             key=lambda a: (a[0], a[1].separation_m),
         )
-        protective = float(replace(self.ssm, human_speed_mps=sensed.approach_mps).separation_m(v_nom))
+        protective = replace(self.ssm, human_speed_mps=sensed.approach_mps).separation_at(v_nom)
         nearest = min(s.separation_m for s in seen)
         if allowed >= v_nom or (sensed.separation_m > self.stop_m and allowed >= min(self.min_speed, v_nom)):
             go = Decision(min(1.0, allowed / v_nom), sensed, protective, False)
