@@ -242,11 +242,11 @@ class _Run:
             self._frames_done.add(kind)
             self.keyframes.append((kind, render_png(self.env, self.settings.keyframe_size)))
 
-    def sample(self, force: bool = False) -> None:
+    def sample(self, force: bool = False, arm: tuple[float, ...] | None = None) -> None:
         held = self.env.held
         step = self.ctx.step
         self.rec.sample(step=step.step if step else None, carried=held.element.global_id if held else "",
-                        carry_mode=self.ctx.carry_mode if held else "", force=force)
+                        carry_mode=self.ctx.carry_mode if held else "", force=force, arm=arm)
 
     def _tell(self, label: str) -> None:
         self.done_steps += 1
@@ -337,15 +337,19 @@ class _Run:
         skill.setup(self.ctx)
         skill.initialise(call)
         status = skill.status
+        last_q: tuple[float, ...] | None = None
         while status is Status.RUNNING:
             status = skill.update()
-            clock.update(env.robot.arm_positions())
+            q = env.robot.arm_positions()  # the arm of this period (nothing below moves it)
+            if q != last_q:  # (the same joints: a step of 0.0, nothing to add)
+                clock.update(q)
+                last_q = q
             self.contact.after_robot()
             if status is not Status.RUNNING:
                 break
             env.step()
             self.contact.after_workers()
-            self.sample()
+            self.sample(arm=q)
             if env.t - t0 > MAX_STEP_S:
                 status = skill.fail(f"still running after {MAX_STEP_S:.0f} s of simulated time")
         skill.terminate(status)

@@ -67,14 +67,16 @@ class Recorder:
         self.events: list[dict[str, Any]] = []
         self._last_tick = -1
 
-    def sample(self, *, step: int | None, carried: str, carry_mode: str, force: bool = False) -> None:
-        """Record a row now if the clock is on the record grid (or ``force``), once per tick."""
+    def sample(self, *, step: int | None, carried: str, carry_mode: str, force: bool = False,
+               arm: Sequence[float] | None = None) -> None:
+        """Record a row now if the clock is on the record grid (or ``force``), once per tick (``arm``: the
+        arm joints now, when the caller has just read them)."""
         env = self.env
         if env.tick == self._last_tick or (not force and env.tick % self.every):
             return
         self._last_tick = env.tick
         x, y, yaw = env.base_pose()
-        q = env.robot.arm_positions()
+        q = env.robot.arm_positions() if arm is None else arm
         robot = _fixed(self._robot_format % (env.t, x, y, yaw, *q))
         workers = [v for wx, wy, _ in env.worker_poses() for v in (wx, wy)]  # in env.workers' order
         tail = "".join([",", carried, ",", carry_mode, ",", "" if step is None else str(step)])
