@@ -527,7 +527,7 @@ class Crowd:
     def positions(self) -> list[tuple[float, float, float]]:
         """(x, y, heading) of every worker now."""
         if self._positions is None or self._positions[0] is not self.pos:
-            rows = [(float(p[0]), float(p[1]), float(h)) for p, h in zip(self.pos, self.heading, strict=True)]
+            rows = [(x, y, h) for (x, y), h in zip(self.pos.tolist(), self.heading.tolist(), strict=True)]
             self._positions = (self.pos, rows)
         return list(self._positions[1])
 

@@ -303,7 +303,10 @@ class SimEnv:
         cached = self._xy
         if cached is not None and cached[0] is crowd_pos and cached[1] == tick:
             return cached[2]
-        xy = np.array([(x, y) for x, y, _ in self.worker_poses()], dtype=np.float64).reshape(-1, 2)
+        if crowd_pos is not None and not self.worker_motions:  # the crowd's positions (a copy)
+            xy = np.array(crowd_pos, dtype=np.float64).reshape(-1, 2)
+        else:
+            xy = np.array([(x, y) for x, y, _ in self.worker_poses()], dtype=np.float64).reshape(-1, 2)
         xy.flags.writeable = False
         self._xy = (crowd_pos, tick, xy)
         return xy
