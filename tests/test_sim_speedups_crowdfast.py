@@ -104,3 +104,39 @@ def test_separation_of_one_speed_in_floats_is_the_arrays() -> None:
         v = float(rng.normal() * 10.0 ** rng.uniform(-9, 1))
         assert ssm.separation_at(v) == float(ssm.separation_m(v))
         assert ssm.separation_at(0.0) == float(ssm.separation_m(0.0))
+
+
+def test_crowds_of_mixed_delays_and_many_workers_step_as_the_former_code() -> None:
+    """The float step against the former numpy step (test_sim_speedups_tick's), for what the case study
+    does not have: workers seeing the robot with different delays, more workers than SMALL_CROWD,
+    people standing where another stands."""
+    from kbplanner.simulation.crowd import Crowd
+    from kbplanner.simulation.social_force import SMALL_CROWD, SocialForceParams
+    from kbplanner.simulation.workers import RouteStop, WorkerSpec
+    from test_sim_speedups_tick import _FormerCrowd
+    from test_sim_speedups_tick import _site as corridor
+
+    def spec(k: int, reaction: float) -> WorkerSpec:
+        return WorkerSpec(f"urn:test:w{k}", f"W{k}", "carpenter", 1.0 + 0.05 * k,
+                          (RouteStop("a", "A", -6.0 + 0.5 * k, -0.9 + 0.2 * (k % 9), 1.0 + k % 3),
+                           RouteStop("b", "B", 6.0 - 0.5 * k, 0.9 - 0.2 * (k % 9), 1.0),
+                           RouteStop("c", "C", 3.0, 3.5, 2.0)),
+                          SocialForceParams(reaction_time_s=reaction))
+
+    rects = [Rect(0.0, 0.0, 0.99, 0.67), Rect(0.3, 0.0, 2.4, 0.3)]
+    crowds = [[spec(k, (0.3, 0.5, 0.8)[k % 3]) for k in range(5)],
+              [spec(k, 0.5) for k in range(SMALL_CROWD + 3)],
+              [spec(0, 0.5), spec(0, 0.5), spec(1, 0.2)]]  # two at the same spot
+    for specs in crowds:
+        grid = corridor()
+        new, old = Crowd(specs, grid, seed=3), _FormerCrowd(specs, grid, seed=3)
+        for k in range(400):
+            x = -5.0 + 10.0 * abs(((k / 200.0) % 2.0) - 1.0)
+            robot = None if 150 <= k < 170 else Obstacle((x, 0.1 * math.sin(k / 30), 0.2 * math.sin(k / 50)),
+                                                         rects)
+            new.step(robot)
+            old.step(robot)
+            for a, b in ((new.pos, old.pos), (new.vel, old.vel), (new.heading, old.heading)):
+                assert a.tobytes() == b.tobytes(), (len(specs), k)
+        assert new.positions() == [(float(p[0]), float(p[1]), float(h))
+                                   for p, h in zip(old.pos, old.heading, strict=True)]
