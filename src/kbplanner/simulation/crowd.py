@@ -1,3 +1,4 @@
+# Over 500 lines: the reactive crowd (route following, social-force step, making way); next to split.
 """B5 reactive workers: people who walk their routes and yield to the robot and to each other.
 
 Takes the site's workers (:func:`kbplanner.simulation.workers.load_workers`: route stops, dwell times,
