@@ -432,6 +432,15 @@ def _metrics(plan: Plan, elements: list[ElementOutcome], sim_time: float, settin
     })
 
 
+def _cspace_folder(project: ProjectData) -> Path | None:
+    """Where configuration spaces are kept (:mod:`kbplanner.world.cspace_store`): beside the project
+    cache, None when the project has no cache entry (``--no-cache``)."""
+    from kbplanner.model.project_data import cache_root
+    from kbplanner.world.cspace_store import SUBDIR
+
+    return None if project.cache_entry is None else cache_root(project.manifest.directory) / SUBDIR
+
+
 def simulate(
     project: ProjectData,
     plan: Plan,
@@ -457,6 +466,7 @@ def simulate(
     """
     from kbplanner.simulation.floors import walk_grid
     from kbplanner.simulation.workers import WorkerSpec, load_workers, plan_workers
+    from kbplanner.world import cspace_store
     from kbplanner.world.maps import storey_map
 
     settings = settings or ExecSettings()
@@ -482,7 +492,8 @@ def simulate(
         env.reset(seed=seed)
         load_s = time.perf_counter() - loaded
         run = _Run(env, plan, settings, seed, progress)
-        elements = run.run()
+        with cspace_store.kept_in(_cspace_folder(project)):  # configuration spaces of earlier commands
+            elements = run.run()
         sim_time = env.t
         robot_fp = env.robot.spec.footprint()
         floor_z, ground_z = env.robot_floor_z, float(env.world.ground_z)

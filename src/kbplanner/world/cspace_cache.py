@@ -17,7 +17,10 @@ footprint, n_yaw_bins, margin_m)``, from an in-process LRU cache:
   it count as occupied. (The labels are the window's own: connectivity is not cropped.) Where the
   window's occupancy differs in a few cells (B5's map of a state rasterises an installed element a
   cell or so differently from B4's), only the cells within the footprint's reach of them are built
-  again.
+  again;
+- the same grid cells, footprint, yaw bins and margin kept on disk by an earlier command
+  (:mod:`kbplanner.world.cspace_store`, when a folder is given): the free maps read back. A space
+  built or cropped here is written there.
 
 Memory is bounded: the least recently used spaces go once the kept free maps and labels exceed
 :data:`BUDGET_BYTES`. Returned arrays are read-only (shared).
@@ -47,6 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from kbplanner.world import cspace_store
 from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect
 from kbplanner.world.occupancy import OccupancyGrid
 
@@ -72,7 +76,7 @@ class _Entry:
 class _Cache:
     def __init__(self) -> None:
         self.entries: OrderedDict[tuple[_Key, bytes, tuple[float, float]], _Entry] = OrderedDict()
-        self.counts = {"built": 0, "hits": 0, "cropped": 0, "patched": 0, "evicted": 0}
+        self.counts = {"built": 0, "hits": 0, "cropped": 0, "patched": 0, "read": 0, "evicted": 0}
 
     def bytes(self) -> int:
         return sum(e.space.nbytes() for e in self.entries.values())
@@ -114,12 +118,19 @@ def configuration_space(grid: OccupancyGrid, footprint: Footprint, n_yaw_bins: i
         _CACHE.counts["hits"] += 1
         _CACHE.trim()
         return _view(entry.space, grid, footprint)
-    cs = _cropped(key, grid, footprint)
-    if cs is None:
-        cs = ConfigurationSpace.build(grid, footprint, n_yaw_bins, margin_m)
-        _CACHE.counts["built"] += 1
+    kept_free = cspace_store.read(grid, footprint, n_yaw_bins, margin_m)
+    if kept_free is not None:
+        cs = ConfigurationSpace(grid=grid, footprint=footprint, free=kept_free, margin_m=margin_m)
+        _CACHE.counts["read"] += 1
     else:
-        _CACHE.counts["cropped"] += 1
+        crop = _cropped(key, grid, footprint)
+        if crop is None:
+            cs = ConfigurationSpace.build(grid, footprint, n_yaw_bins, margin_m)
+            _CACHE.counts["built"] += 1
+        else:
+            cs = crop
+            _CACHE.counts["cropped"] += 1
+        cspace_store.write(grid, footprint, n_yaw_bins, margin_m, cs.free)
     cs.free.setflags(write=False)
     res = grid.resolution
     kept = grid.occupied.copy()
@@ -234,5 +245,6 @@ def clear() -> None:
 
 def stats() -> dict[str, int]:
     """Counts since the last :func:`clear`: built, hits (same grid), cropped (a window of a kept grid;
-    patched: of those, with a few cells built again), evicted; and the spaces and bytes kept now."""
+    patched: of those, with a few cells built again), read (from :mod:`~kbplanner.world.cspace_store`),
+    evicted; and the spaces and bytes kept now."""
     return {**_CACHE.counts, "kept": len(_CACHE.entries), "bytes": _CACHE.bytes()}
