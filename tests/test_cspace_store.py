@@ -104,3 +104,19 @@ def test_the_oldest_files_go_past_the_budget(tmp_path: Path, monkeypatch: pytest
             cspace_store.write(g, BASE, 72, 0.0, ConfigurationSpace.build(g, BASE).free)
         names = [p.name for p in tmp_path.glob("*.npy")]
     assert names == [f"{cspace_store.key(_map(9), BASE, 72, 0.0)}.npy"]
+
+
+@pytest.mark.parametrize("res", [0.05, 0.1])
+@pytest.mark.parametrize("margin", [0.0, 0.07])
+@pytest.mark.parametrize("n_bins", [8, 72])
+def test_kernel_reach_is_the_largest_kernel_without_rasterising(res: float, margin: float,
+                                                                n_bins: int) -> None:
+    import math
+
+    from kbplanner.world.cspace_cache import kernel_reach
+
+    for fp in (BASE, CARRY, Footprint((Rect(0.3, -0.2, 2.4, 0.1, 0.7), Rect(0, 0, 0.99, 0.67)))):
+        w = 2 * math.pi / n_bins
+        largest = max(fp.kernel(res, k * w - w / 2, k * w + w / 2, margin).shape[0] // 2
+                      for k in range(n_bins))
+        assert kernel_reach(fp, res, n_bins, margin) == largest

@@ -51,7 +51,7 @@ import numpy as np
 import numpy.typing as npt
 
 from kbplanner.world import cspace_store
-from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect
+from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect, kernel_half_size
 from kbplanner.world.occupancy import OccupancyGrid
 
 #: Bytes of free maps and labels kept at most, checked as a space is added (a 600 x 600 cell window,
@@ -88,9 +88,10 @@ class _Cache:
         for e in list(self.entries.values())[:-1]:
             if total <= BUDGET_BYTES:
                 return
-            if e.space.memo:
+            if e.space.memo or e.space.path_memo:
                 total -= e.space.nbytes() - int(e.space.free.nbytes)
                 e.space.memo.clear()
+                e.space.path_memo.clear()
         while len(self.entries) > 1 and total > BUDGET_BYTES:
             _, e = self.entries.popitem(last=False)
             total -= e.space.nbytes()
@@ -145,7 +146,8 @@ def _view(kept: ConfigurationSpace, grid: OccupancyGrid, footprint: Footprint) -
     if kept.grid is grid and kept.footprint is footprint:
         return kept
     return ConfigurationSpace(grid=grid, footprint=footprint, free=kept.free, margin_m=kept.margin_m,
-                              memo=kept.memo, open_memo=kept.open_memo, near_memo=kept.near_memo)
+                              memo=kept.memo, open_memo=kept.open_memo, near_memo=kept.near_memo,
+                              path_memo=kept.path_memo)
 
 
 def _cropped(key: _Key, grid: OccupancyGrid, footprint: Footprint) -> ConfigurationSpace | None:
@@ -201,17 +203,16 @@ def _cropped(key: _Key, grid: OccupancyGrid, footprint: Footprint) -> Configurat
                               margin_m=margin)
 
 
-def kernel_reach(footprint: Footprint, res: float, n_bins: int, margin_m: float) -> int:
-    """The largest kernel half-size in cells: how far an occupied cell changes the free maps."""
-    return _kernel_reach(footprint.rects, float(res), int(n_bins), float(margin_m))
+def kernel_reach(footprint: Footprint, res: float, n_bins: int, margin_m: float) -> int:  # noqa: ARG001
+    """The largest kernel half-size in cells: how far an occupied cell changes the free maps. Every yaw
+    bin's kernel has the same size (its half-size depends on the footprint's radius only), so this is
+    found without rasterising any, whatever ``n_bins`` (tests/test_cspace_store.py)."""
+    return _kernel_reach(footprint.rects, float(res), float(margin_m))
 
 
 @functools.lru_cache(maxsize=1024)
-def _kernel_reach(rects: tuple[Rect, ...], res: float, n_bins: int, margin_m: float) -> int:
-    footprint = Footprint(rects)
-    width = 2 * math.pi / n_bins
-    return max(footprint.kernel(res, k * width - width / 2, k * width + width / 2, margin_m).shape[0] // 2
-               for k in range(n_bins))
+def _kernel_reach(rects: tuple[Rect, ...], res: float, margin_m: float) -> int:
+    return kernel_half_size(rects, res, margin_m)
 
 
 def _inside(footprint: Footprint, res: float, n_bins: int, margin_m: float,
