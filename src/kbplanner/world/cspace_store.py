@@ -126,7 +126,7 @@ def read(grid: OccupancyGrid, footprint: Footprint, n_yaw_bins: int,
         log.warning("ignoring the kept configuration space %s: not %s cells", path.name, shape)
         return None
     counts["read"] += 1
-    return np.unpackbits(packed, count=n).astype(bool).reshape(shape)
+    return np.unpackbits(packed, count=n).view(np.bool_).reshape(shape)  # 0/1 bytes: bools, no copy
 
 
 def write(grid: OccupancyGrid, footprint: Footprint, n_yaw_bins: int, margin_m: float,
