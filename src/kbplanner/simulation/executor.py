@@ -432,15 +432,6 @@ def _metrics(plan: Plan, elements: list[ElementOutcome], sim_time: float, settin
     })
 
 
-def _cspace_folder(project: ProjectData) -> Path | None:
-    """Where configuration spaces are kept (:mod:`kbplanner.world.cspace_store`): beside the project
-    cache, None when the project has no cache entry (``--no-cache``)."""
-    from kbplanner.model.project_data import cache_root
-    from kbplanner.world.cspace_store import SUBDIR
-
-    return None if project.cache_entry is None else cache_root(project.manifest.directory) / SUBDIR
-
-
 def simulate(
     project: ProjectData,
     plan: Plan,
@@ -492,7 +483,8 @@ def simulate(
         env.reset(seed=seed)
         load_s = time.perf_counter() - loaded
         run = _Run(env, plan, settings, seed, progress)
-        with cspace_store.kept_in(_cspace_folder(project)):  # configuration spaces of earlier commands
+        # configuration spaces of earlier commands, beside the project cache (none with --no-cache)
+        with cspace_store.kept_in(cspace_store.folder_for(project.cache_entry)):
             elements = run.run()
         sim_time = env.t
         robot_fp = env.robot.spec.footprint()

@@ -5,9 +5,11 @@ this module keeps their free maps in a folder as well, so that a second command 
 (``kbplanner simulate`` again, another scenario or seed with the same map states) and every other task
 of a many-storey building that meets the same map state read them instead of building them again.
 
-- Where: a folder given with :func:`kept_in` (the executor gives ``CACHE_ROOT/cspace/``, beside the
-  project cache: ``PROJECT/.kbplanner-cache`` or ``$KBPLANNER_CACHE_DIR``); none given: nothing is
-  read or written. Off with the project cache (``kbplanner --no-cache``, ``KBPLANNER_NO_CACHE=1``).
+- Where: a folder given with :func:`kept_in` (:func:`folder_for` the project's cache entry:
+  ``CACHE_ROOT/cspace/`` beside the project cache, ``PROJECT/.kbplanner-cache`` or
+  ``$KBPLANNER_CACHE_DIR``; given by the executor around B5 and by ``kbplanner plan`` / ``simulate``
+  around B4); none given: nothing is read or written. Off with the project cache (``kbplanner
+  --no-cache``, ``KBPLANNER_NO_CACHE=1``).
 - Key: SHA-256 of the format, the versions of NumPy and SciPy (the FFT), the source of the code that
   builds a space (:mod:`~kbplanner.world.footprint`, :mod:`~kbplanner.world.cspace_cache`,
   :mod:`~kbplanner.world.occupancy`, this module), the footprint's rectangles, the yaw bins, the margin,
@@ -74,6 +76,12 @@ def kept_in(folder: Path | None) -> Iterator[None]:
         yield
     finally:
         _folder.pop()
+
+
+def folder_for(cache_entry: Path | None) -> Path | None:
+    """The folder beside a project cache entry (:func:`kbplanner.model.project_cache.entry_dir`:
+    ``ROOT/project/KEY`` gives ``ROOT/cspace``); None for a project without one (``--no-cache``)."""
+    return None if cache_entry is None else Path(cache_entry).parent.parent / SUBDIR
 
 
 def folder() -> Path | None:
