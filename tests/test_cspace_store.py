@@ -98,6 +98,7 @@ def test_nothing_kept_without_a_folder_or_with_the_cache_off(tmp_path: Path,
 
 def test_the_oldest_files_go_past_the_budget(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(cspace_store, "BUDGET_BYTES", 1)  # only the newest file stays
+    monkeypatch.setattr(cspace_store, "TRIM_EVERY", 1)
     with cspace_store.kept_in(tmp_path):
         for seed in (7, 8, 9):
             g = _map(seed)

@@ -19,7 +19,8 @@ of a many-storey building that meets the same map state read them instead of bui
   the very arrays a build gives (``tests/test_cspace_store.py``).
 - A file that cannot be read, or holds another shape, is ignored and the space is built; one that
   cannot be written is logged, never an error (written atomically: two commands at once each see a
-  whole file or none). The newest files up to :data:`BUDGET_BYTES` are kept.
+  whole file or none). The newest files up to :data:`BUDGET_BYTES` are kept (looked at on a process's
+  first write and every :data:`TRIM_EVERY` writes after it).
 
 Example:
     >>> import tempfile
@@ -58,6 +59,7 @@ FORMAT = "1"
 SUBDIR = "cspace"
 #: Bytes of kept files at most (the newest are kept); a case-study run writes about 5 MB.
 BUDGET_BYTES = 256 * 1024 * 1024
+TRIM_EVERY = 16  # writes between two looks at the folder's size
 _CODE = ("footprint.py", "cspace_cache.py", "occupancy.py", "cspace_store.py")
 
 _folder: list[Path] = []
@@ -148,7 +150,8 @@ def write(grid: OccupancyGrid, footprint: Footprint, n_yaw_bins: int, margin_m: 
     try:
         atomic_write_bytes(path, buf.getvalue())
         counts["written"] += 1
-        _trim(path)
+        if (counts["written"] - 1) % TRIM_EVERY == 0:  # the first write of a process, then every few
+            _trim(path)
     except OSError as exc:
         log.warning("could not keep the configuration space in %s: %s", path.parent, exc)
 
