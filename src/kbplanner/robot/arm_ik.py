@@ -43,6 +43,7 @@ from kbplanner.robot.arm_analytic_ik import (
     closed_form,
     forward_kinematics,
     ik_best_effort,
+    near_reach,
     place_nearest,
     ur_structure,
     wrist_centre,
@@ -88,8 +89,10 @@ _CALIBRATION_TOL = 1e-6
 # within a quarter turn of the seed's: about where PyBullet's numeric IK, started at the seed, still
 # converges to that solution (compared on the B4 queries of the case study and a generated building).
 LOCAL_RAD = math.pi / 2
-# closed_form: a pose out of reach whose stretched arm lands within this many position tolerances is
-# polished by the numeric solver (the stretched pose over-estimates the distance to the target)
+# closed_form: a pose out of reach that the closed form on poses within the tolerances
+# (arm_analytic_ik.near_reach) does not reach, and whose stretched arm lands within POLISH_RANGE
+# position tolerances, is polished by the numeric solver when POLISH is on
+POLISH = False
 POLISH_RANGE = 3.0
 
 
@@ -236,6 +239,28 @@ class _Analytic:
         tool = (self.target @ self.model.tool_in_flange)[:3, 3]
         return float(np.linalg.norm(tool - wrist_centre(self.model.arm, self.target)))
 
+    def near(self, robot: RobotModel, target_xyz: Vec3, orn: Sequence[float],
+             seeds: Sequence[Sequence[float]], pos_tol_m: float, rot_tol_rad: float,
+             check_collision: bool) -> IkResult | None:
+        """The closed form on a pose within the tolerances that the arm reaches (``None``: none found).
+
+        :func:`~kbplanner.robot.arm_analytic_ik.near_reach` from the first seed; its solutions are
+        judged by :func:`_check` against the pose asked for, near a seed first, then any.
+        """
+        if not seeds:
+            return None
+        tool = self.target @ self.model.tool_in_flange
+        _, sols = near_reach(self.model.arm, tool, self.model.tool_in_flange, seeds[0], pos_tol_m,
+                             rot_tol_rad, stretched=None if self.exact else self.stretched)
+        if not sols:
+            return None
+        moved = _Analytic(self.model, sols, [], set(), self.target)
+        best = moved.solve(robot, target_xyz, orn, seeds, pos_tol_m, rot_tol_rad, check_collision, local=True)
+        if best is None or not best.reachable:
+            best = _better(best, moved.solve(robot, target_xyz, orn, seeds, pos_tol_m, rot_tol_rad,
+                                             check_collision, local=False))
+        return best
+
     def solve(self, robot: RobotModel, target_xyz: Vec3, orn: Sequence[float],
               seeds: Sequence[Sequence[float]], pos_tol_m: float, rot_tol_rad: float,
               check_collision: bool, *, local: bool) -> IkResult | None:
@@ -334,12 +359,15 @@ def solve_ik(
         if best is None or not best.reachable:
             best = _better(best, query.solve(robot, target_xyz, orn, seeds, pos_tol_m, rot_tol_rad,
                                              check_collision, local=False))
-        if best is not None and not best.reachable and not query.exact \
-                and best.position_error_m < POLISH_RANGE * pos_tol_m:
-            # just out of reach: a stretched pose is not the closest one; the numeric solver, started
-            # at each, finds a pose within the tolerances if there is one nearby
-            best = _better(best, _solve_numeric(robot, target_xyz, orn, query.stretched, pos_tol_m,
-                                                rot_tol_rad, check_collision, 2))
+        if best is not None and not best.reachable and not query.exact:
+            # just out of reach: the closed form on the pose moved within the tolerances towards the
+            # arm's reach (arm_analytic_ik.near_reach), checked against the pose asked for
+            best = _better(best, query.near(robot, target_xyz, orn, seeds, pos_tol_m, rot_tol_rad,
+                                            check_collision))
+            if best is not None and not best.reachable and POLISH \
+                    and best.position_error_m < POLISH_RANGE * pos_tol_m:
+                best = _better(best, _solve_numeric(robot, target_xyz, orn, query.stretched, pos_tol_m,
+                                                    rot_tol_rad, check_collision, 2))
         if best is None:
             return IkResult(False, tuple(saved), math.inf, math.inf, "unreachable: no seed given")
         return best
