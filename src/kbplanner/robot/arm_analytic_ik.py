@@ -26,8 +26,11 @@ Then (Hawkins 2013, derived here for either sign of each quarter turn, with ``a[
 Up to 8 solutions; each is checked by :func:`forward_kinematics`, every angle is moved by whole
 turns to the value nearest the seed that lies within the joint limits (a solution that cannot be
 is dropped). :func:`ik_best_effort` gives, for an unreachable pose, the arm stretched towards it
-(arguments clamped), so callers can report how far off the pose is. No exceptions on singular
-poses; everything is deterministic.
+(arguments clamped), so callers can report how far off the pose is. :func:`near_reach` searches,
+for a pose just out of reach, a pose within given tolerances of it that the closed form solves: it
+moves the pose (the tool point, and the tool turned about it) so that the start of the wrist (DH
+frame 4) moves by the gap between where the pose puts it and where the stretched arm has it, a
+few steps, clipped to the tolerances. No exceptions on singular poses; everything is deterministic.
 
 Reference: K. P. Hawkins, "Analytic Inverse Kinematics for the Universal Robots UR-5/UR-10 Arms",
 Georgia Institute of Technology, 2013 (the ``ur_kinematics`` package implements the same).
@@ -62,7 +65,7 @@ _SINGULAR = 1e-9  # |sin q5| below this: wrist singular
 _FK_TOL_M = 1e-6  # a closed-form solution must reproduce the pose this closely (m, and rad-ish)
 # near_reach: the share of the tolerances a moved pose may use, its steps, and when it gives up
 NEAR_SHARE = 0.97
-NEAR_ROUNDS = 6
+NEAR_ROUNDS = 3
 NEAR_GIVE_UP = 2.0
 
 

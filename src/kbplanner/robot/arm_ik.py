@@ -8,7 +8,10 @@ Solvers (``method``): ``numeric`` is PyBullet's damped least squares IK
 (``calculateInverseKinematics`` with joint limits and rest poses, refined from a few seeds);
 ``closed_form``, for a full pose and an arm whose DH table has the UR structure
 (:func:`kbplanner.robot.arm_analytic_ik.ur_structure`), checks the up to 8 exact solutions of
-:mod:`kbplanner.robot.arm_analytic_ik`, those near a seed first; ``auto`` (the default) lets the closed
+:mod:`kbplanner.robot.arm_analytic_ik`, those near a seed first, and for a pose just out of reach the
+solutions of a pose within the tolerances that the arm reaches
+(:func:`~kbplanner.robot.arm_analytic_ik.near_reach`; each judged against the pose asked for, as
+always); ``auto`` (the default) lets the closed
 form settle poses that are out of reach by more than the tolerances and the numeric solver the
 rest, so that its outcomes are the numeric solver's, faster. :func:`reach_base_poses`
 samples base poses around a target from which the arm reaches it and the base footprint is free on
