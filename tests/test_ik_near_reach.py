@@ -117,3 +117,23 @@ def test_near_reach_moves_the_pose_within_the_share_of_the_tolerances(robot: Rob
             assert dist < 1e-6 and angle < 1e-6
         assert closed_form(model.arm, flange, seed)
     assert found >= 5
+
+
+def test_arm_touches_body_answers_as_the_arm_clearance_does(robot: RobotModel) -> None:
+    """The IK's cheaper test that the arm touches the base (bounding boxes first) gives the same answers."""
+    rng = np.random.default_rng(2)
+    lo, hi = robot.arm_limits()
+    saved = robot.arm_positions()
+    touching = 0
+    try:
+        for x, y, yaw in ((0.0, 0.0, 0.0), (12.5, -7.25, 2.3)):
+            robot.set_base_pose(x, y, yaw)
+            for _ in range(300):
+                robot.set_arm([float(rng.uniform(max(a, -math.pi), min(b, math.pi)))
+                               for a, b in zip(lo, hi, strict=True)])
+                touches = robot.arm_touches_body()
+                assert touches == (robot.arm_clearance() < 0.0)
+                touching += touches
+    finally:
+        robot.set_arm(saved)
+    assert 0 < touching < 600  # both answers were given

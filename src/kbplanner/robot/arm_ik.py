@@ -185,7 +185,7 @@ def _check(robot: RobotModel, q: tuple[float, ...], target_xyz: Vec3, orn: Seque
     elif rerr > rot_tol_rad:
         reason = (f"unreachable: best orientation error {math.degrees(rerr):.1f} deg > "
                   f"{math.degrees(rot_tol_rad):.0f} deg")
-    elif check_collision and robot.arm_clearance() < 0.0:
+    elif check_collision and robot.arm_touches_body():
         reason = "unreachable: the arm would touch the robot's base or sensors"
     else:
         reason = "reachable"
