@@ -12,7 +12,7 @@ import pybullet as p
 import pytest
 from scipy.spatial.transform import Rotation
 
-from kbplanner.robot.arm_analytic_ik import closed_form, forward_kinematics, near_reach, pose_error
+from kbplanner.robot.arm_analytic_ik import forward_kinematics, near_reach, pose_error
 from kbplanner.robot.arm_ik import POS_TOL_M, ROT_TOL_RAD, analytic_arm, solve_ik
 from kbplanner.robot.robot_model import RobotModel
 
@@ -102,20 +102,21 @@ def test_near_reach_moves_the_pose_within_the_share_of_the_tolerances(robot: Rob
     for xyz, rpy in _boundary_targets(robot, 40, seed=5):
         tool = np.linalg.inv(base) @ _matrix(xyz, p.getQuaternionFromEuler(rpy))
         seed = (0.0, -1.2, 1.6, -1.9, -1.5708, 0.0)
-        moved, sols = near_reach(model.arm, tool, model.tool_in_flange, seed, POS_TOL_M, ROT_TOL_RAD)
-        again = near_reach(model.arm, tool, model.tool_in_flange, seed, POS_TOL_M, ROT_TOL_RAD)
-        assert again[1] == sols and np.array_equal(again[0], moved)  # deterministic
-        if not sols:
-            assert np.array_equal(moved, tool)
-            continue
-        found += 1
-        dist, angle = pose_error(moved, tool)
-        assert dist <= 0.97 * POS_TOL_M + 1e-12 and angle <= 0.97 * ROT_TOL_RAD + 1e-12
-        flange = moved @ np.linalg.inv(model.tool_in_flange)
-        for q in sols:
-            dist, angle = pose_error(forward_kinematics(model.arm, q) @ model.tool_in_flange, moved)
-            assert dist < 1e-6 and angle < 1e-6
-        assert closed_form(model.arm, flange, seed)
+        found_here = list(near_reach(model.arm, tool, model.tool_in_flange, seed, POS_TOL_M, ROT_TOL_RAD,
+                                     branches=4))
+        again = list(near_reach(model.arm, tool, model.tool_in_flange, seed, POS_TOL_M, ROT_TOL_RAD,
+                                branches=4))
+        assert len(again) == len(found_here)  # deterministic
+        for (m1, s1), (m2, s2) in zip(found_here, again, strict=True):
+            assert s1 == s2 and np.array_equal(m1, m2)
+        found += bool(found_here)
+        for moved, sols in found_here:
+            assert sols
+            dist, angle = pose_error(moved, tool)
+            assert dist <= 0.97 * POS_TOL_M + 1e-12 and angle <= 0.97 * ROT_TOL_RAD + 1e-12
+            for q in sols:
+                dist, angle = pose_error(forward_kinematics(model.arm, q) @ model.tool_in_flange, moved)
+                assert dist < 1e-6 and angle < 1e-6
     assert found >= 5
 
 

@@ -51,7 +51,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -67,6 +67,9 @@ _FK_TOL_M = 1e-6  # a closed-form solution must reproduce the pose this closely 
 NEAR_SHARE = 0.97
 NEAR_ROUNDS = 3
 NEAR_GIVE_UP = 2.0
+# (more branches find more poses -- 105 instead of 87 of B4's 852 near misses on the case study, storage-
+# outside -- but cost more than they save: benchmarks/ik_polish_study.py, docs/scale.md, Session 10)
+NEAR_BRANCHES = 1
 
 
 @dataclass(frozen=True)
@@ -344,45 +347,64 @@ def _frame4_origin(arm: DhArm, flange: Matrix, q: Sequence[float]) -> npt.NDArra
 
 def near_reach(arm: DhArm, tool: Matrix, tool_in_flange: Matrix, seed: Sequence[float], pos_tol_m: float,
                rot_tol_rad: float, *, share: float = NEAR_SHARE, rounds: int = NEAR_ROUNDS,
-               give_up: float = NEAR_GIVE_UP, stretched: Sequence[tuple[float, ...]] | None = None
-               ) -> tuple[Matrix, list[tuple[float, ...]]]:
-    """For a tool pose just out of reach: a tool pose within the tolerances of it that the arm reaches.
+               give_up: float = NEAR_GIVE_UP, branches: int | None = None,
+               stretched: Sequence[tuple[float, ...]] | None = None
+               ) -> Iterator[tuple[Matrix, list[tuple[float, ...]]]]:
+    """For a tool pose just out of reach: tool poses within the tolerances of it that the arm reaches.
 
     ``tool`` is the tool pose asked for and ``tool_in_flange`` the tool in DH frame 6 (both 4x4, DH
-    frame 0). Returns the tool pose found and its closed-form solutions (as :func:`closed_form`),
-    or ``(tool, [])`` when none was found. The search is the closed form on the tool pose moved
-    within ``share`` of the tolerances (at most ``share * pos_tol_m`` and turned by at most ``share
-    * rot_tol_rad`` about the tool point), in up to ``rounds`` steps: each step takes the arm
-    stretched towards the moved pose (:func:`ik_best_effort`, the branch nearest ``seed``) and the
-    gap ``g`` between its frame 4 origin (where the wrist starts) and where the moved pose puts it,
-    then moves the pose so that the wrist moves along ``g``: the tool point by ``f * share *
-    pos_tol_m`` along ``g`` and the tool turned by ``f * share * rot_tol_rad`` about ``v x g``
-    (``v``: tool point to frame 4 origin, the lever of the turn), ``f`` such that the wrist moves
-    ``|g|`` plus 1 mm; the summed move is clipped to the tolerances. Gives up when ``|g|`` exceeds
-    ``give_up`` times what the tolerances can move the wrist, or the stretched arm lands on the
-    pose. ``stretched``: :func:`ik_best_effort` of ``tool`` from ``seed`` when the caller has it
-    (``tool`` is then known to be out of reach). Deterministic; the caller checks each solution (only
-    the moved pose is reproduced exactly, within the tolerances of ``tool``).
+    frame 0). Yields each tool pose found and its closed-form solutions (as :func:`closed_form`), one
+    per branch of the stretched arm (:func:`ik_best_effort`: the ``branches`` nearest ``seed``, in
+    that order; default :data:`NEAR_BRANCHES`). Per branch the search is the closed form on the tool
+    pose moved within ``share`` of the tolerances (at most ``share * pos_tol_m`` and turned by at most
+    ``share * rot_tol_rad`` about the tool point), in up to ``rounds`` steps: each step takes the arm
+    stretched towards the moved pose (that branch) and the gap ``g`` between its frame 4 origin (where
+    the wrist starts) and where the moved pose puts it, then moves the pose so that the wrist moves
+    along ``g``: the tool point by ``f * share * pos_tol_m`` along ``g`` and the tool turned by ``f *
+    share * rot_tol_rad`` about ``v x g`` (``v``: tool point to frame 4 origin, the lever of the
+    turn), ``f`` such that the wrist moves ``|g|`` plus 1 mm; the summed move is clipped to the
+    tolerances. A branch gives up when ``|g|`` exceeds ``give_up`` times what the tolerances can move
+    the wrist, or the stretched arm lands on the pose. ``stretched``: :func:`ik_best_effort` of
+    ``tool`` from ``seed`` when the caller has it (``tool`` is then known to be out of reach).
+    Deterministic; the caller checks each solution (only the moved pose is reproduced exactly, within
+    the tolerances of ``tool``).
     """
-    fit = _inv(np.asarray(tool_in_flange, dtype=float))
     tool = np.asarray(tool, dtype=float)
+    if stretched is None:
+        sols = closed_form(arm, tool @ _inv(np.asarray(tool_in_flange, dtype=float)), seed)
+        if sols:
+            yield tool, sols
+            return
+        stretched = ik_best_effort(arm, tool @ _inv(np.asarray(tool_in_flange, dtype=float)), seed)
+    for branch in range(min(NEAR_BRANCHES if branches is None else branches, len(stretched))):
+        found = _near_branch(arm, tool, tool_in_flange, seed, pos_tol_m, rot_tol_rad, share, rounds, give_up,
+                             branch, stretched[branch])
+        if found is not None:
+            yield found
+
+
+def _near_branch(arm: DhArm, tool: Matrix, tool_in_flange: Matrix, seed: Sequence[float], pos_tol_m: float,
+                 rot_tol_rad: float, share: float, rounds: int, give_up: float, branch: int,
+                 first: tuple[float, ...]) -> tuple[Matrix, list[tuple[float, ...]]] | None:
+    """One branch of :func:`near_reach` (``first``: its stretched arm for ``tool``)."""
+    fit = _inv(np.asarray(tool_in_flange, dtype=float))
     a_max, b_max = share * pos_tol_m, share * rot_tol_rad
     shift = np.zeros(3)
     turn = np.zeros(3)
+    q: tuple[float, ...] | None = first
     for step in range(rounds):
         moved = tool.copy()
         moved[:3, :3] = _turn(turn) @ tool[:3, :3]
         moved[:3, 3] = tool[:3, 3] + shift
         flange = moved @ fit
-        if step > 0 or stretched is None:
+        if step > 0:
             sols = closed_form(arm, flange, seed)
             if sols:
                 return moved, sols
             stretched = ik_best_effort(arm, flange, seed)
-        if not stretched:
+            q = stretched[branch] if branch < len(stretched) else None
+        if q is None:
             break
-        q = stretched[0]
-        stretched = None
         want = _frame4_origin(arm, flange, q)
         gap = _frame4_origin(arm, forward_kinematics(arm, q), q) - want
         size = float(np.linalg.norm(gap))
@@ -404,7 +426,7 @@ def near_reach(arm: DhArm, tool: Matrix, tool_in_flange: Matrix, seed: Sequence[
         norm = float(np.linalg.norm(turn))
         if norm > b_max:
             turn *= b_max / norm
-    return tool, []
+    return None
 
 
 def wrist_centre(arm: DhArm, target: Matrix) -> npt.NDArray[np.float64]:

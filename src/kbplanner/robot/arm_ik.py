@@ -245,23 +245,24 @@ class _Analytic:
     def near(self, robot: RobotModel, target_xyz: Vec3, orn: Sequence[float],
              seeds: Sequence[Sequence[float]], pos_tol_m: float, rot_tol_rad: float,
              check_collision: bool) -> IkResult | None:
-        """The closed form on a pose within the tolerances that the arm reaches (``None``: none found).
+        """The closed form on a pose within the tolerances that the arm reaches (``None``: none checked).
 
-        :func:`~kbplanner.robot.arm_analytic_ik.near_reach` from the first seed; its solutions are
-        judged by :func:`_check` against the pose asked for, near a seed first, then any.
+        :func:`~kbplanner.robot.arm_analytic_ik.near_reach` from the first seed; the solutions of each
+        pose it finds, in turn, are judged by :func:`_check` against the pose asked for, near a seed
+        first, then any; the first reachable one wins, else the closest checked.
         """
         if not seeds:
             return None
         tool = self.target @ self.model.tool_in_flange
-        _, sols = near_reach(self.model.arm, tool, self.model.tool_in_flange, seeds[0], pos_tol_m,
-                             rot_tol_rad, stretched=None if self.exact else self.stretched)
-        if not sols:
-            return None
-        moved = _Analytic(self.model, sols, [], set(), self.target)
-        best = moved.solve(robot, target_xyz, orn, seeds, pos_tol_m, rot_tol_rad, check_collision, local=True)
-        if best is None or not best.reachable:
-            best = _better(best, moved.solve(robot, target_xyz, orn, seeds, pos_tol_m, rot_tol_rad,
-                                             check_collision, local=False))
+        best: IkResult | None = None
+        for _moved, sols in near_reach(self.model.arm, tool, self.model.tool_in_flange, seeds[0], pos_tol_m,
+                                       rot_tol_rad, stretched=None if self.exact else self.stretched):
+            moved = _Analytic(self.model, sols, [], set(), self.target)
+            for local in (True, False):
+                best = _better(best, moved.solve(robot, target_xyz, orn, seeds, pos_tol_m, rot_tol_rad,
+                                                 check_collision, local=local))
+                if best is not None and best.reachable:
+                    return best
         return best
 
     def solve(self, robot: RobotModel, target_xyz: Vec3, orn: Sequence[float],
