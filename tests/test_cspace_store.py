@@ -70,8 +70,9 @@ def test_damaged_or_foreign_files_are_ignored(tmp_path: Path) -> None:
     built = ConfigurationSpace.build(g, BASE).free
     with cspace_store.kept_in(tmp_path):
         path = tmp_path / f"{cspace_store.key(g, BASE, 72, 0.0)}.npy"
-        path.write_bytes(b"not an array")
-        assert cspace_store.read(g, BASE, 72, 0.0) is None
+        for damaged in (b"not an array", b""):  # ValueError, EOFError from numpy
+            path.write_bytes(damaged)
+            assert cspace_store.read(g, BASE, 72, 0.0) is None
         np.save(path, np.zeros(10, dtype=np.uint8))  # another shape
         assert cspace_store.read(g, BASE, 72, 0.0) is None
         cspace_cache.clear()

@@ -127,7 +127,7 @@ def read(grid: OccupancyGrid, footprint: Footprint, n_yaw_bins: int,
         packed = np.load(path, allow_pickle=False)
     except FileNotFoundError:
         return None
-    except (OSError, ValueError) as exc:  # a damaged file: built again and replaced
+    except (OSError, ValueError, EOFError) as exc:  # a damaged file: built again and replaced
         log.warning("ignoring the kept configuration space %s: %s", path.name, exc)
         return None
     shape = (int(n_yaw_bins), *grid.occupied.shape)
