@@ -11,7 +11,8 @@ reset), ``B5 outputs`` (the safety summary, the trajectory and event texts and t
 entry written).
 
 Usage: .venv/bin/python benchmarks/bench_command_stages.py [--scenario S ...] [--seed N]
-Prints a table and writes benchmarks/results/command_stages.json (or --out).
+Prints a table and writes benchmarks/results/command_stages.json (or --out); ``--compare BEFORE AFTER``
+prints the before / after table of two such files (e.g. one written by a baseline's copy of this script).
 """
 
 from __future__ import annotations
@@ -98,12 +99,32 @@ def _stages(scenario: str, seed: int, tmp: Path) -> dict[str, Any]:
             "total_cpu_s": round(total, 3), "x_real_time_cpu": round(got["sim_time_s"] / total, 1)}
 
 
+def compare(before: dict[str, Any], after: dict[str, Any]) -> str:
+    """A Markdown table of two results of this script: CPU seconds per stage, before / after."""
+    rows = list(zip(before["scenarios"], after["scenarios"], strict=True))
+    lines = ["| stage, CPU s before / after | " + " | ".join(a["scenario"] for _b, a in rows) + " |",
+             "| --- |" + " ---: |" * len(rows)]
+    for n in after["scenarios"][0]["stages"]:
+        lines.append(f"| {n} | " + " | ".join(
+            f"{b['stages'][n]['cpu_s']:.2f} / {a['stages'][n]['cpu_s']:.2f}" for b, a in rows) + " |")
+    whole = [f"{b['total_cpu_s']:.2f} ({b['sim_time_s']:,.1f} s: {b['x_real_time_cpu']}x) / "
+             f"{a['total_cpu_s']:.2f} ({a['sim_time_s']:,.1f} s: {a['x_real_time_cpu']}x)" for b, a in rows]
+    lines.append("| whole, CPU s (simulated s: x real time) | " + " | ".join(whole) + " |")
+    return "\n".join(lines) + "\n"
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--compare", nargs=2, type=Path, metavar=("BEFORE", "AFTER"),
+                    help="print the before / after table of two written results and stop")
     ap.add_argument("--scenario", action="append", help="scenario(s) (default: both storage scenarios)")
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--out", type=Path, default=RESULTS_DIR / "command_stages.json")
     args = ap.parse_args(argv)
+    if args.compare:
+        before, after = (json.loads(f.read_text(encoding="utf-8")) for f in args.compare)
+        sys.stdout.write(compare(before, after))
+        return 0
     load_before = list(os.getloadavg())
     with tempfile.TemporaryDirectory() as tmp:
         scenarios = args.scenario or ["storage-outside", "storage-inside"]

@@ -1,7 +1,8 @@
 """Path quality before/after (issue 14, item 3): the case study's ``kbplanner simulate`` run by a
 baseline's sources and by this tree's, in one run of this script, compared by ``metrics.json``
 ``"path_quality"`` (docs/simulation.md): frame time over the kinematic lower bound and driven over
-shortest collision-free path, median and max per run, with the simulated time and frames installed.
+shortest collision-free path, median and max per run, with the simulated time, frames installed, collisions
+and the minimum separation to the workers.
 
 The baseline is a git ref (default ``main``) exported with ``git archive``; both run
 ``kbplanner simulate data/case_study --scenario S --seed N --out DIR`` with the shared virtualenv (the
@@ -37,6 +38,8 @@ def _figures(run: Path, measured: dict[str, Any]) -> dict[str, Any]:
             "driven_over_shortest": q["driven_over_shortest"], "per_element": q["per_element"],
             "sim_time_s": totals["sim_time_s"], "installed": totals["installed"],
             "elements": totals["elements"], "driven_m": totals["driven_m"],
+            "collisions": metrics["safety"]["collisions"],
+            "min_separation_m": metrics["safety"]["min_separation_m"],
             "command_s": measured["command_s"],
             "exit": measured["exit"]}
 
@@ -63,13 +66,16 @@ def report(out: dict[str, Any]) -> str:
     rows = out["scenarios"]
     text = [f"Seed {rows[0]['seed'] if rows else '?'}; before = {out['before']}, after = this tree.\n",
             "| scenario | frame time / lower bound, median / max | driven / shortest, median / max | "
-            "simulated | installed |", "| --- | --- | --- | --- | --- |"]
+            "simulated | installed | collisions | min separation |",
+            "| --- | --- | --- | --- | --- | --- | --- |"]
     for r in rows:
         b, a = r["before"], r["after"]
         tb, ta = _pair(b["time_over_lower_bound"]), _pair(a["time_over_lower_bound"])
         db, da = _pair(b["driven_over_shortest"]), _pair(a["driven_over_shortest"])
         text.append(f"| {r['scenario']} | {tb} -> {ta} | {db} -> {da} | {b['sim_time_s']:,.1f} -> "
-                    f"{a['sim_time_s']:,.1f} s | {b['installed']} -> {a['installed']} of {a['elements']} |")
+                    f"{a['sim_time_s']:,.1f} s | {b['installed']} -> {a['installed']} of {a['elements']} | "
+                    f"{b.get('collisions', '?')} -> {a.get('collisions', '?')} | "
+                    f"{b.get('min_separation_m', '?')} -> {a.get('min_separation_m', '?')} m |")
     for r in rows:
         before = {f["global_id"]: f for f in r["before"]["per_element"]}
         text.append(f"\n{r['scenario']}, per frame: time (s) before -> after (over the lower bound)")

@@ -11,7 +11,8 @@ Per scenario it records the command's wall and CPU seconds and peak memory (``os
 CPU and wall seconds of B4 (``refine_plan``, timed by a wrapper around it, the same for both trees)
 with the configuration-space builds made in it (``ConfigurationSpace.build`` counted by the wrapper)
 and whether every file the command wrote but the run folder's marker is byte-identical
-(``outputs_identical``; both read this
+(``outputs_identical``; ``plan_diff``: per element, which steps' poses changed, from the first round; both
+read this
 tree's ``data/case_study``, as the outputs name the project folder). Ratios are
 baseline / this tree (> 1: faster now), from the median over rounds; the load average is recorded
 before and after (on a shared machine CPU seconds are the steadier figure).
@@ -31,6 +32,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import statistics
 import subprocess
@@ -150,6 +152,41 @@ def _files(root: Path) -> dict[str, bytes]:
             if p.is_file() and p.name != MARKER}
 
 
+def plan_diff(before: Path, after: Path) -> dict[str, Any]:
+    """Per element, what B4 changed between two ``plan.json``: steps whose feasibility, base pose, arm
+    poses or inputs differ, the largest base-pose move (m, rad) and whether the element is feasible."""
+    b_plan = json.loads((before / "plan.json").read_text(encoding="utf-8"))
+    a_plan = json.loads((after / "plan.json").read_text(encoding="utf-8"))
+    labels = {e["iri"]: e["label"] for e in a_plan["elements"]}
+    out: dict[str, Any] = {"order_same": [s["element"] for s in b_plan["steps"]]
+                           == [s["element"] for s in a_plan["steps"]], "elements": {}}
+    b_steps = {(s["element"], s["skill_id"]): s for s in b_plan["steps"]}
+    for step in a_plan["steps"]:
+        key = (step["element"], step["skill_id"])
+        row = out["elements"].setdefault(labels.get(step["element"], step["element"]), {
+            "changed_steps": [], "base_move_m": 0.0, "base_turn_rad": 0.0,
+            "feasible_before": True, "feasible_after": True})
+        old = b_steps.get(key)
+        row["feasible_after"] = row["feasible_after"] and bool(step["feasible"])
+        if old is None:
+            row["changed_steps"].append(f"{step['skill_id']} (new)")
+            continue
+        row["feasible_before"] = row["feasible_before"] and bool(old["feasible"])
+        fields = [f for f in ("feasible", "base_pose", "arm_poses", "inputs") if old.get(f) != step.get(f)]
+        if fields:
+            row["changed_steps"].append(f"{step['skill_id']}: {', '.join(fields)}")
+        bp, ap = old.get("base_pose"), step.get("base_pose")
+        if bp and ap:
+            row["base_move_m"] = round(max(row["base_move_m"], math.dist((bp["x"], bp["y"]),
+                                                                         (ap["x"], ap["y"]))), 3)
+            turn = abs((ap["yaw"] - bp["yaw"] + math.pi) % (2 * math.pi) - math.pi)
+            row["base_turn_rad"] = round(max(row["base_turn_rad"], turn), 3)
+    out["elements_changed"] = sum(bool(r["changed_steps"]) for r in out["elements"].values())
+    out["feasible_before"] = sum(r["feasible_before"] for r in out["elements"].values())
+    out["feasible_after"] = sum(r["feasible_after"] for r in out["elements"].values())
+    return out
+
+
 def bench(before_src: Path, after_src: Path, scenario: str, seed: int, rounds: int, tmp: Path,
           project: Path = REPO / "data" / "case_study", name: str = "case study") -> dict[str, Any]:
     runs: dict[str, list[dict[str, Any]]] = {"before": [], "after": []}
@@ -162,8 +199,10 @@ def bench(before_src: Path, after_src: Path, scenario: str, seed: int, rounds: i
             runs[label].append(_run(src, scenario, seed, out, tmp / f"{tag}-{label}-{k}.log", project))
             outs[label] = out
         identical = identical and _files(outs["before"]) == _files(outs["after"])
+        if k == 0:
+            diff = plan_diff(outs["before"], outs["after"])
     row: dict[str, Any] = {"project": name, "scenario": scenario, "seed": seed, "rounds": rounds,
-                           "outputs_identical": identical}
+                           "outputs_identical": identical, "plan_diff": diff}
     for label in ("before", "after"):
         rs = runs[label]
         keys = ("command_s", "cpu_s", "peak_rss_mb", "b4_s", "b4_cpu_s", "b4_builds",
@@ -255,6 +294,14 @@ def main(argv: list[str] | None = None) -> int:
           f"{'yes' if r['outputs_identical'] else 'no':>5}\n")
         w(f"{'':16} speed-up: command x{r['speedup_command_s']} (CPU x{r['speedup_cpu_s']}), "
           f"B4 x{r['speedup_b4_s']} (CPU x{r['speedup_b4_cpu_s']})\n")
+        d = r["plan_diff"]
+        order = "same" if d["order_same"] else "changed"
+        w(f"{'':16} plan: {d['elements_changed']} of {len(d['elements'])} elements changed, feasible "
+          f"{d['feasible_before']} -> {d['feasible_after']}, order {order}\n")
+        for label, e in d["elements"].items():
+            if e["changed_steps"]:
+                w(f"{'':18}{label}: {'; '.join(e['changed_steps'])} (base moved {e['base_move_m']} m, "
+                  f"turned {e['base_turn_rad']} rad)\n")
     w(f"load average {load_before[0]:.2f} -> {out['load_average_end'][0]:.2f}; wrote {args.out}\n")
     return 0
 

@@ -161,6 +161,7 @@ def _refine(plan: Plan, world: World, grid: OccupancyGrid, seed: int, cache_dir:
 
     from kbplanner.cli.progress import plain_counter
     from kbplanner.planning.refine_cache import refine_kept
+    from kbplanner.world.cspace_store import folder_for, kept_in
 
     console = Console(stderr=True)
     lines = plain_counter(console)
@@ -173,7 +174,8 @@ def _refine(plan: Plan, world: World, grid: OccupancyGrid, seed: int, cache_dir:
             if lines is not None:
                 lines.count("B4 arm and base poses", done, total)
 
-        return refine_kept(plan, world, seed=seed, grid=grid, progress=tell, cache_dir=cache_dir)
+        with kept_in(folder_for(cache_dir)):  # B4's configuration spaces, kept beside the project cache
+            return refine_kept(plan, world, seed=seed, grid=grid, progress=tell, cache_dir=cache_dir)
 
 
 def run(args: argparse.Namespace) -> int:

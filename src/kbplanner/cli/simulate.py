@@ -60,6 +60,7 @@ def run(args: argparse.Namespace) -> int:
     from kbplanner.simulation.executor import INSTALLED, simulate
     from kbplanner.simulation.skills import ExecSettings
     from kbplanner.world.build import build_world
+    from kbplanner.world.cspace_store import folder_for, kept_in
     from kbplanner.world.maps import storey_map
 
     check_out(args.out)
@@ -91,8 +92,9 @@ def run(args: argparse.Namespace) -> int:
             if lines is not None:
                 lines.count("B4 arm and base poses", done, total)
 
-        refined = refine_kept(plan, world, seed=seed, grid=grid, progress=refined_one,
-                              cache_dir=project.cache_entry)  # B4, or the plan kept from an earlier run
+        with kept_in(folder_for(project.cache_entry)):  # B4's configuration spaces, kept beside the cache
+            refined = refine_kept(plan, world, seed=seed, grid=grid, progress=refined_one,
+                                  cache_dir=project.cache_entry)  # B4, or the plan kept from an earlier run
         b5 = bar.add_task("B5 simulation", total=len(refined.steps))
 
         def tell(label: str, done: int, total: int) -> None:

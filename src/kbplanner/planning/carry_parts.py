@@ -28,6 +28,8 @@ from kbplanner.world.occupancy import OccupancyGrid
 #: goals' centre; at most :data:`PARTS_PER_SPACE` parts per window and footprint, then the whole window.
 PART_MARGIN_CELLS = 30
 PARTS_PER_SPACE = 2
+#: joint_components counts the label pairs of two footprints in an array of this many keys at most
+DENSE_PAIR_KEYS = 1 << 20
 
 
 def joint_components(parts: Sequence[tuple[npt.NDArray[np.int32], npt.NDArray[np.int64]]]
@@ -52,9 +54,7 @@ def joint_components(parts: Sequence[tuple[npt.NDArray[np.int32], npt.NDArray[np
     for i in range(len(parts)):
         for j in range(i + 1, len(parts)):
             (li, ri), (lj, rj) = parts[i], parts[j]
-            both = (li > 0) & (lj > 0)
-            # the distinct label pairs (one int64 key each: a 1-D unique, far faster than rows)
-            keys = np.unique(li[both].astype(np.int64) * len(rj) + lj[both])
+            keys = _label_pairs(li, len(ri), lj, len(rj))
             a = ri[keys // len(rj)] + offsets[i]
             b = rj[keys % len(rj)] + offsets[j]
             edges.append(np.stack([a, b], axis=1))
@@ -62,6 +62,21 @@ def joint_components(parts: Sequence[tuple[npt.NDArray[np.int32], npt.NDArray[np
     graph = coo_matrix((np.ones(len(e), dtype=np.int8), (e[:, 0], e[:, 1])), shape=(n_nodes, n_nodes))
     _, joint = connected_components(graph, directed=False)
     return tuple(offsets), np.asarray(joint, dtype=np.int64)
+
+
+def _label_pairs(li: npt.NDArray[np.int32], ni: int, lj: npt.NDArray[np.int32],
+                 nj: int) -> npt.NDArray[np.int64]:
+    """The distinct pairs of non-zero labels (``li < ni``, ``lj < nj``) on the same cell, as sorted keys
+    ``li * nj + lj``: counted per key (labels are few) where the keys fit :data:`DENSE_PAIR_KEYS`, else
+    the unique keys of the cells free in both (the same keys)."""
+    if ni * nj <= DENSE_PAIR_KEYS:
+        # keys below DENSE_PAIR_KEYS: no overflow in the labels' own integer type
+        counts = np.bincount((li * nj + lj).ravel(), minlength=ni * nj).reshape(ni, nj)
+        counts[0, :] = 0  # label 0: not free
+        counts[:, 0] = 0
+        return np.flatnonzero(counts).astype(np.int64)
+    both = (li > 0) & (lj > 0)
+    return np.unique(li[both].astype(np.int64) * nj + lj[both])
 
 
 class WindowParts:

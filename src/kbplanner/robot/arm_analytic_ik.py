@@ -26,8 +26,11 @@ Then (Hawkins 2013, derived here for either sign of each quarter turn, with ``a[
 Up to 8 solutions; each is checked by :func:`forward_kinematics`, every angle is moved by whole
 turns to the value nearest the seed that lies within the joint limits (a solution that cannot be
 is dropped). :func:`ik_best_effort` gives, for an unreachable pose, the arm stretched towards it
-(arguments clamped), so callers can report how far off the pose is. No exceptions on singular
-poses; everything is deterministic.
+(arguments clamped), so callers can report how far off the pose is. :func:`near_reach` searches,
+for a pose just out of reach, a pose within given tolerances of it that the closed form solves: it
+moves the pose (the tool point, and the tool turned about it) so that the start of the wrist (DH
+frame 4) moves by the gap between where the pose puts it and where the stretched arm has it, a
+few steps, clipped to the tolerances. No exceptions on singular poses; everything is deterministic.
 
 Reference: K. P. Hawkins, "Analytic Inverse Kinematics for the Universal Robots UR-5/UR-10 Arms",
 Georgia Institute of Technology, 2013 (the ``ur_kinematics`` package implements the same).
@@ -48,7 +51,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -60,6 +63,13 @@ TWO_PI = 2.0 * math.pi
 _PARAM_TOL = 1e-6  # how close a DH parameter must be to 0 or pi/2 to count as such
 _SINGULAR = 1e-9  # |sin q5| below this: wrist singular
 _FK_TOL_M = 1e-6  # a closed-form solution must reproduce the pose this closely (m, and rad-ish)
+# near_reach: the share of the tolerances a moved pose may use, its steps, and when it gives up
+NEAR_SHARE = 0.97
+NEAR_ROUNDS = 3
+NEAR_GIVE_UP = 2.0
+# (more branches find more poses -- 105 instead of 87 of B4's 852 near misses on the case study, storage-
+# outside -- but cost more than they save: benchmarks/ik_polish_study.py, docs/scale.md, Session 10)
+NEAR_BRANCHES = 1
 
 
 @dataclass(frozen=True)
@@ -316,6 +326,107 @@ def ik_best_effort(arm: DhArm, target: Matrix,
     out = _place(arm, _raw_solutions(arm, ur, np.asarray(target, dtype=float), s, clamp=True), s, clip=True)
     out.sort(key=lambda q: (joint_distance(q, s), q))
     return out
+
+
+def _turn(rotvec: npt.NDArray[np.float64]) -> Matrix:
+    """The rotation matrix of a rotation vector (Rodrigues)."""
+    angle = float(np.linalg.norm(rotvec))
+    if angle < 1e-15:
+        return np.eye(3)
+    k = rotvec / angle
+    cross = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + math.sin(angle) * cross + (1.0 - math.cos(angle)) * cross @ cross
+
+
+def _frame4_origin(arm: DhArm, flange: Matrix, q: Sequence[float]) -> npt.NDArray[np.float64]:
+    """Origin of DH frame 4 for a flange pose with the wrist joints (``q[4]``, ``q[5]``) of ``q``."""
+    t46 = dh_matrix(float(q[4]), arm.d[4], arm.a[4], arm.alpha[4]) @ \
+        dh_matrix(float(q[5]), arm.d[5], arm.a[5], arm.alpha[5])
+    return np.asarray((flange @ _inv(t46))[:3, 3], dtype=float)
+
+
+def near_reach(arm: DhArm, tool: Matrix, tool_in_flange: Matrix, seed: Sequence[float], pos_tol_m: float,
+               rot_tol_rad: float, *, share: float = NEAR_SHARE, rounds: int = NEAR_ROUNDS,
+               give_up: float = NEAR_GIVE_UP, branches: int | None = None,
+               stretched: Sequence[tuple[float, ...]] | None = None
+               ) -> Iterator[tuple[Matrix, list[tuple[float, ...]]]]:
+    """For a tool pose just out of reach: tool poses within the tolerances of it that the arm reaches.
+
+    ``tool`` is the tool pose asked for and ``tool_in_flange`` the tool in DH frame 6 (both 4x4, DH
+    frame 0). Yields each tool pose found and its closed-form solutions (as :func:`closed_form`), one
+    per branch of the stretched arm (:func:`ik_best_effort`: the ``branches`` nearest ``seed``, in
+    that order; default :data:`NEAR_BRANCHES`). Per branch the search is the closed form on the tool
+    pose moved within ``share`` of the tolerances (at most ``share * pos_tol_m`` and turned by at most
+    ``share * rot_tol_rad`` about the tool point), in up to ``rounds`` steps: each step takes the arm
+    stretched towards the moved pose (that branch) and the gap ``g`` between its frame 4 origin (where
+    the wrist starts) and where the moved pose puts it, then moves the pose so that the wrist moves
+    along ``g``: the tool point by ``f * share * pos_tol_m`` along ``g`` and the tool turned by ``f *
+    share * rot_tol_rad`` about ``v x g`` (``v``: tool point to frame 4 origin, the lever of the
+    turn), ``f`` such that the wrist moves ``|g|`` plus 1 mm; the summed move is clipped to the
+    tolerances. A branch gives up when ``|g|`` exceeds ``give_up`` times what the tolerances can move
+    the wrist, or the stretched arm lands on the pose. ``stretched``: :func:`ik_best_effort` of
+    ``tool`` from ``seed`` when the caller has it (``tool`` is then known to be out of reach).
+    Deterministic; the caller checks each solution (only the moved pose is reproduced exactly, within
+    the tolerances of ``tool``).
+    """
+    tool = np.asarray(tool, dtype=float)
+    if stretched is None:
+        sols = closed_form(arm, tool @ _inv(np.asarray(tool_in_flange, dtype=float)), seed)
+        if sols:
+            yield tool, sols
+            return
+        stretched = ik_best_effort(arm, tool @ _inv(np.asarray(tool_in_flange, dtype=float)), seed)
+    for branch in range(min(NEAR_BRANCHES if branches is None else branches, len(stretched))):
+        found = _near_branch(arm, tool, tool_in_flange, seed, pos_tol_m, rot_tol_rad, share, rounds, give_up,
+                             branch, stretched[branch])
+        if found is not None:
+            yield found
+
+
+def _near_branch(arm: DhArm, tool: Matrix, tool_in_flange: Matrix, seed: Sequence[float], pos_tol_m: float,
+                 rot_tol_rad: float, share: float, rounds: int, give_up: float, branch: int,
+                 first: tuple[float, ...]) -> tuple[Matrix, list[tuple[float, ...]]] | None:
+    """One branch of :func:`near_reach` (``first``: its stretched arm for ``tool``)."""
+    fit = _inv(np.asarray(tool_in_flange, dtype=float))
+    a_max, b_max = share * pos_tol_m, share * rot_tol_rad
+    shift = np.zeros(3)
+    turn = np.zeros(3)
+    q: tuple[float, ...] | None = first
+    for step in range(rounds):
+        moved = tool.copy()
+        moved[:3, :3] = _turn(turn) @ tool[:3, :3]
+        moved[:3, 3] = tool[:3, 3] + shift
+        flange = moved @ fit
+        if step > 0:
+            sols = closed_form(arm, flange, seed)
+            if sols:
+                return moved, sols
+            stretched = ik_best_effort(arm, flange, seed)
+            q = stretched[branch] if branch < len(stretched) else None
+        if q is None:
+            break
+        want = _frame4_origin(arm, flange, q)
+        gap = _frame4_origin(arm, forward_kinematics(arm, q), q) - want
+        size = float(np.linalg.norm(gap))
+        if size < 1e-12:
+            break
+        along = gap / size
+        axis = np.cross(want - moved[:3, 3], along)
+        lever = float(np.linalg.norm(axis))
+        reach = a_max + b_max * lever
+        if size > give_up * reach:
+            break
+        f = (size + 1e-3) / reach
+        shift = shift + f * a_max * along
+        if lever > 1e-12:
+            turn = turn + f * b_max * axis / lever
+        norm = float(np.linalg.norm(shift))
+        if norm > a_max:
+            shift *= a_max / norm
+        norm = float(np.linalg.norm(turn))
+        if norm > b_max:
+            turn *= b_max / norm
+    return None
 
 
 def wrist_centre(arm: DhArm, target: Matrix) -> npt.NDArray[np.float64]:

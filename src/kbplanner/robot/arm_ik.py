@@ -8,7 +8,10 @@ Solvers (``method``): ``numeric`` is PyBullet's damped least squares IK
 (``calculateInverseKinematics`` with joint limits and rest poses, refined from a few seeds);
 ``closed_form``, for a full pose and an arm whose DH table has the UR structure
 (:func:`kbplanner.robot.arm_analytic_ik.ur_structure`), checks the up to 8 exact solutions of
-:mod:`kbplanner.robot.arm_analytic_ik`, those near a seed first; ``auto`` (the default) lets the closed
+:mod:`kbplanner.robot.arm_analytic_ik`, those near a seed first, and for a pose just out of reach the
+solutions of a pose within the tolerances that the arm reaches
+(:func:`~kbplanner.robot.arm_analytic_ik.near_reach`; each judged against the pose asked for, as
+always); ``auto`` (the default) lets the closed
 form settle poses that are out of reach by more than the tolerances and the numeric solver the
 rest, so that its outcomes are the numeric solver's, faster. :func:`reach_base_poses`
 samples base poses around a target from which the arm reaches it and the base footprint is free on
@@ -43,6 +46,7 @@ from kbplanner.robot.arm_analytic_ik import (
     closed_form,
     forward_kinematics,
     ik_best_effort,
+    near_reach,
     place_nearest,
     ur_structure,
     wrist_centre,
@@ -88,8 +92,10 @@ _CALIBRATION_TOL = 1e-6
 # within a quarter turn of the seed's: about where PyBullet's numeric IK, started at the seed, still
 # converges to that solution (compared on the B4 queries of the case study and a generated building).
 LOCAL_RAD = math.pi / 2
-# closed_form: a pose out of reach whose stretched arm lands within this many position tolerances is
-# polished by the numeric solver (the stretched pose over-estimates the distance to the target)
+# closed_form: a pose out of reach that the closed form on poses within the tolerances
+# (arm_analytic_ik.near_reach) does not reach, and whose stretched arm lands within POLISH_RANGE
+# position tolerances, is polished by the numeric solver when POLISH is on
+POLISH = False
 POLISH_RANGE = 3.0
 
 
@@ -179,7 +185,7 @@ def _check(robot: RobotModel, q: tuple[float, ...], target_xyz: Vec3, orn: Seque
     elif rerr > rot_tol_rad:
         reason = (f"unreachable: best orientation error {math.degrees(rerr):.1f} deg > "
                   f"{math.degrees(rot_tol_rad):.0f} deg")
-    elif check_collision and robot.arm_clearance() < 0.0:
+    elif check_collision and robot.arm_touches_body():
         reason = "unreachable: the arm would touch the robot's base or sensors"
     else:
         reason = "reachable"
@@ -235,6 +241,29 @@ class _Analytic:
         """Distance from the wrist centre to the tool point."""
         tool = (self.target @ self.model.tool_in_flange)[:3, 3]
         return float(np.linalg.norm(tool - wrist_centre(self.model.arm, self.target)))
+
+    def near(self, robot: RobotModel, target_xyz: Vec3, orn: Sequence[float],
+             seeds: Sequence[Sequence[float]], pos_tol_m: float, rot_tol_rad: float,
+             check_collision: bool) -> IkResult | None:
+        """The closed form on a pose within the tolerances that the arm reaches (``None``: none checked).
+
+        :func:`~kbplanner.robot.arm_analytic_ik.near_reach` from the first seed; the solutions of each
+        pose it finds, in turn, are judged by :func:`_check` against the pose asked for, near a seed
+        first, then any; the first reachable one wins, else the closest checked.
+        """
+        if not seeds:
+            return None
+        tool = self.target @ self.model.tool_in_flange
+        best: IkResult | None = None
+        for _moved, sols in near_reach(self.model.arm, tool, self.model.tool_in_flange, seeds[0], pos_tol_m,
+                                       rot_tol_rad, stretched=None if self.exact else self.stretched):
+            moved = _Analytic(self.model, sols, [], set(), self.target)
+            for local in (True, False):
+                best = _better(best, moved.solve(robot, target_xyz, orn, seeds, pos_tol_m, rot_tol_rad,
+                                                 check_collision, local=local))
+                if best is not None and best.reachable:
+                    return best
+        return best
 
     def solve(self, robot: RobotModel, target_xyz: Vec3, orn: Sequence[float],
               seeds: Sequence[Sequence[float]], pos_tol_m: float, rot_tol_rad: float,
@@ -334,12 +363,15 @@ def solve_ik(
         if best is None or not best.reachable:
             best = _better(best, query.solve(robot, target_xyz, orn, seeds, pos_tol_m, rot_tol_rad,
                                              check_collision, local=False))
-        if best is not None and not best.reachable and not query.exact \
-                and best.position_error_m < POLISH_RANGE * pos_tol_m:
-            # just out of reach: a stretched pose is not the closest one; the numeric solver, started
-            # at each, finds a pose within the tolerances if there is one nearby
-            best = _better(best, _solve_numeric(robot, target_xyz, orn, query.stretched, pos_tol_m,
-                                                rot_tol_rad, check_collision, 2))
+        if best is not None and not best.reachable and not query.exact:
+            # just out of reach: the closed form on the pose moved within the tolerances towards the
+            # arm's reach (arm_analytic_ik.near_reach), checked against the pose asked for
+            best = _better(best, query.near(robot, target_xyz, orn, seeds, pos_tol_m, rot_tol_rad,
+                                            check_collision))
+            if best is not None and not best.reachable and POLISH \
+                    and best.position_error_m < POLISH_RANGE * pos_tol_m:
+                best = _better(best, _solve_numeric(robot, target_xyz, orn, query.stretched, pos_tol_m,
+                                                    rot_tol_rad, check_collision, 2))
         if best is None:
             return IkResult(False, tuple(saved), math.inf, math.inf, "unreachable: no seed given")
         return best

@@ -37,6 +37,7 @@ from kbplanner.robot.urdf_generation import (
 )
 
 log = logging.getLogger(__name__)
+_BOX_SLACK_M = 0.01  # arm_touches_body: link pairs whose bounding boxes are farther apart cannot touch
 
 
 def write_urdfs(table: Path | None = None, out_dir: Path | None = None) -> list[Path]:
@@ -294,13 +295,40 @@ class RobotModel:
                     best = min(best, float(c[8]))
         return best
 
+    def _body_links(self) -> list[int]:
+        """Base, plate, lidar, camera and wheels: what the arm must not touch."""
+        body_links = [-1, self.links["top_plate_link"], self.lidar_link, self.camera_link]
+        return body_links + [self.links[n] for n in self.links if n.endswith("_wheel_link")]
+
     def arm_clearance(self) -> float:
         """Smallest distance (m) from the arm (from the upper arm on) to base, plate, lidar and camera."""
         if not self.arm_joints:
             return math.inf
-        body_links = [-1, self.links["top_plate_link"], self.lidar_link, self.camera_link]
-        body_links += [self.links[n] for n in self.links if n.endswith("_wheel_link")]
-        return self.min_distance(self.arm_links[1:], body_links)
+        return self.min_distance(self.arm_links[1:], self._body_links())
+
+    def arm_touches_body(self) -> bool:
+        """``arm_clearance() < 0``, the same answer, cheaper.
+
+        Only link pairs whose bounding boxes (PyBullet's, with the collision margin) come within 1 cm
+        are asked (shapes that overlap have overlapping boxes), with the same query as
+        :meth:`arm_clearance`, and the first overlap answers.
+        """
+        import pybullet as p
+
+        if not self.arm_joints:
+            return False
+        body_links = self._body_links()
+        boxes = [p.getAABB(self.body, b, physicsClientId=self.client) for b in body_links]
+        for a in self.arm_links[1:]:
+            lo_a, hi_a = p.getAABB(self.body, a, physicsClientId=self.client)
+            for b, (lo_b, hi_b) in zip(body_links, boxes, strict=True):
+                slack = _BOX_SLACK_M
+                if any(lo_a[k] > hi_b[k] + slack or lo_b[k] > hi_a[k] + slack for k in range(3)):
+                    continue
+                for c in p.getClosestPoints(self.body, self.body, 1.0, a, b, physicsClientId=self.client):
+                    if float(c[8]) < 0.0:
+                        return True
+        return False
 
 
 def main(argv: Sequence[str] | None = None) -> int:

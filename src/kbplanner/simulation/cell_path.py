@@ -89,8 +89,10 @@ def bfs_cells(free: npt.NDArray[np.bool_], src: tuple[int, int, int], dst: tuple
     dp = (dst[0] * nyp + dst[1] + 1) * nxp + dst[2] + 1
     open_[sp] = True  # the search from the start leaves it even where it is blocked
     open_[dp] = False
-    layer_of = np.full(open_.size, -1, dtype=np.int32)
-    layer_of[dp] = 0
+    # each reached cell's layer + 1 (0: not reached); zeros, not a fill, so that only the pages of the
+    # cells reached are ever written (a window's array is tens of megabytes)
+    layer_of = np.zeros(open_.size, dtype=np.int32)
+    layer_of[dp] = 1
     frontier = np.array([dp], dtype=np.int64)
     span = nb * planep
     layer = 0
@@ -109,7 +111,7 @@ def bfs_cells(free: npt.NDArray[np.bool_], src: tuple[int, int, int], dst: tuple
         frontier = np.concatenate(parts)
         if frontier.size == 0:
             return None
-        layer_of[frontier] = layer
+        layer_of[frontier] = layer + 1
     wrap_span = (nb - 1) * planep
     nodes = [s]
     here = sp
@@ -117,7 +119,7 @@ def bfs_cells(free: npt.NDArray[np.bool_], src: tuple[int, int, int], dst: tuple
         b = here // planep
         for step in (-wrap_span if b == nb - 1 else 0, 1, nxp, planep if b < nb - 1 else 0,
                      -planep if b > 0 else 0, -nxp, -1, wrap_span if b == 0 else 0):
-            if step and layer_of[here + step] == nearer:
+            if step and layer_of[here + step] == nearer + 1:
                 here += step
                 break
         else:  # pragma: no cover - a cell of layer k > 0 always has a neighbour in layer k - 1

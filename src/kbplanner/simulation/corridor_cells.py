@@ -46,10 +46,18 @@ def corridor_cells(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D,
     ys, xs = zip(*path, strict=True)
     off[list(ys), list(xs)] = False
     near = ndimage.distance_transform_edt(off) <= radius_m / g.resolution
-    nodes = bfs_cells(cs.free & near[None, :, :], ends[0], ends[1])
+    # searched on the corridor's bounding box only: every cell off it is blocked anyway, and the search's
+    # path does not depend on where its cells lie (same cells as on the whole window)
+    rows, cols = np.flatnonzero(near.any(axis=1)), np.flatnonzero(near.any(axis=0))
+    y0, y1, x0, x1 = int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+    box = cs.free[:, y0:y1, x0:x1] & near[None, y0:y1, x0:x1]
+    (b0, sy, sx), (b1, gy, gx) = ends
+    nodes = bfs_cells(box, (b0, sy - y0, sx - x0), (b1, gy - y0, gx - x0))
     if nodes is None:
         return None
-    cell = np.asarray(np.unravel_index(np.asarray(nodes, dtype=np.int64), cs.free.shape), dtype=np.int64).T
+    cell = np.asarray(np.unravel_index(np.asarray(nodes, dtype=np.int64), box.shape), dtype=np.int64).T
+    cell[:, 1] += y0
+    cell[:, 2] += x0
     res, (ox, oy), w = g.resolution, g.origin, cs.bin_width
     return [(ox + (float(x) + 0.5) * res, oy + (float(y) + 0.5) * res, wrap(float(b) * w))
             for b, y, x in cell.tolist()]

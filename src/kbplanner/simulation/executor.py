@@ -461,6 +461,7 @@ def simulate(
     """
     from kbplanner.simulation.floors import walk_grid
     from kbplanner.simulation.workers import WorkerSpec, load_workers, plan_workers
+    from kbplanner.world import cspace_store
     from kbplanner.world.maps import storey_map
 
     settings = settings or ExecSettings()
@@ -486,7 +487,9 @@ def simulate(
         env.reset(seed=seed)
         load_s = time.perf_counter() - loaded
         run = _Run(env, plan, settings, seed, progress)
-        elements = run.run()
+        # configuration spaces of earlier commands, beside the project cache (none with --no-cache)
+        with cspace_store.kept_in(cspace_store.folder_for(project.cache_entry)):
+            elements = run.run()
         sim_time = env.t
         robot_fp = env.robot.spec.footprint()
         floor_z, ground_z = env.robot_floor_z, float(env.world.ground_z)

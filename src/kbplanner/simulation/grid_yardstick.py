@@ -17,18 +17,21 @@ import numpy.typing as npt
 
 from kbplanner.core.errors import KbplannerError
 from kbplanner.simulation.nav_path import Pose2D
+from kbplanner.world.cspace_cache import configuration_space
 from kbplanner.world.footprint import ConfigurationSpace, Footprint
 from kbplanner.world.occupancy import OccupancyGrid
 
 
 def _dijkstra_cells(
-    free: npt.NDArray[np.bool_], s: tuple[int, int], t: tuple[int, int]
+    free: npt.NDArray[np.bool_], s: tuple[int, int], t: tuple[int, int],
+    graph_of: tuple[npt.NDArray[np.int64], Any] | None = None,
 ) -> list[tuple[int, int]] | None:
     """Cells (iy, ix) of a shortest 8-connected path over ``free`` from ``s`` to ``t`` (scipy's
-    Dijkstra; steps cost 1 or sqrt 2 cells), or None."""
+    Dijkstra; steps cost 1 or sqrt 2 cells), or None. ``graph_of``: :func:`_graph` of ``free``, when
+    known."""
     from scipy.sparse import csgraph
 
-    index, graph = _graph(free)
+    index, graph = graph_of if graph_of is not None else _graph(free)
     src, dst = int(index[s]), int(index[t])
     dist, pred = csgraph.dijkstra(graph, directed=False, indices=src, return_predecessors=True)
     if not math.isfinite(float(dist[dst])):
@@ -93,14 +96,16 @@ def grid_shortest_path_length(
     if footprint is None:
         raise KbplannerError("grid_shortest_path_length on a grid needs a footprint",
                              element="grid_shortest_path_length", fix="pass footprint=...")
-    return _shortest_length(ConfigurationSpace.build(grid, footprint, n_yaw_bins), start, goal)
+    # the same free maps as ConfigurationSpace.build(grid, footprint, n_yaw_bins), kept (in the process
+    # and, where a folder is given, on disk): the yardstick's windows come back on every run
+    return _shortest_length(configuration_space(grid, footprint, n_yaw_bins), start, goal)
 
 
 def shortest_cells(cs: ConfigurationSpace, start: Pose2D | tuple[float, float],
                    goal: Pose2D | tuple[float, float]) -> list[tuple[int, int]] | None:
     """Cells (iy, ix) of the 8-connected shortest path over the cells where the footprint fits at some
     yaw, from start's cell to goal's (the search :func:`grid_shortest_path_length` shortens), or None."""
-    free = cs.free_any_yaw()
+    free = _free_any(cs)
     g = cs.grid
     ny, nx = g.shape
     (sx, sy), (gx, gy) = g.cell_of(start[0], start[1]), g.cell_of(goal[0], goal[1])
@@ -108,7 +113,39 @@ def shortest_cells(cs: ConfigurationSpace, start: Pose2D | tuple[float, float],
         return None
     if not (free[sy, sx] and free[gy, gx]):
         return None
-    return _dijkstra_cells(free, (sy, sx), (gy, gx))
+    return _cells(cs, (sy, sx), (gy, gx))
+
+
+def _free_any(cs: ConfigurationSpace) -> npt.NDArray[np.bool_]:
+    """``cs.free_any_yaw()``, kept on the space (``path_memo``, shared by the spaces of one free map)."""
+    got = cs.path_memo.get("any")
+    if got is None:
+        got = cs.free_any_yaw()
+        got.setflags(write=False)
+        cs.path_memo["any"] = got
+        cs.path_memo["bytes"] = cs.path_memo.get("bytes", 0) + int(got.nbytes)
+    return np.asarray(got)
+
+
+def _cells(cs: ConfigurationSpace, s: tuple[int, int], t: tuple[int, int]) -> list[tuple[int, int]] | None:
+    """:func:`_dijkstra_cells` over :func:`_free_any` of ``cs``, the graph and each (s, t)'s path kept on
+    the space: the leg's planner (the carry cell route, :mod:`kbplanner.simulation.corridor_cells`) and
+    its yardstick search the same cells."""
+    memo = cs.path_memo
+    key = ("cells", s, t)
+    if key in memo:
+        got: list[tuple[int, int]] | None = memo[key]
+        return None if got is None else list(got)
+    graph_of = memo.get("graph")
+    if graph_of is None:
+        graph_of = _graph(_free_any(cs))
+        index, graph = graph_of
+        memo["graph"] = graph_of
+        memo["bytes"] = memo.get("bytes", 0) + int(index.nbytes + graph.data.nbytes + graph.indices.nbytes
+                                                   + graph.indptr.nbytes)
+    got = _dijkstra_cells(_free_any(cs), s, t, graph_of)
+    memo[key] = None if got is None else tuple(got)
+    return None if got is None else list(got)
 
 
 # the lengths found in a configuration space (the skills ask again for the leg they planned)
@@ -118,7 +155,7 @@ _LENGTHS: weakref.WeakKeyDictionary[ConfigurationSpace, dict[_Ends, float]] = we
 
 def _shortest_length(cs: ConfigurationSpace, start: Pose2D | tuple[float, float],
                      goal: Pose2D | tuple[float, float]) -> float:
-    free = cs.free_any_yaw()
+    free = _free_any(cs)
     g = cs.grid
     ny, nx = g.shape
     (sx, sy), (gx, gy) = g.cell_of(start[0], start[1]), g.cell_of(goal[0], goal[1])
@@ -126,7 +163,7 @@ def _shortest_length(cs: ConfigurationSpace, start: Pose2D | tuple[float, float]
         return math.inf
     if not (free[sy, sx] and free[gy, gx]):
         return math.inf
-    cells = _dijkstra_cells(free, (sy, sx), (gy, gx))
+    cells = _cells(cs, (sy, sx), (gy, gx))
     if cells is None:
         return math.inf
     pts = [(float(start[0]), float(start[1]))]

@@ -17,7 +17,10 @@ footprint, n_yaw_bins, margin_m)``, from an in-process LRU cache:
   it count as occupied. (The labels are the window's own: connectivity is not cropped.) Where the
   window's occupancy differs in a few cells (B5's map of a state rasterises an installed element a
   cell or so differently from B4's), only the cells within the footprint's reach of them are built
-  again.
+  again;
+- the same grid cells, footprint, yaw bins and margin kept on disk by an earlier command
+  (:mod:`kbplanner.world.cspace_store`, when a folder is given): the free maps read back. A space
+  built or cropped here is written there.
 
 Memory is bounded: the least recently used spaces go once the kept free maps and labels exceed
 :data:`BUDGET_BYTES`. Returned arrays are read-only (shared).
@@ -47,7 +50,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect
+from kbplanner.world import cspace_store
+from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect, kernel_half_size
 from kbplanner.world.occupancy import OccupancyGrid
 
 #: Bytes of free maps and labels kept at most, checked as a space is added (a 600 x 600 cell window,
@@ -72,7 +76,7 @@ class _Entry:
 class _Cache:
     def __init__(self) -> None:
         self.entries: OrderedDict[tuple[_Key, bytes, tuple[float, float]], _Entry] = OrderedDict()
-        self.counts = {"built": 0, "hits": 0, "cropped": 0, "patched": 0, "evicted": 0}
+        self.counts = {"built": 0, "hits": 0, "cropped": 0, "patched": 0, "read": 0, "evicted": 0}
 
     def bytes(self) -> int:
         return sum(e.space.nbytes() for e in self.entries.values())
@@ -84,9 +88,10 @@ class _Cache:
         for e in list(self.entries.values())[:-1]:
             if total <= BUDGET_BYTES:
                 return
-            if e.space.memo:
+            if e.space.memo or e.space.path_memo:
                 total -= e.space.nbytes() - int(e.space.free.nbytes)
                 e.space.memo.clear()
+                e.space.path_memo.clear()
         while len(self.entries) > 1 and total > BUDGET_BYTES:
             _, e = self.entries.popitem(last=False)
             total -= e.space.nbytes()
@@ -114,12 +119,19 @@ def configuration_space(grid: OccupancyGrid, footprint: Footprint, n_yaw_bins: i
         _CACHE.counts["hits"] += 1
         _CACHE.trim()
         return _view(entry.space, grid, footprint)
-    cs = _cropped(key, grid, footprint)
-    if cs is None:
-        cs = ConfigurationSpace.build(grid, footprint, n_yaw_bins, margin_m)
-        _CACHE.counts["built"] += 1
+    kept_free = cspace_store.read(grid, footprint, n_yaw_bins, margin_m)
+    if kept_free is not None:
+        cs = ConfigurationSpace(grid=grid, footprint=footprint, free=kept_free, margin_m=margin_m)
+        _CACHE.counts["read"] += 1
     else:
-        _CACHE.counts["cropped"] += 1
+        crop = _cropped(key, grid, footprint)
+        if crop is None:
+            cs = ConfigurationSpace.build(grid, footprint, n_yaw_bins, margin_m)
+            _CACHE.counts["built"] += 1
+        else:
+            cs = crop
+            _CACHE.counts["cropped"] += 1
+        cspace_store.write(grid, footprint, n_yaw_bins, margin_m, cs.free)
     cs.free.setflags(write=False)
     res = grid.resolution
     kept = grid.occupied.copy()
@@ -134,7 +146,8 @@ def _view(kept: ConfigurationSpace, grid: OccupancyGrid, footprint: Footprint) -
     if kept.grid is grid and kept.footprint is footprint:
         return kept
     return ConfigurationSpace(grid=grid, footprint=footprint, free=kept.free, margin_m=kept.margin_m,
-                              memo=kept.memo, open_memo=kept.open_memo, near_memo=kept.near_memo)
+                              memo=kept.memo, open_memo=kept.open_memo, near_memo=kept.near_memo,
+                              path_memo=kept.path_memo)
 
 
 def _cropped(key: _Key, grid: OccupancyGrid, footprint: Footprint) -> ConfigurationSpace | None:
@@ -190,17 +203,16 @@ def _cropped(key: _Key, grid: OccupancyGrid, footprint: Footprint) -> Configurat
                               margin_m=margin)
 
 
-def kernel_reach(footprint: Footprint, res: float, n_bins: int, margin_m: float) -> int:
-    """The largest kernel half-size in cells: how far an occupied cell changes the free maps."""
-    return _kernel_reach(footprint.rects, float(res), int(n_bins), float(margin_m))
+def kernel_reach(footprint: Footprint, res: float, n_bins: int, margin_m: float) -> int:  # noqa: ARG001
+    """The largest kernel half-size in cells: how far an occupied cell changes the free maps. Every yaw
+    bin's kernel has the same size (its half-size depends on the footprint's radius only), so this is
+    found without rasterising any, whatever ``n_bins`` (tests/test_cspace_store.py)."""
+    return _kernel_reach(footprint.rects, float(res), float(margin_m))
 
 
 @functools.lru_cache(maxsize=1024)
-def _kernel_reach(rects: tuple[Rect, ...], res: float, n_bins: int, margin_m: float) -> int:
-    footprint = Footprint(rects)
-    width = 2 * math.pi / n_bins
-    return max(footprint.kernel(res, k * width - width / 2, k * width + width / 2, margin_m).shape[0] // 2
-               for k in range(n_bins))
+def _kernel_reach(rects: tuple[Rect, ...], res: float, margin_m: float) -> int:
+    return kernel_half_size(rects, res, margin_m)
 
 
 def _inside(footprint: Footprint, res: float, n_bins: int, margin_m: float,
@@ -234,5 +246,6 @@ def clear() -> None:
 
 def stats() -> dict[str, int]:
     """Counts since the last :func:`clear`: built, hits (same grid), cropped (a window of a kept grid;
-    patched: of those, with a few cells built again), evicted; and the spaces and bytes kept now."""
+    patched: of those, with a few cells built again), read (from :mod:`~kbplanner.world.cspace_store`),
+    evicted; and the spaces and bytes kept now."""
     return {**_CACHE.counts, "kept": len(_CACHE.entries), "bytes": _CACHE.bytes()}

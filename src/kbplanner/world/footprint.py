@@ -24,6 +24,7 @@ import logging
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -110,16 +111,21 @@ class Footprint:
         return _kernel(self.rects, float(resolution), float(yaw_lo), float(yaw_hi), float(margin_m)).copy()
 
 
+def kernel_half_size(rects: tuple[Rect, ...], resolution: float, margin_m: float) -> int:
+    """Half the side (cells) of every kernel of a footprint, whatever its yaw interval: the kernel of
+    :meth:`Footprint.kernel` has shape (2h+1, 2h+1)."""
+    return math.ceil((Footprint(rects).radius_m + resolution + margin_m) / resolution) + 1
+
+
 @functools.lru_cache(maxsize=4096)
 def _kernel(rects: tuple[Rect, ...], resolution: float, yaw_lo: float, yaw_hi: float,
             margin_m: float) -> BoolArray:
     """:meth:`Footprint.kernel`, memoised: a navigation rebuilds configuration spaces for the same
     footprints (robot, robot + load in each carry mode) on many windows of the map, and rasterising the
     swept footprint is the costly part of a build."""
-    fp = Footprint(rects)
     grow = resolution + margin_m
     n_sub = max(2, math.ceil((yaw_hi - yaw_lo) / _SUB_ANGLE_RAD) + 1)
-    h = math.ceil((fp.radius_m + grow) / resolution) + 1
+    h = kernel_half_size(rects, resolution, margin_m)
     offs = np.arange(-h, h + 1) * resolution
     xx, yy = np.meshgrid(offs, offs)
     out = np.zeros(xx.shape, dtype=bool)
@@ -165,10 +171,15 @@ class ConfigurationSpace:
     #: for every goal
     near_memo: dict[tuple[bool, int, int, int], frozenset[int]] = field(default_factory=dict, repr=False,
                                                                         compare=False)
+    #: what path searches on the free maps keep (:mod:`kbplanner.simulation.grid_yardstick`: the cells
+    #: free at some yaw, their graph, shortest cell paths), shared as ``memo`` is; their bytes, under
+    #: ``"bytes"``, counted in :meth:`nbytes`
+    path_memo: dict[Any, Any] = field(default_factory=dict, repr=False, compare=False)
 
     def nbytes(self) -> int:
         """Bytes of the free maps and the labels computed so far."""
-        return int(self.free.nbytes) + sum(int(a.nbytes + b.nbytes) for a, b in self.memo.values())
+        return (int(self.free.nbytes) + sum(int(a.nbytes + b.nbytes) for a, b in self.memo.values())
+                + int(self.path_memo.get("bytes", 0)))
 
     @property
     def n_bins(self) -> int:
