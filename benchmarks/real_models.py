@@ -45,7 +45,7 @@ def measure(ifc: Path, out_dir: Path) -> dict[str, Any]:
     from kbplanner.world.maps import storey_map
 
     f = ifcopenshell.open(str(ifc))
-    apps = sorted({str(a.ApplicationFullName or a.ApplicationIdentifier or "")
+    apps = sorted({str(a.ApplicationFullName or a.ApplicationIdentifier or "").strip()
                    for a in f.by_type("IfcApplication")})
     with tempfile.TemporaryDirectory() as tmp:
         project = Path(tmp)
@@ -117,7 +117,7 @@ def render(rows: list[dict[str, Any]]) -> str:
         lost = sum(c["lost"] for c in cls.values())
         units = ", ".join(u for u in (r["units"]["length"], r["units"]["mass"]) if u)
         notes = f"{r['notes']} ({', '.join(r['note_kinds'])})" if r["notes"] else "0"
-        app = "; ".join(r.get("applications", [])) or "-"
+        app = "; ".join(a.strip() for a in r.get("applications", [])) or "-"
         out.append(f"| {r['file']} | {app} | {r['schema']}, {units} | "
                    + " | ".join(_count(cls.get(k)) for k in SHOWN)
                    + f" | {others or '-'} | {len(r['skipped'])} | {lost} | {notes} |")
