@@ -111,17 +111,20 @@ def measure_run(project: Path, tmp: Path) -> dict[str, Any]:
 
 
 def measure(ifc: Path, *, run: bool = False, label: str | None = None, run_max_frames: int = 40,
-            max_walls: int = 8, check_max_frames: int = 20) -> dict[str, Any]:
+            max_walls: int = 8, check_max_frames: int = 20, keep: Path | None = None) -> dict[str, Any]:
     """import-ifc, init (and ``run``) on ``ifc`` in a temporary folder; returns the figures.
 
     init runs twice: without the plan check (``--no-plan-check``: the seconds of reading and proposing)
     and, for projects of at most ``check_max_frames`` frames, as a user runs it (each scenario's storage
-    proposals planned, the best kept: ``plan_check``); ``run`` runs on the checked project.
+    proposals planned, the best kept: ``plan_check``); ``run`` runs on the checked project. ``keep``: the
+    folders (import, project, checked, run) are written into ``keep/<file stem>`` and kept, not into a
+    temporary folder.
     """
     from kbplanner.scale.project_init import init_project
 
     with tempfile.TemporaryDirectory() as tmp_name:
-        tmp = Path(tmp_name)
+        tmp = Path(tmp_name) if keep is None else keep / ifc.stem
+        tmp.mkdir(parents=True, exist_ok=True)
         imported = measure_import(ifc, tmp)
         with Timer() as t:  # the first placements, unchecked: how long reading and proposing take
             r = init_project(ifc, tmp / "project", max_walls=max_walls, check_plan=False)
@@ -291,6 +294,8 @@ def main() -> int:
                         help="with --doc: keep the document's rows of the models not measured (or merged) "
                              "now, as they are")
     parser.add_argument("--results", type=Path, default=RESULTS, help=f"the JSON (default {RESULTS})")
+    parser.add_argument("--keep", type=Path, help="write each model's folders (import, project, checked, "
+                                                  "run) into KEEP/<file stem> and keep them")
     parser.add_argument("--merge", type=Path, action="append", default=[],
                         help="with --render-only: rows of another results JSON (a row with a run wins)")
     args = parser.parse_args()
@@ -320,7 +325,7 @@ def main() -> int:
                 print(f"{ifc}: not present, skipped", file=sys.stderr)
                 continue
             row = measure(ifc, run=args.run, label=label, run_max_frames=args.run_max_frames,
-                          max_walls=max_walls, check_max_frames=args.check_max_frames)
+                          max_walls=max_walls, check_max_frames=args.check_max_frames, keep=args.keep)
             rows = [r for r in rows if r["file"] != row["file"]] + [row]
             print(f"{row['file']}: {'written' if row['written'] else 'nothing written (exit 1)'}, storey "
                   f"{row['storey']}, {row['walls_chosen']}/{row['walls']} walls, {row['frames']} frames, "

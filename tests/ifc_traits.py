@@ -27,7 +27,6 @@ import ifcopenshell.api.geometry
 import ifcopenshell.api.spatial
 import ifcopenshell.api.unit
 import ifcopenshell.util.unit
-import numpy as np
 
 from ifc_factory import TestBuilding, _gid, _matrix, write_test_building
 
@@ -64,21 +63,15 @@ def _contain(f: ifcopenshell.file, product: Any, storey: Any, key: str) -> None:
             RelatingStructure=storey).Name = None
 
 
-def _box(f: ifcopenshell.file, product: Any, x: float, y: float, z: float, dx: float, dy: float, dz: float,
-         scale: float) -> None:
-    """Place ``product`` at (x, y, z) m and give it a dx x dy x dz box body (file units: ``scale`` m each)."""
-    matrix = _units(_matrix(x, y, z), scale)
-    ifcopenshell.api.geometry.edit_object_placement(f, product=product, matrix=matrix)
+def _box(f: ifcopenshell.file, product: Any, x: float, y: float, z: float, dx: float, dy: float,
+         dz: float) -> None:
+    """Place ``product`` at (x, y, z) m and give it a dx x dy x dz m box body: ``ifcopenshell.api`` takes
+    metres and writes the file's length unit (dividing by the unit here too made the millimetre
+    fixture's windows 1000 times too large and kilometres away)."""
+    ifcopenshell.api.geometry.edit_object_placement(f, product=product, matrix=_matrix(x, y, z))
     rep = ifcopenshell.api.geometry.add_slab_representation(
-        f, context=_body(f), depth=dz / scale,
-        polyline=[(0.0, 0.0), (dx / scale, 0.0), (dx / scale, dy / scale), (0.0, dy / scale)])
+        f, context=_body(f), depth=dz, polyline=[(0.0, 0.0), (dx, 0.0), (dx, dy), (0.0, dy)])
     ifcopenshell.api.geometry.assign_representation(f, product=product, representation=rep)
-
-
-def _units(m: np.ndarray, scale: float) -> np.ndarray:
-    out = m.copy()
-    out[:3, 3] /= scale
-    return out
 
 
 def _storey(f: ifcopenshell.file, index: int) -> Any:
@@ -98,7 +91,7 @@ def _unname_sets(f: ifcopenshell.file, keep: tuple[str, ...]) -> int:
 def _window(f: ifcopenshell.file, key: str, storey: Any, x: float, scale: float) -> Any:
     window = _rooted(f, "IfcWindow", f"Window {key}", f"window-{key}")
     _contain(f, window, storey, f"window-{key}")
-    _box(f, window, x, 0.1, 0.9, 1.2, 0.1, 1.2, scale)
+    _box(f, window, x, 0.1, 0.9, 1.2, 0.1, 1.2)
     window.OverallWidth, window.OverallHeight = 1.2 / scale, 1.2 / scale
     return window
 
@@ -173,7 +166,7 @@ def write_traits(path: Path) -> TraitBuilding:
 
     slab = _rooted(f, "IfcSlab", "Split-level floor", "split-slab", PredefinedType="FLOOR")
     _contain(f, slab, level1, "split-slab")
-    _box(f, slab, 5.1, 0.3, SPLIT_LEVEL_M - 0.2, 4.6, 2.7, 0.2, 1.0)
+    _box(f, slab, 5.1, 0.3, SPLIT_LEVEL_M - 0.2, 4.6, 2.7, 0.2)
     out.extra["split_slab"] = slab.GlobalId
 
     stair = _rooted(f, "IfcStair", "Stair", "stair")
@@ -182,14 +175,14 @@ def write_traits(path: Path) -> TraitBuilding:
     flights = []
     for n in range(2):
         flight = _rooted(f, "IfcStairFlight", f"Flight {n + 1}", f"flight-{n}")
-        _box(f, flight, 1.0, 3.5 + n * 1.0, 0.0, 1.0, 1.0, 0.6 * (n + 1), 1.0)
+        _box(f, flight, 1.0, 3.5 + n * 1.0, 0.0, 1.0, 1.0, 0.6 * (n + 1))
         flights.append(flight)
     ifcopenshell.api.aggregate.assign_object(f, products=flights, relating_object=stair)
     out.extra["stair"] = stair.GlobalId
 
     door = _rooted(f, "IfcDoor", "Door without host", "door-no-host")
     _contain(f, door, level1, "door-no-host")
-    _box(f, door, 3.0, 5.6, 0.0, 0.9, 0.05, 2.1, 1.0)
+    _box(f, door, 3.0, 5.6, 0.0, 0.9, 0.05, 2.1)
     out.extra["door_no_host"] = door.GlobalId
 
     building = f.by_guid(_gid("building"))
@@ -198,7 +191,7 @@ def write_traits(path: Path) -> TraitBuilding:
     ifcopenshell.api.geometry.edit_object_placement(f, product=empty, matrix=_matrix(0.0, 0.0, 6.0))
     roof_slab = _rooted(f, "IfcSlab", "Level 3 floor", "storey-empty-slab", PredefinedType="FLOOR")
     _contain(f, roof_slab, empty, "storey-empty-slab")
-    _box(f, roof_slab, 0.0, 0.0, 5.8, 10.0, 6.0, 0.2, 1.0)
+    _box(f, roof_slab, 0.0, 0.0, 5.8, 10.0, 6.0, 0.2)
     out.extra["empty_storey"] = empty.GlobalId
     out.extra["empty_storey_slab"] = roof_slab.GlobalId
 

@@ -50,6 +50,8 @@ def test_unnamed_property_and_quantity_sets_drop_no_door_window_or_wall(tmp_path
         assert "(unnamed #" in str(g.value(el(gid), KBP.massAssumption))
     for gid in t.windows:
         assert g.value(el(gid), KBP.mass).toPython() == 20.0
+    # the windows stand in the building (millimetre file): no far geometry, no implausible mass
+    assert [n for n in r.notes if n.kind in ("far", "mass")] == []
 
 
 def test_import_ifc_cli_exits_0_on_unnamed_sets_and_writes_skipped_files(

@@ -66,6 +66,10 @@ def test_init_writes_a_project_whose_scenarios_validate(
         assert "Additional modeling requirements" not in out and "Already in the model" in out
     # every wall not chosen has its reason
     assert all(w.reason for w in r.walls if not w.chosen)
+    # the bare model lacks what the scenarios add (the paper's two requirements): exit 1, naming the way
+    assert main(["validate", str(r.directory)]) == 1
+    err = capsys.readouterr().err
+    assert "This was the bare model" in err and f"--scenario {min(r.scenarios)}" in err
 
 
 def test_frames_are_in_the_ifc_copy_with_mass_and_grasp_points(

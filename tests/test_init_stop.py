@@ -16,7 +16,7 @@ import pytest
 
 from kbplanner.planning.install_order import installable
 from kbplanner.planning.manipulation import STOPPED, refine_plan
-from kbplanner.planning.plan_model import Plan
+from kbplanner.planning.plan_model import Plan, SkillCall
 from kbplanner.scale.init_plan_check import cannot_beat
 from sim_project_factory import SimCase, load_sim_case
 
@@ -108,3 +108,61 @@ def test_init_abandons_a_placement_that_cannot_beat_the_best_and_keeps_the_other
     assert whole.plan is not None
     assert whole.plan.to_json() == full.plan.to_json()
     assert (whole.order, whole.failures) == (full.order, full.failures)
+
+
+def _free(plan: Plan) -> Plan:
+    """The plan without the elements' kbp:workSequence (B4 may reorder them, as in init's check)."""
+    return dataclasses.replace(plan, elements=[dataclasses.replace(e, work_sequence=None)
+                                               for e in plan.elements])
+
+
+def _blocked_second(case: SimCase) -> tuple[Plan, str]:
+    """The case's refined plan with the install of the element B4 refines second failing as a blocked one
+    (no free base pose: the failure B4's install-order feedback answers by moving it earlier)."""
+    from kbplanner.planning.manipulation import KIND_RELEASE, elements_in_order
+
+    plan = _free(case.refined)
+    second = elements_in_order(plan)[1]
+    steps = [dataclasses.replace(s, feasible=False, reason="installed pose out of reach from 0 free base "
+                                 "pose(s) tried: no base pose near the installed pose is free")
+             if s.element == second and s.skill_kind == KIND_RELEASE else s for s in plan.steps]
+    return dataclasses.replace(plan, steps=steps), second
+
+
+def test_a_failure_the_reorder_rounds_could_rescue_holds_off_the_stop(case: SimCase) -> None:
+    """A proposal whose failed element B4 would move before an element installed earlier (its reorder
+    rounds, after the first pass) is not abandoned: the bound cannot tell what those rounds install. A
+    failure they cannot answer (a panel too heavy; an element that lies under the one installed before
+    it, or carries a kbp:workSequence) still stops it."""
+    from kbplanner.planning.install_order import stack_above
+    from kbplanner.scale.init_plan_check import Bound, reorderable
+
+    blocked, second = _blocked_second(case)
+    plan = _free(case.plan)
+    apart = {e.iri: set[str]() for e in plan.elements}  # each element in a stack of its own
+    n = len(blocked.elements)
+    assert reorderable(plan, blocked, apart) == [second]
+    assert reorderable(plan, _free(case.refined), apart) == []  # nothing failed: nothing to rescue
+    assert reorderable(plan, blocked, stack_above(case.world)) == []  # the first lies on it
+    assert reorderable(case.plan, blocked, apart) == []  # both carry a kbp:workSequence
+    beat = n - 1  # the best so far installs all but one: the failure alone would stop the check
+
+    def bound(stacks: dict[str, set[str]] | None) -> Bound:
+        b = Bound(beat, plan, case.grid, None, lambda _p, _i: None, stacks)
+        b.done = 1  # asked after the second element
+        return b
+
+    held = bound(apart)
+    assert held(blocked) is False and held.held == [second]
+    assert bound(None)(blocked) is True  # B4 without reordering: nothing can rescue it
+    first_step = min(t.step for t in blocked.steps_for(second))
+
+    def too_heavy(s: SkillCall) -> SkillCall:  # its first step fails, its install no longer
+        if s.element != second:
+            return s
+        if s.step == first_step:
+            return dataclasses.replace(s, feasible=False, reason="too heavy")
+        return dataclasses.replace(s, feasible=True, reason=None)
+
+    heavy = dataclasses.replace(blocked, steps=[too_heavy(s) for s in blocked.steps])
+    assert bound(apart)(heavy) is True

@@ -75,6 +75,27 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class _WarnOnce(logging.Filter):
+    """Lets a warning through once per command: the same map warning, say, is logged each time a
+    command builds that storey's map (init plans several proposals on it)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.seen: set[tuple[str, str]] = set()
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        if record.levelno != logging.WARNING:
+            return True
+        key = (record.name, record.getMessage())
+        if key in self.seen:
+            return False
+        self.seen.add(key)
+        return True
+
+
+_WARN_ONCE = _WarnOnce()
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code (see module docstring)."""
     parser = build_parser()
@@ -86,6 +107,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         level=logging.INFO if args.verbose else logging.WARNING,
         format="%(levelname)s %(name)s: %(message)s",
     )
+    _WARN_ONCE.seen.clear()
+    for handler in logging.getLogger().handlers:  # basicConfig's console handler (not a test's capture)
+        if type(handler) is logging.StreamHandler and _WARN_ONCE not in handler.filters:
+            handler.addFilter(_WARN_ONCE)
     if not getattr(args, "func", None):
         parser.print_help()
         return EXIT_BAD_INPUT

@@ -108,4 +108,32 @@ def run(args: argparse.Namespace) -> int:
         out.print(simulation_speed(result))
     out.print(f"Total {result.seconds:.1f} s. Results in {result.out_dir}/")
     sys.stdout.flush()
+    if not result.ok:
+        sys.stderr.write(negative_result(result))
     return 0 if result.ok else 1
+
+
+def negative_result(result: PipelineResult, shown: int = 20) -> str:
+    """The ``Negative result`` lines of a run that did not install everything: per scenario that does
+    not conform, its violations; per simulated scenario, each element not installed with its reason
+    (from its ``simulation/metrics.json``; the first ``shown``, all are in the report)."""
+    import json
+
+    lines = []
+    for s in result.scenarios:
+        where = result.out_dir / "scenarios" / s.name
+        if not s.conforms:
+            lines.append(f"  {s.name}: the model does not conform ({s.violations} violation(s), "
+                         f"{where / 'validation.txt'}): nothing simulated")
+        elif s.simulated and s.installed < s.elements:
+            lines.append(f"  {s.name}: {s.elements - s.installed} of {s.elements} element(s) not installed")
+            metrics = where / "simulation" / "metrics.json"
+            failed = ([e for e in json.loads(metrics.read_text(encoding="utf-8"))["per_element"]
+                       if e["outcome"] != "installed"] if metrics.is_file() else [])
+            for e in failed[:shown]:
+                why = e["reason"] or "no reason"
+                lines.append(f"    {e['label'] or e['global_id']}: {e['outcome']}: {why}")
+            if len(failed) > shown:
+                lines.append(f"    ... {len(failed) - shown} more in {metrics}")
+    return ("Negative result: not every scenario installed every element (report.html says more):\n"
+            + "\n".join(lines) + "\n")

@@ -47,4 +47,10 @@ def run(args: argparse.Namespace) -> int:
         from kbplanner.cli.bcf_files import write_validation_bcf  # bcf-client: only when asked
 
         write_validation_bcf(project, result, args.bcf, args.bcf_version)
+    if not result.conforms and args.scenario is None and project.manifest.scenarios:
+        names = list(project.manifest.scenarios)
+        sys.stderr.write(
+            f"This was the bare model, without a scenario; {args.project} has {len(names)} scenario(s) "
+            f"({', '.join(names)}), whose overlays (storages, pickup locations, grasp points) may meet "
+            f"these requirements: kbplanner validate {args.project} --scenario {names[0]}\n")
     return EXIT_OK if result.conforms else EXIT_NEGATIVE

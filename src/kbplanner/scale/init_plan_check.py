@@ -21,7 +21,9 @@ Takes the staged project folder, the scenario name and the seed; gives a :class:
 (installable count, the order, each failing element with its reason and fix). Given ``beat`` (what the
 best proposal so far installs), the check is abandoned as soon as the proposal can no longer install more
 (B4's ``stop`` hook, :class:`Bound`: the elements B4 failed so far, and those whose pickup way is closed,
-leave at most ``beat`` installable); it is then marked ``abandoned`` and is never kept.
+leave at most ``beat`` installable); it is then marked ``abandoned`` and is never kept. A proposal is not
+abandoned while one of its failed elements is one B4's install-order feedback would move (its reorder
+rounds, which run after the first pass, could still rescue it and the elements under it in its stack).
 """
 
 from __future__ import annotations
@@ -37,11 +39,12 @@ from kbplanner.model.project_data import ProjectData
 from kbplanner.planning.base_poses import PoseChecker, element_polygon, mark_polygon
 from kbplanner.planning.carry_reach import CarryReach
 from kbplanner.planning.feasibility import element_verdicts
-from kbplanner.planning.install_order import installable
+from kbplanner.planning.install_order import blocked_move, installable, stack_above
 from kbplanner.planning.manipulation import KIND_RELEASE, STOPPED, elements_in_order, refine_plan, robot_name
 from kbplanner.planning.plan_model import Plan, Pose2, SkillCall
 from kbplanner.planning.planner import plan_task
 from kbplanner.planning.pose_frames import as_pose6_list, pose6_matrix
+from kbplanner.planning.pose_search import RefineSettings
 from kbplanner.robot.robot_table import load_robot_specs
 from kbplanner.world.build import world_of
 from kbplanner.world.footprint import Footprint
@@ -246,21 +249,41 @@ def pickup_blocker(reason: str) -> str | None:
 
 def cannot_beat(beat: int, plan: Plan, unreached: int = 0) -> bool:
     """Whether a plan B4 has refined so far can no longer install more than ``beat`` elements: its
-    elements with an infeasible step (B4 never makes one feasible again), and the ``unreached`` others
-    whose pickup location the robot cannot drive to, leave at most ``beat``."""
+    elements with an infeasible step (B4's first pass never makes one feasible again), and the
+    ``unreached`` others whose pickup location the robot cannot drive to, leave at most ``beat``."""
     return installable(plan) - unreached <= beat
+
+
+def reorderable(plan: Plan, refined: Plan, above: Mapping[str, set[str]],
+                radius_m: float = RefineSettings().blocking_radius_m) -> list[str]:
+    """The elements of ``refined`` (B4's first pass so far on the B1-B3 ``plan``) that B4's install-order
+    feedback would move before an element installed earlier
+    (:func:`~kbplanner.planning.install_order.blocked_move`, in its order): its reorder rounds could still
+    rescue them, and with them the elements under them in their stacks."""
+    out: list[str] = []
+    tried: set[tuple[str, str]] = set()
+    others = [e.iri for e in plan.elements]
+    while (move := blocked_move(plan, refined, above, radius_m, tried)) is not None:
+        out.append(move[0])
+        tried.update((move[0], other) for other in others)
+    return out
 
 
 class Bound:
     """B4's ``stop`` for a proposal that must install more than ``beat`` elements to be kept: asked after
     each element B4 refined, it follows the robot's way to that element's pickup location
     (:class:`PickupWays`, in the order the check after B4 follows it) and answers True as soon as the
-    elements B4 failed and those whose pickup way is closed leave at most ``beat`` (:func:`cannot_beat`).
+    elements B4 failed and those whose pickup way is closed leave at most ``beat`` (:func:`cannot_beat`)
+    and none of the failed elements is one B4's reorder rounds could rescue (:func:`reorderable`, given
+    ``above``, the stacks of :func:`~kbplanner.planning.install_order.stack_above`; None: B4 runs
+    without reordering).
     """
 
     def __init__(self, beat: int, plan: Plan, grid: OccupancyGrid, start: Pose2 | None,
-                 polygon: Callable[[Plan, str], shapely.Geometry | None]) -> None:
-        self.beat, self.polygon = beat, polygon  # polygon(plan, iri): installed_polygon on the world
+                 polygon: Callable[[Plan, str], shapely.Geometry | None],
+                 above: Mapping[str, set[str]] | None = None) -> None:
+        self.beat, self.polygon, self.plan, self.above = beat, polygon, plan, above
+        self.held: list[str] = []  # the failed elements B4 could still move, when it last held off the stop
         self.order = elements_in_order(plan)
         self.labels = {e.iri: e.label for e in plan.elements}
         same = self.order == [e.iri for e in plan.elements]  # else only B4's own failures count
@@ -275,7 +298,10 @@ class Bound:
             why = self.ways.follow(plan, iri, self.labels[iri], self.polygon(plan, iri))
             if why is not None and all(s.feasible for s in plan.steps_for(iri)):
                 self.unreached[iri] = why
-        return cannot_beat(self.beat, plan, len(self.unreached))
+        if not cannot_beat(self.beat, plan, len(self.unreached)):
+            return False
+        self.held = [] if self.above is None else reorderable(self.plan, plan, self.above)
+        return not self.held
 
 
 def check_scenario(stage: Path, scenario: str, task: str, seed: int,
@@ -306,7 +332,8 @@ def check_scenario(stage: Path, scenario: str, task: str, seed: int,
     if start is None and world.robot_start is not None:
         start = Pose2(world.robot_start.x, world.robot_start.y, world.robot_start.yaw)
     bound = (None if beat is None else
-             Bound(beat, plan, grid, start, lambda p, iri: installed_polygon(p, world, iri)))
+             Bound(beat, plan, grid, start, lambda p, iri: installed_polygon(p, world, iri),
+                   stack_above(world)))
     refined = refine_plan(plan, world, seed=seed, grid=grid, progress=progress, stop=bound)
     check.plan = refined
     check.order = [e.iri for e in refined.elements]
