@@ -160,3 +160,29 @@ def test_tasks_begun_before_validation_are_dropped_with_a_scenario_that_does_not
     assert [k for k in runs[1] if runs[1][k] != runs[2][k]] == []
     costs = read_costs(project)
     assert set(costs) == {f"storage-in-units|T-FRAME-L0{k}|1" for k in (1, 2)}
+
+
+def test_an_unconfirmed_scenario_s_error_is_held_until_it_is_confirmed_or_dropped(tmp_path: Path) -> None:
+    """A job begun before its scenario is known to be simulated fails: nothing is raised until the
+    scenario is confirmed (then the error is), and a dropped scenario's error is forgotten."""
+    from kbplanner.core.errors import ProjectError
+    from kbplanner.scale.task_pool import Dispatch
+
+    project = tmp_path / "b1x1"
+    generate_building(project, storeys=1, units_per_storey=1)
+    job = _Job(project, "no-such-scenario", "T-FRAME-L01", "T-FRAME-L01", None, tmp_path / "o", "o", False,
+               True, 1)
+    told: list[str] = []
+    for verdict in ("confirm", "drop"):
+        run = Dispatch([job], [0], 1, lambda j, _o: told.append(j.task_id), unconfirmed=["no-such-scenario"])
+        run.run_here()
+        assert run.held and not run.failed
+        if verdict == "confirm":
+            run.confirm("no-such-scenario")
+            with pytest.raises(ProjectError, match="unknown scenario"):
+                run.wait()
+        else:
+            run.drop("no-such-scenario")
+            run.settle("no-such-scenario")
+            assert run.wait() == {} and not run.held
+    assert told == []
