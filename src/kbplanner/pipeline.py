@@ -165,6 +165,7 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
         sel_rows: list[list[Any]] = []
         every_task = simulate and tasks == "all"
         parts: list[Any] = []  # kbplanner.scale.task_runs.ScenarioPart of each scenario to simulate
+        loaded: dict[str | None, tuple[Any, Any]] = {}  # scenario -> (project, world tables)
         for name in names:
             sdir = stage / "scenarios" / name
             if ahead is not None:
@@ -187,6 +188,7 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
                 tables = world_tables(project)  # read once: this world, then every task's (--tasks all)
                 world = world_of(project, tables=tables)
                 exported = export_world(world, sdir / "world")
+            loaded[name] = (project, tables)  # again for the report's playback
             summary = ScenarioSummary(
                 name=name, conforms=val.conforms, violations=len(val.violations),
                 fit_robots=[a.robot.label for a in sel.fit],
@@ -241,7 +243,7 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
             with clock.stage("comparison and report"):
                 result.comparison = write_outputs(project_dir, [sims[n] for n in names if n in sims], stage,
                                                   requirements=req, selection=sel_rows, project=bare,
-                                                  task_tables=task_tables or None)
+                                                  task_tables=task_tables or None, loaded=loaded)
         result.timings = clock.timings
         result.seconds = round(time.perf_counter() - t_start, 3)
         write_json(stage / "run_timings.json", {  # wall clock: not deterministic, unlike metrics.json
