@@ -134,3 +134,55 @@ def test_without_task_costs_the_run_folder_being_replaced_gives_the_start_order(
     assert start_order(jobs, sizes, costs) == [3, 2, 0, 1]
     assert previous_costs(jobs, [11, 5, 11, 2], previous).get(cost_key(jobs[3])) is None  # other size
     assert previous_costs(jobs, sizes, {"in": tmp_path / "nowhere"}) == {}
+
+
+@pytest.mark.slow  # about 60 s: two pipeline runs of two scenarios x two storeys
+def test_tasks_begun_before_validation_are_dropped_with_a_scenario_that_does_not_conform(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """With several workers the tasks start while the scenarios are validated; a scenario that does not
+    conform is then not simulated, and nothing its tasks wrote ahead is left in the run folder."""
+    monkeypatch.setenv("KBPLANNER_CACHE_DIR", str(tmp_path / "cache"))
+    project = tmp_path / "b2x1"
+    generate_building(project, storeys=2, units_per_storey=1)
+    with (project / "project.toml").open("a", encoding="utf-8") as fh:  # no grasp points: does not conform
+        fh.write('\n[scenarios.no-grasp-points]\ndescription = "the storages, without grasp points"\n'
+                 'overlays = ["scenarios/storage_in_units.ttl"]\n')
+    runs = {}
+    for workers in (1, 2):
+        out = tmp_path / f"w{workers}"
+        assert main(["run", str(project), "--out", str(out), "--tasks", "all", "--workers", str(workers),
+                     "--max-elements", "1"]) == 1
+        runs[workers] = {k: v for k, v in _files(out).items() if k.rsplit("/", 1)[-1] not in WALL_CLOCK}
+    assert "scenarios/storage-in-units/tasks/T-FRAME-L02/trajectories.csv" in runs[2]
+    assert not [k for k in runs[2] if k.startswith(("scenarios/no-grasp-points/tasks",
+                                                    "scenarios/no-grasp-points/simulation"))]
+    assert sorted(runs[1]) == sorted(runs[2])
+    assert [k for k in runs[1] if runs[1][k] != runs[2][k]] == []
+    costs = read_costs(project)
+    assert set(costs) == {f"storage-in-units|T-FRAME-L0{k}|1" for k in (1, 2)}
+
+
+def test_an_unconfirmed_scenario_s_error_is_held_until_it_is_confirmed_or_dropped(tmp_path: Path) -> None:
+    """A job begun before its scenario is known to be simulated fails: nothing is raised until the
+    scenario is confirmed (then the error is), and a dropped scenario's error is forgotten."""
+    from kbplanner.core.errors import ProjectError
+    from kbplanner.scale.task_pool import Dispatch
+
+    project = tmp_path / "b1x1"
+    generate_building(project, storeys=1, units_per_storey=1)
+    job = _Job(project, "no-such-scenario", "T-FRAME-L01", "T-FRAME-L01", None, tmp_path / "o", "o", False,
+               True, 1)
+    told: list[str] = []
+    for verdict in ("confirm", "drop"):
+        run = Dispatch([job], [0], 1, lambda j, _o: told.append(j.task_id), unconfirmed=["no-such-scenario"])
+        run.run_here()
+        assert run.held and not run.failed
+        if verdict == "confirm":
+            run.confirm("no-such-scenario")
+            with pytest.raises(ProjectError, match="unknown scenario"):
+                run.wait()
+        else:
+            run.drop("no-such-scenario")
+            run.settle("no-such-scenario")
+            assert run.wait() == {} and not run.held
+    assert told == []

@@ -14,6 +14,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import resource
+import shutil
 import sys
 import time
 from collections.abc import Callable, Iterator
@@ -27,7 +28,7 @@ from kbplanner.core.outputs import atomic_write_text, input_hashes, run_director
 from kbplanner.project import Project, read_manifest
 
 if TYPE_CHECKING:
-    from kbplanner.scale.task_runs import ScenarioPart, SimulationStage, TaskPool
+    from kbplanner.scale.task_runs import ScenarioPart, SimulationRun, SimulationStage, TaskPool
 
 log = logging.getLogger(__name__)
 
@@ -103,6 +104,10 @@ class _Clock:
         self.timings.append(StageTiming(name, scenario, round(dt, 3), round(peak_rss_mb(), 1)))
         self.say(f"{label} done in {dt:.1f} s")
 
+    def add(self, name: str, scenario: str | None, seconds: float) -> None:
+        """A stage timed elsewhere (it ran beside the others)."""
+        self.timings.append(StageTiming(name, scenario, round(seconds, 3), round(peak_rss_mb(), 1)))
+
 
 def _project_files(project: Project) -> list[Path]:
     m = project.manifest
@@ -136,6 +141,9 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
     names = scenarios if scenarios is not None else sorted(manifest.scenarios)
     clock = _Clock(say)
     with run_directory(out_dir) as stage, contextlib.ExitStack() as later:
+        ahead = _tasks_ahead(project_dir, stage, names, clock, later, workers=workers, seed=seed,
+                             max_elements=max_elements, previous=out_dir) \
+            if simulate and tasks == "all" and workers > 1 else None
         with clock.stage("import and load"):
             bare = Project.load(project_dir)
         with clock.stage("summary"):
@@ -157,17 +165,14 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
         sel_rows: list[list[Any]] = []
         every_task = simulate and tasks == "all"
         parts: list[Any] = []  # kbplanner.scale.task_runs.ScenarioPart of each scenario to simulate
-        pool = None
+        loaded: dict[str | None, tuple[Any, Any]] = {}  # scenario -> (project, world tables)
         for name in names:
             sdir = stage / "scenarios" / name
-            with clock.stage("load", name):
-                project = Project.load(project_dir, scenario=name)
-            if every_task and workers > 1 and pool is None:
-                from kbplanner.scale.task_runs import TaskPool
-
-                # worker processes load the scenarios (the first from the project cache now) while this
-                # one validates them, selects robots and builds the worlds; one pool for every scenario
-                pool = later.enter_context(TaskPool(project_dir, names, workers))
+            if ahead is not None:
+                project = ahead.projects[name]  # loaded before the tasks began
+            else:
+                with clock.stage("load", name):
+                    project = Project.load(project_dir, scenario=name)
             with clock.stage("validation", name):
                 val = project.validate()
                 val.write(sdir / "validation.ttl")
@@ -183,6 +188,7 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
                 tables = world_tables(project)  # read once: this world, then every task's (--tasks all)
                 world = world_of(project, tables=tables)
                 exported = export_world(world, sdir / "world")
+            loaded[name] = (project, tables)  # again for the report's playback
             summary = ScenarioSummary(
                 name=name, conforms=val.conforms, violations=len(val.violations),
                 fit_robots=[a.robot.label for a in sel.fit],
@@ -191,7 +197,16 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
                 map_cells=exported.map.grid.shape if exported.map is not None else (0, 0),
             )
             result.scenarios.append(summary)
-            if every_task and val.conforms and sel.fit:
+            if ahead is not None:
+                if val.conforms and sel.fit:
+                    ahead.run.confirm(name, project, tables)  # its tasks' outcomes are kept
+                    sel_rows = [list(r) for r in sel.rows()]
+                else:  # not simulated: what its tasks wrote ahead is removed
+                    ahead.run.drop(name)
+                    for written in (sdir / "tasks", sdir / "simulation"):
+                        if written.is_dir():
+                            shutil.rmtree(written)
+            elif every_task and val.conforms and sel.fit:
                 from kbplanner.scale.task_runs import ScenarioPart
 
                 parts.append(ScenarioPart(name, sdir / "tasks", sdir / "simulation", project, tables))
@@ -203,10 +218,16 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
                 summary.simulated, summary.installed, summary.elements = True, srun.installed, srun.elements
                 sims[name] = srun
                 sel_rows = [list(r) for r in sel.rows()]
-        if parts:
+        if ahead is not None and ahead.run.parts:
+            result.simulation = ahead.run.finish()
+            alone = [r.scenario for r in result.simulation.results]  # one scenario: named, as before
+            clock.add("simulation (every task)", alone[0] if len(alone) == 1 else None,
+                      result.simulation.wall_s)
+        elif parts:
             result.simulation = _simulate_every_task(project_dir, parts, clock, say, workers=workers,
-                                                     seed=seed, max_elements=max_elements, pool=pool,
+                                                     seed=seed, max_elements=max_elements, pool=None,
                                                      previous=out_dir)
+        if result.simulation is not None:
             for truns in result.simulation.results:
                 summary = next(s for s in result.scenarios if s.name == truns.scenario)
                 summary.simulated, summary.installed, summary.elements = True, truns.installed, truns.elements
@@ -222,7 +243,7 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
             with clock.stage("comparison and report"):
                 result.comparison = write_outputs(project_dir, [sims[n] for n in names if n in sims], stage,
                                                   requirements=req, selection=sel_rows, project=bare,
-                                                  task_tables=task_tables or None)
+                                                  task_tables=task_tables or None, loaded=loaded)
         result.timings = clock.timings
         result.seconds = round(time.perf_counter() - t_start, 3)
         write_json(stage / "run_timings.json", {  # wall clock: not deterministic, unlike metrics.json
@@ -233,6 +254,41 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
         })
         write_json(stage / "manifest.json", _manifest(bare, names, seed))
     return result
+
+
+@dataclass
+class _Ahead:
+    """The tasks of every scenario begun before the scenarios are validated (``--tasks all``, several
+    workers): the loaded scenarios and the stage in steps."""
+
+    projects: dict[str, Project]
+    run: SimulationRun
+
+
+def _tasks_ahead(project_dir: Path, stage: Path, names: list[str], clock: _Clock, later: contextlib.ExitStack,
+                 *, workers: int, seed: int | None, max_elements: int | None, previous: Path) -> _Ahead:
+    """Load every scenario and start the spawned processes on their tasks at once (B1-B5 of each
+    robotized task), while this process goes on with the requirements, validation, robot selection and
+    world of each scenario; a scenario that does not conform or has no fit robot is then dropped (its
+    tasks skipped, their outcomes and folders removed), as if never simulated. What is written is the
+    same as when the tasks start after the worlds; only the wall time differs."""
+    from kbplanner.scale.task_runs import ScenarioPart, SimulationRun, TaskPool
+
+    pool = later.enter_context(TaskPool(project_dir, names, workers, load=False))  # imports meanwhile
+    projects: dict[str, Project] = {}
+    for name in names:
+        with clock.stage("load", name):
+            projects[name] = Project.load(project_dir, scenario=name)
+    pool.load()  # from the project cache now
+    parts = [ScenarioPart(n, stage / "scenarios" / n / "tasks", stage / "scenarios" / n / "simulation",
+                          projects[n], None) for n in names]
+    before: dict[str | None, Path] | None = \
+        {n: previous / "scenarios" / n / "tasks" for n in names} if previous.is_dir() else None
+    clock.say("simulation (every task) ...")
+    run = SimulationRun(project_dir, parts, seed=seed, workers=workers, keyframes=True, progress=clock.say,
+                        max_elements=max_elements, pool=pool, previous=before, unconfirmed=names)
+    later.enter_context(run.dispatch.stack)  # an error before the end stops the spawned processes
+    return _Ahead(projects, run.begin(here=False))
 
 
 def _simulate_every_task(project_dir: Path, parts: list[ScenarioPart], clock: _Clock, say: Say, *,

@@ -214,11 +214,13 @@ def write_outputs(
     selection: Sequence[Sequence[Any]] = (),
     project: ProjectData | None = None,
     task_tables: Mapping[str, tuple[Sequence[str], Sequence[Sequence[Any]]]] | None = None,
+    loaded: Mapping[str | None, tuple[ProjectData, WorldTables | None]] | None = None,
 ) -> Comparison:
     """Comparison table, durations written back to the 4D model, and the report, into ``out_dir``.
 
     ``project`` is the loaded project (any scenario), to save loading it again; ``task_tables`` the
-    per-scenario task tables of a whole-building run (a report section).
+    per-scenario task tables of a whole-building run (a report section); ``loaded`` the loaded scenarios
+    and their world tables (the playbacks' worlds), to save loading them again.
     """
     runs = {s.scenario: RunRecord.load(s.run_dir) for s in scenario_runs}
     comp = compare_runs(runs, threshold_m=threshold_m)
@@ -272,7 +274,7 @@ def write_outputs(
     )
     bcf = write_run_bcf(runs, out_dir, ifc_path=project.manifest.ifc, project_name=project.name,
                         created=run_issue_date(project, runs))
-    add_playbacks(doc, runs, project_dir, out_dir, threshold_m=threshold_m)
+    add_playbacks(doc, runs, project_dir, out_dir, threshold_m=threshold_m, loaded=loaded)
     if bcf is not None:
         doc.note(f"{bcf.topics} element(s) not installed: one BCF topic each in {bcf.path.name}, for the "
                  "BIM authoring tool (a viewpoint at the element, its GlobalId selected).")

@@ -19,8 +19,9 @@ import base64
 import html
 import json
 import math
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -31,6 +32,9 @@ from kbplanner.model.project_data import ProjectData
 from kbplanner.world.build import build_world
 from kbplanner.world.exports import Y_UP, glb_bytes
 from kbplanner.world.world_types import World, pose_matrix
+
+if TYPE_CHECKING:
+    from kbplanner.world.tables import WorldTables
 
 VIEWER = Path(__file__).resolve().parent / "viewer"
 FOLDER = "playback"
@@ -155,8 +159,13 @@ def write_playback(out_dir: Path, name: str, rec: RunRecord, world: World, *,
 
 
 def add_playbacks(doc: ReportDoc, runs: dict[str, RunRecord], project_dir: Path, out_dir: Path, *,
-                  threshold_m: float = 1.0) -> list[Path]:
-    """Write a playback page per run and put them into the report right after its summary."""
+                  threshold_m: float = 1.0,
+                  loaded: Mapping[str | None, tuple[ProjectData, WorldTables | None]] | None = None,
+                  ) -> list[Path]:
+    """Write a playback page per run and put them into the report right after its summary.
+
+    ``loaded`` (per scenario: the loaded project and its world tables, or None) saves loading a
+    scenario again and reading its building (the same world is built)."""
     pages: list[Path] = []
     part = ReportDoc("")
     part.heading("4D playback")
@@ -165,8 +174,9 @@ def add_playbacks(doc: ReportDoc, runs: dict[str, RunRecord], project_dir: Path,
                    f"(three.js bundled, {FOLDER}/LICENSE-three.txt).")
     for name, rec in runs.items():
         task = str(rec.manifest.get("task") or "") or None
-        project = ProjectData.load(project_dir, scenario=rec.scenario)
-        world = build_world(project, project.world_date(task), task)
+        kept = (loaded or {}).get(rec.scenario)
+        project, tables = kept or (ProjectData.load(project_dir, scenario=rec.scenario), None)
+        world = build_world(project, project.world_date(task), task, tables=tables)
         page = write_playback(out_dir, name, rec, world, threshold_m=threshold_m)
         pages.append(page)
         part.frame(f"{FOLDER}/{page.name}", f"{name}: 4D playback of the run")

@@ -137,6 +137,16 @@ def _project(project_dir: Path, scenario: str | None) -> tuple[ProjectData, Worl
     return project, tables
 
 
+def imports() -> None:
+    """Import what a task uses (a new worker process, before it is given the project)."""
+    import kbplanner.planning.manipulation
+    import kbplanner.planning.planner
+    import kbplanner.simulation.executor
+    import kbplanner.world.build
+    import kbplanner.world.maps
+    import kbplanner.world.tables  # noqa: F401
+
+
 def warm(project_dir: Path, scenarios: Sequence[str | None]) -> None:
     """A new worker process loads the scenarios and their world tables (with the merged graph they are
     read from) before its first task, and parses every named query: 1-2 s per process that its first
@@ -144,6 +154,7 @@ def warm(project_dir: Path, scenarios: Sequence[str | None]) -> None:
     left for the task to raise (with its message) when it loads the scenario again."""
     from kbplanner.core.named_queries import prepare_all
 
+    imports()
     prepare_all()
     for scenario in scenarios:
         try:

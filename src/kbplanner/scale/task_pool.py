@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import json
 import logging
 import multiprocessing
@@ -26,7 +27,7 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
-from kbplanner.scale.task_jobs import Outcome, _Job, run_job, warm
+from kbplanner.scale.task_jobs import Outcome, _Job, imports, run_job, warm
 
 log = logging.getLogger(__name__)
 
@@ -41,22 +42,34 @@ class TaskPool:
     """The ``workers - 1`` spawned processes of a simulation stage, started ahead of it.
 
     Each process loads the scenarios (one name or several) as soon as it starts, so a caller that has
-    other work first (the pipeline: validation, the world) hands over warm processes. Processes are
+    other work first (the pipeline: validation, the world) hands over warm processes; with ``load=False``
+    it imports the modules a task uses only, and loads the scenarios when told (:meth:`load`: the
+    caller loads them first, so that they come from the project cache). Processes are
     spawned: a fork of a process that has PyBullet, OMPL and thread pools loaded is not safe, and the
     start-up (imports, the scenario from the project cache) overlaps the caller's own work.
     Use as a context manager; leaving it on an error stops the processes without waiting.
     """
 
-    def __init__(self, project_dir: Path, scenarios: str | Sequence[str | None] | None, workers: int) -> None:
+    def __init__(self, project_dir: Path, scenarios: str | Sequence[str | None] | None, workers: int, *,
+                 load: bool = True) -> None:
         names = tuple(scenarios) if isinstance(scenarios, (list, tuple)) else (scenarios,)
+        self.project_dir, self.names = project_dir, names
         self.children = max(0, workers - 1)
         self.executor: ProcessPoolExecutor | None = None
         if self.children:
             self.executor = ProcessPoolExecutor(max_workers=self.children,
                                                 mp_context=multiprocessing.get_context("spawn"),
-                                                initializer=warm, initargs=(project_dir, names))
+                                                initializer=functools.partial(warm, project_dir, names)
+                                                if load else imports)
             for _ in range(self.children):  # the pool starts a process per submission while none is idle
                 self.executor.submit(_started)
+
+    def load(self) -> None:
+        """Have each process load the scenarios now (a pool started with ``load=False`` before the
+        caller had loaded them, i.e. before they were in the project cache, imports only)."""
+        if self.executor is not None:
+            for _ in range(self.children):  # one per process: each idle one takes the next
+                self.executor.submit(warm, self.project_dir, self.names)
 
     def __enter__(self) -> TaskPool:
         return self
@@ -65,77 +78,159 @@ class TaskPool:
         if self.executor is None:
             return
         if exc_type is not None:  # an error: do not wait for a process still loading the project
-            for proc in list(getattr(self.executor, "_processes", {}).values()):
+            procs = list(getattr(self.executor, "_processes", {}).values())
+            for proc in procs:
                 proc.terminate()
+            for proc in procs:  # ended before the caller removes the folder it may be writing into
+                proc.join(timeout=10.0)
         self.executor.shutdown(wait=exc_type is None, cancel_futures=True)
 
 
 Tell = Callable[[_Job, Outcome], None]
 
 
+class Dispatch:
+    """Jobs handed out to this process and ``workers - 1`` spawned ones, in ``order``.
+
+    :meth:`begin` starts the spawned processes on the jobs (one thread here waits for each), so a
+    caller can do other work meanwhile (the pipeline validates the scenarios and builds their worlds);
+    :meth:`run_here` makes this process take the next job whenever it is free too, until none is left;
+    :meth:`wait` returns the outcomes by job index, so what is written does not depend on who ran what
+    or when. Each outcome gets its start and end (seconds from ``t0``, as seen here: a spawned process's
+    include handing the job over) and the process that ran it (0: this one).
+
+    Jobs of a scenario in ``unconfirmed`` run ahead of the decision whether the scenario is simulated
+    at all (its validation and robot selection): :meth:`confirm` keeps them, :meth:`drop` discards
+    them (the jobs not started are skipped, the outcomes of the others forgotten; :meth:`settle` waits
+    for its running ones, so that their folders can be removed). An unconfirmed scenario's error is
+    held until it is confirmed (then raised) or dropped (then forgotten), and stops only that
+    scenario's jobs; the first error of a confirmed scenario (in job order) stops every job and is
+    raised by :meth:`wait` once every started job has ended.
+    """
+
+    def __init__(self, jobs: Sequence[_Job], order: Sequence[int], workers: int, tell: Tell,
+                 pool: TaskPool | None = None, t0: float | None = None,
+                 unconfirmed: Sequence[str | None] = ()) -> None:
+        self.jobs, self.workers, self.tell, self.pool = jobs, workers, tell, pool
+        self.start = time.perf_counter() if t0 is None else t0
+        self.pending = deque(order)
+        self.lock = threading.Condition()
+        self.done: dict[int, Outcome] = {}
+        self.failed: dict[int, BaseException] = {}
+        self.held: dict[int, BaseException] = {}
+        self.unconfirmed = set(unconfirmed)
+        self.dropped: set[str | None] = set()
+        self.running: set[int] = set()
+        self.threads: list[threading.Thread] = []
+        self.stack = contextlib.ExitStack()
+
+    def _take(self) -> int | None:
+        with self.lock:
+            while self.pending and not self.failed:
+                i = self.pending.popleft()
+                scenario = self.jobs[i].scenario
+                if scenario in self.dropped or any(self.jobs[k].scenario == scenario for k in self.held):
+                    continue
+                self.running.add(i)
+                return i
+            return None
+
+    def _record(self, i: int, outcome: Outcome | None, error: BaseException | None, began: float,
+                who: int) -> None:
+        ended = time.perf_counter()
+        with self.lock:
+            self.running.discard(i)
+            scenario = self.jobs[i].scenario
+            if scenario in self.dropped:
+                pass
+            elif error is not None:
+                (self.held if scenario in self.unconfirmed else self.failed)[i] = error
+            elif outcome is not None:
+                self.done[i] = dataclasses.replace(outcome, start_s=round(began - self.start, 3),
+                                                   end_s=round(ended - self.start, 3), process=who)
+                self.tell(self.jobs[i], self.done[i])
+            self.lock.notify_all()
+
+    def _run(self, i: int, who: int, executor: ProcessPoolExecutor | None) -> None:
+        began = time.perf_counter()
+        try:
+            job = self.jobs[i]
+            outcome = run_job(job) if executor is None else executor.submit(run_job, job).result()
+        except BaseException as exc:  # raised again by wait(), in the calling thread
+            self._record(i, None, exc, began, who)
+        else:
+            self._record(i, outcome, None, began, who)
+
+    def _feed(self, executor: ProcessPoolExecutor, who: int) -> None:
+        while (i := self._take()) is not None:
+            self._run(i, who, executor)
+
+    def begin(self, here: bool = True) -> Dispatch:
+        """Start the spawned processes on the jobs (``here``: this process will take jobs from the start
+        too, so one spawned process fewer is needed for a few jobs)."""
+        if self.workers <= 1 or len(self.jobs) <= (1 if here else 0):
+            return self
+        scenarios = list(dict.fromkeys(j.scenario for j in self.jobs))
+        tp = self.stack.enter_context(
+            TaskPool(self.jobs[0].project_dir, scenarios, min(self.workers, len(self.jobs)))
+            if self.pool is None else contextlib.nullcontext(self.pool))
+        executor = tp.executor
+        if executor is None:
+            return self
+        children = min(tp.children, len(self.jobs) - (1 if here else 0))
+        self.threads = [threading.Thread(target=self._feed, args=(executor, k + 1), daemon=True)
+                        for k in range(children)]
+        for t in self.threads:
+            t.start()
+        return self
+
+    def confirm(self, scenario: str | None) -> None:
+        """The scenario is simulated: its jobs' outcomes are kept and a held error is raised."""
+        with self.lock:
+            self.unconfirmed.discard(scenario)
+            for i in [i for i in self.held if self.jobs[i].scenario == scenario]:
+                self.failed[i] = self.held.pop(i)
+
+    def drop(self, scenario: str | None) -> None:
+        """The scenario is not simulated: its jobs are skipped and their outcomes and errors forgotten."""
+        with self.lock:
+            self.unconfirmed.discard(scenario)
+            self.dropped.add(scenario)
+            for table in (self.done, self.held):
+                for i in [i for i in table if self.jobs[i].scenario == scenario]:
+                    del table[i]
+
+    def settle(self, scenario: str | None) -> None:
+        """Wait until no job of the scenario is running."""
+        with self.lock:
+            while any(self.jobs[i].scenario == scenario for i in self.running):
+                self.lock.wait()
+
+    def run_here(self) -> None:
+        """This process takes the next job whenever it is free, until none is left."""
+        while (i := self._take()) is not None:
+            self._run(i, 0, None)
+
+    def wait(self) -> dict[int, Outcome]:
+        """Every started job ended: the outcomes by job index; the first error raised (in job order)."""
+        for t in self.threads:
+            t.join()
+        self.stack.close()
+        if self.failed:
+            raise self.failed[min(self.failed)]
+        return self.done
+
+
 def dispatch(jobs: Sequence[_Job], order: Sequence[int], workers: int, tell: Tell,
              pool: TaskPool | None = None, t0: float | None = None) -> dict[int, Outcome]:
-    """Run ``jobs`` (taken in ``order``) on ``workers`` processes: this one and ``workers - 1`` spawned.
-
-    This process takes the next job whenever it is free, and so does each spawned process (one thread
-    here waits for each); results are kept by job index, so what is written does not depend on who
-    ran what or when. Each outcome gets its start and end (seconds from ``t0``, as seen here: a spawned
-    process's include handing the job over) and the process that ran it. The first error (in job
-    order) is raised once every started job has ended.
+    """Run ``jobs`` (taken in ``order``) on ``workers`` processes: this one and ``workers - 1`` spawned
+    (:class:`Dispatch`, every scenario confirmed). The first error (in job order) is raised once every
+    started job has ended.
     """
-    start = time.perf_counter() if t0 is None else t0
-    pending = deque(order)
-    lock = threading.Lock()
-    done: dict[int, Outcome] = {}
-    failed: dict[int, BaseException] = {}
-
-    def take() -> int | None:
-        with lock:
-            return pending.popleft() if pending and not failed else None
-
-    def record(i: int, outcome: Outcome | None, error: BaseException | None, began: float, who: int) -> None:
-        ended = time.perf_counter()
-        with lock:
-            if error is not None:
-                failed[i] = error
-            elif outcome is not None:
-                done[i] = dataclasses.replace(outcome, start_s=round(began - start, 3),
-                                              end_s=round(ended - start, 3), process=who)
-                tell(jobs[i], done[i])
-
-    def feed(executor: ProcessPoolExecutor | None, who: int) -> None:
-        assert executor is not None  # a thread per spawned process
-        while (i := take()) is not None:
-            began = time.perf_counter()
-            try:
-                record(i, executor.submit(run_job, jobs[i]).result(), None, began, who)
-            except BaseException as exc:  # raised again in the calling thread
-                record(i, None, exc, began, who)
-
-    if workers <= 1 or len(jobs) <= 1:
-        for j in order:
-            began = time.perf_counter()
-            record(j, run_job(jobs[j]), None, began, 0)
-        return done
-    scenarios = list(dict.fromkeys(j.scenario for j in jobs))
-    with (TaskPool(jobs[0].project_dir, scenarios, min(workers, len(jobs))) if pool is None
-          else contextlib.nullcontext(pool)) as tp:
-        children = min(tp.children, len(jobs) - 1)
-        threads = [threading.Thread(target=feed, args=(tp.executor, k + 1), daemon=True)
-                   for k in range(children)]
-        for t in threads:
-            t.start()
-        while (i := take()) is not None:
-            began = time.perf_counter()
-            try:
-                record(i, run_job(jobs[i]), None, began, 0)
-            except BaseException as exc:  # raised below, once the others ended
-                record(i, None, exc, began, 0)
-        for t in threads:
-            t.join()
-    if failed:
-        raise failed[min(failed)]
-    return done
+    run = Dispatch(jobs, order, workers, tell, pool, t0)
+    with run.stack:  # an interruption here stops the spawned processes without waiting
+        run.begin().run_here()
+        return run.wait()
 
 
 def _longest_first(jobs: Sequence[_Job], sizes: Sequence[float]) -> list[int]:

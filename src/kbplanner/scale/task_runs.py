@@ -35,10 +35,10 @@ from kbplanner.core.tables import render
 from kbplanner.model.project_data import ProjectData
 from kbplanner.scale.task_jobs import TASK_COLUMNS, Outcome, TaskFigures, _Job, keep
 from kbplanner.scale.task_pool import (
+    Dispatch,
     TaskPool,
     _longest_first,
     cost_key,
-    dispatch,
     previous_costs,
     read_costs,
     start_order,
@@ -48,8 +48,9 @@ from kbplanner.scale.task_pool import (
 if TYPE_CHECKING:
     from kbplanner.world.tables import WorldTables
 
-__all__ = ["TASK_COLUMNS", "ScenarioPart", "SimulationStage", "TaskFigures", "TaskPool", "TaskRunsResult",
-           "_Job", "_longest_first", "robotized_tasks", "simulate_scenarios", "simulate_tasks"]
+__all__ = ["TASK_COLUMNS", "ScenarioPart", "SimulationRun", "SimulationStage", "TaskFigures", "TaskPool",
+           "TaskRunsResult", "_Job", "_longest_first", "robotized_tasks", "simulate_scenarios",
+           "simulate_tasks"]
 
 log = logging.getLogger(__name__)
 
@@ -285,61 +286,118 @@ def simulate_scenarios(
     Raises:
         KbplannerError: an unknown task id, fewer than one worker.
     """
-    say = progress or (lambda _m: None)
-    if workers < 1:
-        raise KbplannerError(f"workers must be at least 1, got {workers}", element="--workers",
-                             fix="give --workers 1 or more (the number of cores is a good choice)")
-    jobs: list[_Job] = []
-    sizes: list[int] = []
-    owner: list[int] = []
-    for k, part in enumerate(parts):
-        project = part.project or ProjectData.load(project_dir, scenario=part.scenario)
-        keep(project_dir, part.scenario, project, part.tables)
-        pjobs, psizes = _jobs_of(project_dir, part, project, tasks, seed, keyframes, max_elements)
-        jobs += pjobs
-        sizes += psizes
-        owner += [k] * len(pjobs)
-    results = [TaskRunsResult(scenario=p.scenario, out_dir=p.out_dir, workers=workers) for p in parts]
-    for part in parts:
-        part.out_dir.mkdir(parents=True, exist_ok=True)
-    counts = [owner.count(k) for k in range(len(parts))]
-    finished = [0] * len(parts)
-    t0 = time.perf_counter()
+    return SimulationRun(project_dir, parts, tasks=tasks, seed=seed, workers=workers, keyframes=keyframes,
+                         progress=progress, max_elements=max_elements, pool=pool,
+                         previous=previous).begin().finish()
 
-    def tell(job: _Job, res: Outcome) -> None:
-        k = next(i for i, p in enumerate(parts) if p.scenario == job.scenario)
-        finished[k] += 1
-        f = res.figures
-        say(f"{job.scenario or 'bare'}: tasks {finished[k]}/{counts[k]} ({f.task_id}: {f.installed}/"
-            f"{f.elements} installed, {f.sim_time_s / 60.0:.1f} min simulated in {res.wall_s:.0f} s)")
 
-    order = list(range(len(jobs)))
-    if workers > 1:
-        costs = read_costs(project_dir)
-        if previous and not all(cost_key(j) in costs for j in jobs):
-            costs = previous_costs(jobs, sizes, previous)
-        order = start_order(jobs, sizes, costs)
-    done = dispatch(jobs, order, workers, tell, pool, t0=t0) if jobs else {}
-    wall = time.perf_counter() - t0
-    for i, job in enumerate(jobs):
-        res = done[i]
-        r = results[owner[i]]
-        r.tasks.append(res.figures)
-        r.task_wall_s[job.task_id] = res.wall_s
-        r.task_cpu_s[job.task_id] = res.cpu_s
-        r.task_span_s[job.task_id] = (res.start_s, res.end_s, res.process)
-        r.wall_s = max(r.wall_s, res.end_s)
-        if res.run is not None:
-            r.main = res.run
-    stage = SimulationStage(results, wall, workers)
-    shared = stage.timing()
-    shared.pop("scenarios")
-    shared["scenarios_sharing"] = [p.scenario or "" for p in parts]
-    for r in results:
-        if len(parts) > 1:
-            r.stage = shared
-        r.write(r.out_dir)
-        log.info("%d tasks of %s: %d/%d installed, %.0f s simulated in %.0f s wall", len(r.tasks), r.scenario,
-                 r.installed, r.elements, r.sim_time_s, r.wall_s)
-    write_costs(project_dir, {cost_key(job): done[i].cpu_s for i, job in enumerate(jobs)})
-    return stage
+class SimulationRun:
+    """A simulation stage (:func:`simulate_scenarios`) in steps, so that it can begin before the caller
+    knows whether each scenario is to be simulated: :meth:`begin` starts the spawned processes on the
+    jobs; scenarios named in ``unconfirmed`` are then :meth:`confirm`-ed (with their world tables) or
+    :meth:`drop`-ped (their jobs skipped, their outcomes forgotten); :meth:`finish` has this process
+    take jobs too, waits for the last and writes the tables. What is written is the same as
+    :func:`simulate_scenarios` writes for the confirmed scenarios."""
+
+    def __init__(self, project_dir: Path, parts: Sequence[ScenarioPart], *,
+                 tasks: Sequence[str] | None = None, seed: int | None = None, workers: int = 1,
+                 keyframes: bool = False, progress: Say | None = None, max_elements: int | None = None,
+                 pool: TaskPool | None = None, previous: Mapping[str | None, Path] | None = None,
+                 unconfirmed: Sequence[str | None] = ()) -> None:
+        say = progress or (lambda _m: None)
+        if workers < 1:
+            raise KbplannerError(f"workers must be at least 1, got {workers}", element="--workers",
+                                 fix="give --workers 1 or more (the number of cores is a good choice)")
+        self.project_dir, self.parts, self.workers, self.pool = project_dir, list(parts), workers, pool
+        self.unconfirmed = list(unconfirmed)
+        self.jobs: list[_Job] = []
+        sizes: list[int] = []
+        self.owner: list[int] = []
+        for k, part in enumerate(parts):
+            project = part.project or ProjectData.load(project_dir, scenario=part.scenario)
+            keep(project_dir, part.scenario, project, part.tables)
+            pjobs, psizes = _jobs_of(project_dir, part, project, tasks, seed, keyframes, max_elements)
+            self.jobs += pjobs
+            sizes += psizes
+            self.owner += [k] * len(pjobs)
+        for part in parts:
+            part.out_dir.mkdir(parents=True, exist_ok=True)
+        counts = [self.owner.count(k) for k in range(len(parts))]
+        finished = [0] * len(parts)
+
+        def tell(job: _Job, res: Outcome) -> None:
+            k = next(i for i, p in enumerate(parts) if p.scenario == job.scenario)
+            finished[k] += 1
+            f = res.figures
+            say(f"{job.scenario or 'bare'}: tasks {finished[k]}/{counts[k]} ({f.task_id}: {f.installed}/"
+                f"{f.elements} installed, {f.sim_time_s / 60.0:.1f} min simulated in {res.wall_s:.0f} s)")
+
+        self.tell = tell
+        self.order = list(range(len(self.jobs)))
+        if workers > 1:
+            costs = read_costs(project_dir)
+            if previous and not all(cost_key(j) in costs for j in self.jobs):
+                costs = previous_costs(self.jobs, sizes, previous)
+            self.order = start_order(self.jobs, sizes, costs)
+        self.t0 = time.perf_counter()
+        self.dispatch = Dispatch(self.jobs, self.order, workers, tell, pool, self.t0, self.unconfirmed)
+
+    def begin(self, here: bool = True) -> SimulationRun:
+        """Start the spawned processes on the jobs (``here``: this process takes jobs at once too, by
+        :meth:`finish`; else it has other work first)."""
+        self.t0 = self.dispatch.start = time.perf_counter()
+        self.dispatch.begin(here)
+        return self
+
+    def confirm(self, scenario: str | None, project: ProjectData | None = None,
+                tables: WorldTables | None = None) -> None:
+        """The scenario is simulated (``project`` and ``tables``: as loaded and read here, for this
+        process's jobs)."""
+        if project is not None:
+            keep(self.project_dir, scenario, project, tables)
+        self.dispatch.confirm(scenario)
+
+    def drop(self, scenario: str | None) -> None:
+        """The scenario is not simulated: its jobs are skipped, their outcomes forgotten; returns once
+        none of them runs (the caller may then remove what they wrote)."""
+        self.dispatch.drop(scenario)
+        self.dispatch.settle(scenario)
+        self.parts = [p for p in self.parts if p.scenario != scenario]
+
+    def finish(self) -> SimulationStage:
+        """This process takes jobs too until none is left; every scenario's tables written, the costs
+        recorded; the stage's figures (its wall time from :meth:`begin`)."""
+        for scenario in self.unconfirmed:  # every scenario not dropped by now is simulated
+            if scenario not in self.dispatch.dropped:
+                self.dispatch.confirm(scenario)
+        with self.dispatch.stack:
+            self.dispatch.run_here()
+            done = self.dispatch.wait()
+        wall = time.perf_counter() - self.t0
+        parts = self.parts
+        results = [TaskRunsResult(scenario=p.scenario, out_dir=p.out_dir, workers=self.workers)
+                   for p in parts]
+        by_scenario = {p.scenario: r for p, r in zip(parts, results, strict=True)}
+        kept = [i for i in range(len(self.jobs)) if self.jobs[i].scenario in by_scenario]
+        for i in kept:
+            job, res = self.jobs[i], done[i]
+            r = by_scenario[job.scenario]
+            r.tasks.append(res.figures)
+            r.task_wall_s[job.task_id] = res.wall_s
+            r.task_cpu_s[job.task_id] = res.cpu_s
+            r.task_span_s[job.task_id] = (res.start_s, res.end_s, res.process)
+            r.wall_s = max(r.wall_s, res.end_s)
+            if res.run is not None:
+                r.main = res.run
+        stage = SimulationStage(results, wall, self.workers)
+        shared = stage.timing()
+        shared.pop("scenarios")
+        shared["scenarios_sharing"] = [p.scenario or "" for p in parts]
+        for r in results:
+            if len(parts) > 1:
+                r.stage = shared
+            r.write(r.out_dir)
+            log.info("%d tasks of %s: %d/%d installed, %.0f s simulated in %.0f s wall", len(r.tasks),
+                     r.scenario, r.installed, r.elements, r.sim_time_s, r.wall_s)
+        write_costs(self.project_dir, {cost_key(self.jobs[i]): done[i].cpu_s for i in kept})
+        return stage
