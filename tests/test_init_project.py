@@ -70,6 +70,13 @@ def test_init_writes_a_project_whose_scenarios_validate(
     assert main(["validate", str(r.directory)]) == 1
     err = capsys.readouterr().err
     assert "This was the bare model" in err and f"--scenario {min(r.scenarios)}" in err
+    # --scenario all: the project as it will be simulated, every scenario in turn
+    assert main(["validate", str(r.directory), "--scenario", "all"]) == 0
+    out = capsys.readouterr().out
+    assert all(f"== scenario {name}" in out for name in r.scenarios) and "every scenario conforms" in out
+    report = str(r.directory / "r.ttl")
+    assert main(["validate", str(r.directory), "--scenario", "all", "--report", report]) == 2
+    assert not (r.directory / "r.ttl").exists()
 
 
 def test_frames_are_in_the_ifc_copy_with_mass_and_grasp_points(
