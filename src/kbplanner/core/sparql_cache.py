@@ -31,6 +31,7 @@ import sys
 import tempfile
 from collections import OrderedDict
 from collections.abc import Callable, Mapping
+from functools import lru_cache
 from pathlib import Path
 from types import MethodType
 from typing import TYPE_CHECKING, Any
@@ -183,3 +184,13 @@ def prepare_text(text: str, init_ns: Mapping[str, Any] | None = None) -> Query:
         return query
     _write(path, data)
     return query
+
+
+@lru_cache(maxsize=1024)
+def prepared_text(text: str) -> Query | None:
+    """:func:`prepare_text` of a query text without namespaces, once per process; ``None`` when it does
+    not parse alone (a prefix only the graph declares): the caller runs the text on the graph."""
+    try:
+        return prepare_text(text)
+    except Exception:  # parsed again with the graph's prefixes where it runs
+        return None
