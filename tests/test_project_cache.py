@@ -218,3 +218,17 @@ def test_the_kept_merged_graph_is_merged_again_after_an_edit(case: tuple[Path, P
     extra = (URIRef("urn:x:a"), URIRef("urn:x:b"), Literal("c"))
     warm.model.add(extra)
     assert extra in warm.graph and set(warm.graph) == set(warm.model) | set(warm.kb)
+
+
+def test_the_kept_stamp_stands_for_the_unpickled_graphs_until_one_is_edited(case: tuple[Path, Path]) -> None:
+    proj, _ = case
+    _load(proj)
+    warm, _ = _load(proj)
+    assert warm.cache_entry is not None
+    meta = json.loads((warm.cache_entry / project_cache.META).read_text(encoding="utf-8"))
+    assert meta["stamp"] == project_cache.graphs_stamp(warm.model, warm.kb)  # the graphs as unpickled
+    assert project_cache.unedited(warm.model, warm.kb)
+    warm.kb.remove((None, None, Literal("no such value")))  # a removal that removes nothing is an edit too
+    assert not project_cache.unedited(warm.model, warm.kb) and project_cache.unedited(warm.model)
+    cold = ProjectData.load(proj, scenario=SCENARIO, store=None)
+    assert project_cache.unedited(cold.model)  # read from the entry again

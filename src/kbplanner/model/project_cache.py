@@ -47,6 +47,7 @@ from typing import TYPE_CHECKING, Any
 
 from rdflib import Graph, Literal, URIRef
 from rdflib.exceptions import ParserError
+from rdflib.plugins.stores.memory import Memory
 
 from kbplanner.core.named_queries import QueryResult
 from kbplanner.core.rdf_io import bind_prefixes
@@ -190,6 +191,27 @@ def dump_graphs(path: Path, model: Graph, kb: Graph, merged: Graph) -> None:
     path.write_bytes(buf.getvalue())
 
 
+class KeptMemory(Memory):
+    """The in-memory store of a graph unpickled from an entry: the same store, noting any edit (every
+    change of an rdflib graph reaches its store's ``add`` or ``remove``), so that the entry's stamp of
+    its graphs (:func:`graphs_stamp`, kept in ``meta.json``) stands for them while none was made."""
+
+    edited = False
+
+    def add(self, triple: Any, context: Any, quoted: bool = False) -> None:
+        self.edited = True
+        super().add(triple, context, quoted)
+
+    def remove(self, triple: Any, context: Any = None) -> None:
+        self.edited = True
+        super().remove(triple, context)
+
+
+def unedited(*graphs: Graph) -> bool:
+    """Whether every graph is one unpickled from an entry and none was changed since."""
+    return all(isinstance(g.store, KeptMemory) and not g.store.edited for g in graphs)
+
+
 def load_graphs(path: Path) -> tuple[Graph, Graph, Graph]:
     """The model, knowledge-base and merged graphs :func:`dump_graphs` wrote (the cyclic garbage
     collector paused meanwhile: the hundred thousand containers unpickled would start it dozens of
@@ -204,6 +226,9 @@ def load_graphs(path: Path) -> tuple[Graph, Graph, Graph]:
             gc.enable()
     if not (isinstance(got, tuple) and len(got) == 3 and all(isinstance(g, Graph) for g in got)):
         raise ValueError(f"{path} holds no graphs")
+    for g in got[:2]:  # the model and the knowledge base: their edits are noted
+        if type(g.store) is Memory:
+            g.store.__class__ = KeptMemory
     return got[0], got[1], got[2]
 
 
@@ -344,6 +369,7 @@ def write_entry(entry: Path, project: CachedProject, reads: Iterable[Path], decl
         kb = _graph(tmp / KB_NT, meta["kb_namespaces"])
         merged = merged_graph(model, kb)
         meta["merged_triples"] = len(merged)
+        meta["stamp"] = graphs_stamp(model, kb)
         dump_graphs(tmp / GRAPHS, model, kb, merged)
         (tmp / META).write_text(json.dumps(meta, indent=1) + "\n", encoding="utf-8")  # last: marks it whole
         os.chmod(tmp, 0o777 & ~_umask())

@@ -92,6 +92,7 @@ class ProjectData:
     _merged: Graph | None = field(default=None, repr=False)
     cache_entry: Path | None = field(default=None, repr=False)  # the project cache entry of the load
     _merged_of: tuple[int, int] | None = field(default=None, repr=False)  # sizes of a kept merged graph
+    _kept_stamp: str = field(default="", repr=False)  # the entry's stamp of the graphs unpickled from it
 
     # ---- loading -------------------------------------------------------------------------------
     @classmethod
@@ -142,8 +143,9 @@ class ProjectData:
         if entry is not None and not (entry / project_cache.META).is_file():
             entry = None  # not written (read-only project, full disk)
         kept = (len(model), len(kb)) if merged is not None and store is None else None
+        stamp = str(hit.meta.get("stamp", "")) if hit is not None and kept is not None else ""
         return cls(manifest=manifest, scenario=scenario, model=model, kb=kb, import_dir=import_dir,
-                   kb_files=kb_files, _merged=merged, cache_entry=entry, _merged_of=kept)
+                   kb_files=kb_files, _merged=merged, cache_entry=entry, _merged_of=kept, _kept_stamp=stamp)
 
     # ---- basic properties ----------------------------------------------------------------------
     @property
@@ -164,8 +166,9 @@ class ProjectData:
     @property
     def graph(self) -> Graph:
         """The model and the knowledge base merged (for queries that need both). Do not mutate."""
-        if self._merged is not None and self._merged_of is not None and \
-                self._merged_of != (len(self.model), len(self.kb)):
+        if self._merged is not None and self._merged_of is not None and (
+                self._merged_of != (len(self.model), len(self.kb))
+                or not project_cache.unedited(self.model, self.kb)):
             self._merged = None  # the merged graph kept in the cache, and the model or KB edited since
         if self._merged is None:
             self._merged = project_cache.merged_graph(self.model, self.kb)
@@ -195,7 +198,10 @@ class ProjectData:
         backend = describe(self.graph)
         if entry is not None and backend not in ("memory", "oxigraph"):
             entry = None  # an endpoint's rows are the server's business
-        stamp = project_cache.graphs_stamp(self.model, self.kb) if entry is not None else ""
+        stamp = ""
+        if entry is not None:  # the entry's stamp while the graphs are those unpickled from it, unedited
+            stamp = (self._kept_stamp if self._kept_stamp and project_cache.unedited(self.model, self.kb)
+                     else project_cache.graphs_stamp(self.model, self.kb))
         out: dict[str, QueryResult] = {}
         for name, merged in queries:
             kept = project_cache.read_rows(entry, name, backend, stamp) if entry is not None else None
