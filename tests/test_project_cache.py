@@ -232,3 +232,28 @@ def test_the_kept_stamp_stands_for_the_unpickled_graphs_until_one_is_edited(case
     assert not project_cache.unedited(warm.model, warm.kb) and project_cache.unedited(warm.model)
     cold = ProjectData.load(proj, scenario=SCENARIO, store=None)
     assert project_cache.unedited(cold.model)  # read from the entry again
+
+
+class _Touch:
+    """A pickle that, unpickled, creates a file (what a foreign pickle could do)."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+
+    def __reduce__(self) -> tuple[object, ...]:
+        return (Path.touch, (self.path,))
+
+
+def test_a_graphs_pickle_without_this_users_seal_is_never_unpickled(case: tuple[Path, Path],
+                                                                      tmp_path: Path) -> None:
+    import pickle
+
+    proj, cache = case
+    cold, _ = _load(proj)
+    entry = cache / project_cache.SUBDIR / _entries(cache)[0]
+    witness = tmp_path / "unpickled"
+    (entry / project_cache.GRAPHS).write_bytes(pickle.dumps(_Touch(witness)))  # a project from elsewhere
+    again, said = _load(proj)
+    assert not witness.exists() and "project from cache" not in said and again.info() == cold.info()
+    _, said = _load(proj)
+    assert "project from cache" in said and not witness.exists()  # replaced by this user's sealed one

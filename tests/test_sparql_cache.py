@@ -16,6 +16,7 @@ from rdflib.plugins.sparql.parserutils import CompValue
 from rdflib.plugins.sparql.sparql import Query
 
 from kbplanner.core import sparql_cache
+from kbplanner.core.cache_seal import sealed
 from kbplanner.core.named_queries import catalogue, result_rows
 from kbplanner.knowledge.knowledge_base import load_kb
 
@@ -51,7 +52,9 @@ def _read_back(text: str) -> Query:
     sparql_cache.prepare_text(text)
     path = sparql_cache.cache_dir() / f"{sparql_cache.query_key(text)}.pickle"
     assert path.is_file()
-    got = pickle.loads(path.read_bytes())
+    mark, _, data = path.read_bytes().partition(b"\n")
+    assert sealed(data, mark.decode())
+    got = pickle.loads(data)
     assert isinstance(got, Query)
     return got
 
@@ -97,7 +100,32 @@ def test_a_damaged_file_is_parsed_again_and_replaced(cache: Path) -> None:
     path.write_bytes(b"not a pickle")
     got = sparql_cache.prepare_text(text)
     assert _canonical(got.algebra) == _canonical(prepareQuery(text).algebra)
-    assert isinstance(pickle.loads(path.read_bytes()), Query)
+    mark, _, data = path.read_bytes().partition(b"\n")
+    assert sealed(data, mark.decode()) and isinstance(pickle.loads(data), Query)
+
+
+class _Touch:
+    """A pickle that, unpickled, creates a file (what a foreign pickle could do)."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (Path.touch, (self.path,))
+
+
+def test_a_pickle_without_this_users_seal_is_never_unpickled(cache: Path, tmp_path: Path) -> None:
+    text = catalogue()["storeys"].text
+    _read_back(text)
+    path = cache / f"{sparql_cache.query_key(text)}.pickle"
+    witness = tmp_path / "unpickled"
+    foreign = pickle.dumps(_Touch(witness))
+    for mark in (b"0" * 64, b"", sealed.__name__.encode()):  # a wrong seal, none, a word
+        path.write_bytes(mark + b"\n" + foreign)
+        got = sparql_cache.prepare_text(text)
+        assert not witness.exists() and isinstance(got, Query)
+    mark, _, data = path.read_bytes().partition(b"\n")
+    assert sealed(data, mark.decode())  # replaced by a sealed one
 
 
 def test_the_key_follows_the_text_and_namespaces() -> None:

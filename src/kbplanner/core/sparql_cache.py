@@ -11,6 +11,8 @@ object rdflib would have built: the cache holds exactly what ``prepareQuery`` re
 - Off: ``KBPLANNER_NO_CACHE=1`` (``kbplanner --no-cache``): every query is parsed, nothing is written.
 - Key: SHA-256 of the cache format, the Python, rdflib and pyparsing versions and the query text (and
   the namespaces given with it): any change parses the query again.
+- Each file is sealed (:mod:`kbplanner.core.cache_seal`: an HMAC under this user's key, first line)
+  and unpickled only if the seal matches; none is written where no key can be kept.
 - A file that cannot be read (damaged, written by another version) is parsed again and replaced; a
   write that fails is ignored (the cache is an aid). Files are written atomically (temporary file
   renamed into place), so two processes at once never read half a file.
@@ -35,6 +37,8 @@ from functools import lru_cache
 from pathlib import Path
 from types import MethodType
 from typing import TYPE_CHECKING, Any
+
+from kbplanner.core.cache_seal import seal, sealed
 
 if TYPE_CHECKING:
     from rdflib.plugins.sparql.sparql import Query
@@ -141,7 +145,11 @@ def _read(path: Path) -> Query | None:
     from rdflib.plugins.sparql.sparql import Query
 
     try:
-        obj = pickle.loads(path.read_bytes())
+        mark, _, data = path.read_bytes().partition(b"\n")
+        if not sealed(data, mark.decode("ascii", "replace")):
+            log.info("prepared query %s not used: not sealed by this user's kbplanner", path)
+            return None
+        obj = pickle.loads(data)
     except FileNotFoundError:
         return None
     except Exception as exc:  # damaged or written by other code: parsed again, replaced
@@ -182,7 +190,9 @@ def prepare_text(text: str, init_ns: Mapping[str, Any] | None = None) -> Query:
     except Exception as exc:  # a node this module does not know how to write: not kept
         log.info("prepared query not kept: %s", exc)
         return query
-    _write(path, data)
+    mark = seal(data)
+    if mark is not None:  # else no key can be kept: nothing is
+        _write(path, mark.encode("ascii") + b"\n" + data)
     return query
 
 

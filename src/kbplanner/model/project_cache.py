@@ -11,7 +11,9 @@ merged graph (model + knowledge base) the queries run on, so that the next comma
 - Where: ``PROJECT/.kbplanner-cache/project/KEY/`` (``model.nt``, ``kb.nt``, ``graphs.pickle``,
   ``meta.json``), or ``$KBPLANNER_CACHE_DIR/project/KEY/`` when that variable is set; the IFC import
   cache lives beside it. ``graphs.pickle`` is the entry's own: written by kbplanner from the N-Triples
-  beside it (the graphs that parsing them gives), read only from an entry whose key matches.
+  beside it (the graphs that parsing them gives), read only from an entry whose key matches and only
+  if it bears this user's seal (:mod:`kbplanner.core.cache_seal`: a project folder copied from
+  elsewhere with its cache never gets its pickle unpickled; the entry is loaded again and replaced).
 - Off: ``KBPLANNER_NO_CACHE=1`` (``kbplanner --no-cache``): nothing is read from or written to it.
 - Key: SHA-256 of the cache format, kbplanner's version, the source of the loading code (``core``,
   ``model``, ``knowledge``) and the named queries, the project directory, the scenario, and the
@@ -49,6 +51,7 @@ from rdflib import Graph, Literal, URIRef
 from rdflib.exceptions import ParserError
 from rdflib.plugins.stores.memory import Memory
 
+from kbplanner.core.cache_seal import seal, sealed
 from kbplanner.core.named_queries import QueryResult
 from kbplanner.core.rdf_io import bind_prefixes
 from kbplanner.core.resources import data_dir, ontology_files
@@ -184,11 +187,11 @@ class _TermPickler(pickle.Pickler):
         return NotImplemented
 
 
-def dump_graphs(path: Path, model: Graph, kb: Graph, merged: Graph) -> None:
-    """Pickle the three graphs of an entry into ``path``."""
+def dump_graphs(model: Graph, kb: Graph, merged: Graph) -> bytes:
+    """The pickle of the three graphs of an entry."""
     buf = io.BytesIO()
     _TermPickler(buf, protocol=pickle.HIGHEST_PROTOCOL).dump((model, kb, merged))
-    path.write_bytes(buf.getvalue())
+    return buf.getvalue()
 
 
 class KeptMemory(Memory):
@@ -212,11 +215,14 @@ def unedited(*graphs: Graph) -> bool:
     return all(isinstance(g.store, KeptMemory) and not g.store.edited for g in graphs)
 
 
-def load_graphs(path: Path) -> tuple[Graph, Graph, Graph]:
-    """The model, knowledge-base and merged graphs :func:`dump_graphs` wrote (the cyclic garbage
-    collector paused meanwhile: the hundred thousand containers unpickled would start it dozens of
-    times, four fifths of the time, to find nothing)."""
+def load_graphs(path: Path, mark: str) -> tuple[Graph, Graph, Graph]:
+    """The model, knowledge-base and merged graphs :func:`dump_graphs` wrote, if ``mark`` is this user's
+    seal of them (:mod:`kbplanner.core.cache_seal`; else ValueError: nothing is unpickled). The cyclic
+    garbage collector is paused meanwhile: the hundred thousand containers unpickled would start it
+    dozens of times, four fifths of the time, to find nothing."""
     data = path.read_bytes()
+    if not sealed(data, mark):
+        raise ValueError(f"{path} is not sealed by this user's kbplanner")
     paused = gc.isenabled()
     gc.disable()
     try:
@@ -305,8 +311,8 @@ def read_entry(entry: Path, store: str | None = None) -> CacheEntry | None:
         if not import_dir.is_dir() or not (entry / MODEL_NT).is_file():
             return None
         model = merged = None
-        if store is None:
-            model, kb, merged = _unpickled(entry)
+        if store is None and meta.get("graphs_seal"):
+            model, kb, merged = _unpickled(entry, str(meta["graphs_seal"]))
             if (len(model), len(merged)) != (meta["model_triples"], meta["merged_triples"]):
                 return None
         else:
@@ -321,9 +327,9 @@ def read_entry(entry: Path, store: str | None = None) -> CacheEntry | None:
                       kb_files=[Path(p) for p in meta["kb_files"]], model=model, merged=merged)
 
 
-def _unpickled(entry: Path) -> tuple[Graph, Graph, Graph]:
+def _unpickled(entry: Path, mark: str) -> tuple[Graph, Graph, Graph]:
     try:
-        return load_graphs(entry / GRAPHS)
+        return load_graphs(entry / GRAPHS, mark)
     except OSError:
         raise
     except Exception as exc:  # a damaged pickle raises about anything: the entry is not used
@@ -370,7 +376,11 @@ def write_entry(entry: Path, project: CachedProject, reads: Iterable[Path], decl
         merged = merged_graph(model, kb)
         meta["merged_triples"] = len(merged)
         meta["stamp"] = graphs_stamp(model, kb)
-        dump_graphs(tmp / GRAPHS, model, kb, merged)
+        data = dump_graphs(model, kb, merged)
+        mark = seal(data)
+        if mark is not None:  # else (no key can be kept) no pickle: the N-Triples are read
+            (tmp / GRAPHS).write_bytes(data)
+            meta["graphs_seal"] = mark
         (tmp / META).write_text(json.dumps(meta, indent=1) + "\n", encoding="utf-8")  # last: marks it whole
         os.chmod(tmp, 0o777 & ~_umask())
         if entry.exists():  # a stale entry (an owl:imports file changed): move it aside first
