@@ -10,8 +10,9 @@ merged graph (model + knowledge base) the queries run on, so that the next comma
 
 - Where: ``PROJECT/.kbplanner-cache/project/KEY/`` (``model.nt``, ``kb.nt``, ``graphs.pickle``,
   ``meta.json``), or ``$KBPLANNER_CACHE_DIR/project/KEY/`` when that variable is set; the IFC import
-  cache lives beside it. ``graphs.pickle`` is the entry's own: written by kbplanner from the N-Triples
-  beside it (the graphs that parsing them gives), read only from an entry whose key matches and only
+  cache lives beside it. ``graphs.pickle`` is the entry's own: written by the first command that reads
+  the entry with rdflib (the graphs that parsing its N-Triples gives, their merge and their stamp;
+  commands on Oxigraph never need it), read only from an entry whose key matches and only
   if it bears this user's seal (:mod:`kbplanner.core.cache_seal`: a project folder copied from
   elsewhere with its cache never gets its pickle unpickled; the entry is loaded again and replaced).
 - Off: ``KBPLANNER_NO_CACHE=1`` (``kbplanner --no-cache``): nothing is read from or written to it.
@@ -187,17 +188,17 @@ class _TermPickler(pickle.Pickler):
         return NotImplemented
 
 
-def dump_graphs(model: Graph, kb: Graph, merged: Graph) -> bytes:
-    """The pickle of the three graphs of an entry."""
+def dump_graphs(model: Graph, kb: Graph, merged: Graph, stamp: str) -> bytes:
+    """The pickle of the three graphs of an entry and the stamp of the first two."""
     buf = io.BytesIO()
-    _TermPickler(buf, protocol=pickle.HIGHEST_PROTOCOL).dump((model, kb, merged))
+    _TermPickler(buf, protocol=pickle.HIGHEST_PROTOCOL).dump((model, kb, merged, stamp))
     return buf.getvalue()
 
 
 class KeptMemory(Memory):
     """The in-memory store of a graph unpickled from an entry: the same store, noting any edit (every
     change of an rdflib graph reaches its store's ``add`` or ``remove``), so that the entry's stamp of
-    its graphs (:func:`graphs_stamp`, kept in ``meta.json``) stands for them while none was made."""
+    its graphs (:func:`graphs_stamp`, kept in ``graphs.pickle``) stands for them while none was made."""
 
     edited = False
 
@@ -215,13 +216,19 @@ def unedited(*graphs: Graph) -> bool:
     return all(isinstance(g.store, KeptMemory) and not g.store.edited for g in graphs)
 
 
-def load_graphs(path: Path, mark: str) -> tuple[Graph, Graph, Graph]:
-    """The model, knowledge-base and merged graphs :func:`dump_graphs` wrote, if ``mark`` is this user's
-    seal of them (:mod:`kbplanner.core.cache_seal`; else ValueError: nothing is unpickled). The cyclic
-    garbage collector is paused meanwhile: the hundred thousand containers unpickled would start it
-    dozens of times, four fifths of the time, to find nothing."""
-    data = path.read_bytes()
-    if not sealed(data, mark):
+def _note_edits(*graphs: Graph) -> None:
+    for g in graphs:
+        if type(g.store) is Memory:
+            g.store.__class__ = KeptMemory
+
+
+def load_graphs(path: Path) -> tuple[Graph, Graph, Graph, str]:
+    """The model, knowledge-base and merged graphs and the stamp :func:`keep_graphs` wrote, if the file
+    bears this user's seal (:mod:`kbplanner.core.cache_seal`; else ValueError: nothing is unpickled).
+    The cyclic garbage collector is paused meanwhile: the hundred thousand containers unpickled would
+    start it dozens of times, four fifths of the time, to find nothing."""
+    mark, _, data = path.read_bytes().partition(b"\n")
+    if not sealed(data, mark.decode("ascii", "replace")):
         raise ValueError(f"{path} is not sealed by this user's kbplanner")
     paused = gc.isenabled()
     gc.disable()
@@ -230,12 +237,32 @@ def load_graphs(path: Path, mark: str) -> tuple[Graph, Graph, Graph]:
     finally:
         if paused:
             gc.enable()
-    if not (isinstance(got, tuple) and len(got) == 3 and all(isinstance(g, Graph) for g in got)):
+    if not (isinstance(got, tuple) and len(got) == 4 and all(isinstance(g, Graph) for g in got[:3])
+            and isinstance(got[3], str)):
         raise ValueError(f"{path} holds no graphs")
-    for g in got[:2]:  # the model and the knowledge base: their edits are noted
-        if type(g.store) is Memory:
-            g.store.__class__ = KeptMemory
-    return got[0], got[1], got[2]
+    _note_edits(got[0], got[1])  # the model and the knowledge base: their edits are noted
+    return got[0], got[1], got[2], got[3]
+
+
+def keep_graphs(entry: Path, model: Graph, kb: Graph, merged: Graph, stamp: str) -> None:
+    """Write ``graphs.pickle`` into ``entry`` (sealed; atomic replace; nothing where no key can be kept;
+    an error is logged, never raised)."""
+    try:
+        data = dump_graphs(model, kb, merged, stamp)
+        mark = seal(data)
+        if mark is None:
+            return
+        fd, tmp = tempfile.mkstemp(prefix=f".{GRAPHS}.", dir=entry)
+        try:
+            with os.fdopen(fd, "wb") as fh:
+                fh.write(mark.encode("ascii") + b"\n" + data)
+            os.chmod(tmp, 0o666 & ~_umask())
+            os.replace(tmp, entry / GRAPHS)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+    except (OSError, pickle.PicklingError, TypeError, AttributeError) as exc:  # the pickle is an aid
+        log.info("graphs not kept in %s: %s", entry, exc)
 
 
 # ---- reading -------------------------------------------------------------------------------------
@@ -269,6 +296,7 @@ class CacheEntry:
     kb_files: list[Path]
     model: Graph | None = None
     merged: Graph | None = None
+    stamp: str = ""  # graphs_stamp of model and kb, when read with them
 
     def graphs(self, store: str | None) -> tuple[Graph, Graph | None] | None:
         """The model graph, and the merged model + knowledge-base graph: the pickled one (rdflib), or,
@@ -311,25 +339,34 @@ def read_entry(entry: Path, store: str | None = None) -> CacheEntry | None:
         if not import_dir.is_dir() or not (entry / MODEL_NT).is_file():
             return None
         model = merged = None
-        if store is None and meta.get("graphs_seal"):
-            model, kb, merged = _unpickled(entry, str(meta["graphs_seal"]))
-            if (len(model), len(merged)) != (meta["model_triples"], meta["merged_triples"]):
+        stamp = ""
+        if store is None and (entry / GRAPHS).is_file():
+            model, kb, merged, stamp = _unpickled(entry)
+            if len(model) != meta["model_triples"]:
                 return None
         else:
             kb = _graph(entry / KB_NT, meta["kb_namespaces"])
         if len(kb) != meta["kb_triples"]:
             return None
+        if store is None and model is None:  # the first read by rdflib: parsed, merged, kept pickled
+            model = _graph(entry / MODEL_NT, meta["model_namespaces"])
+            if len(model) != meta["model_triples"]:
+                return None
+            merged = merged_graph(model, kb)
+            stamp = graphs_stamp(model, kb)
+            keep_graphs(entry, model, kb, merged, stamp)
+            _note_edits(model, kb)
     except (OSError, ValueError, KeyError, TypeError, ParserError) as exc:  # missing, half-removed, damaged
         log.info("project cache %s not used: %s", entry, exc)
         return None
     log.info("project from cache %s", entry)
     return CacheEntry(path=entry, meta=meta, kb=kb, import_dir=import_dir,
-                      kb_files=[Path(p) for p in meta["kb_files"]], model=model, merged=merged)
+                      kb_files=[Path(p) for p in meta["kb_files"]], model=model, merged=merged, stamp=stamp)
 
 
-def _unpickled(entry: Path, mark: str) -> tuple[Graph, Graph, Graph]:
+def _unpickled(entry: Path) -> tuple[Graph, Graph, Graph, str]:
     try:
-        return load_graphs(entry / GRAPHS, mark)
+        return load_graphs(entry / GRAPHS)
     except OSError:
         raise
     except Exception as exc:  # a damaged pickle raises about anything: the entry is not used
@@ -370,17 +407,6 @@ def write_entry(entry: Path, project: CachedProject, reads: Iterable[Path], decl
         tmp = Path(tempfile.mkdtemp(prefix=f".{entry.name}.", dir=entry.parent))
         project.model.serialize(tmp / MODEL_NT, format="nt", encoding="utf-8")
         project.kb.serialize(tmp / KB_NT, format="nt", encoding="utf-8")
-        # the graphs a later command gets: those parsing the N-Triples gives, pickled with their merge
-        model = _graph(tmp / MODEL_NT, meta["model_namespaces"])
-        kb = _graph(tmp / KB_NT, meta["kb_namespaces"])
-        merged = merged_graph(model, kb)
-        meta["merged_triples"] = len(merged)
-        meta["stamp"] = graphs_stamp(model, kb)
-        data = dump_graphs(model, kb, merged)
-        mark = seal(data)
-        if mark is not None:  # else (no key can be kept) no pickle: the N-Triples are read
-            (tmp / GRAPHS).write_bytes(data)
-            meta["graphs_seal"] = mark
         (tmp / META).write_text(json.dumps(meta, indent=1) + "\n", encoding="utf-8")  # last: marks it whole
         os.chmod(tmp, 0o777 & ~_umask())
         if entry.exists():  # a stale entry (an owl:imports file changed): move it aside first
@@ -393,8 +419,7 @@ def write_entry(entry: Path, project: CachedProject, reads: Iterable[Path], decl
         if owner:
             _remove_older(entry, owner)
         return True
-    except (OSError, ValueError, ParserError, pickle.PicklingError) as exc:
-        # read-only project, full disk, or another command placed it first
+    except OSError as exc:  # read-only project, full disk, or another command placed it first
         if entry.is_dir() and (entry / META).is_file():
             return True
         log.info("project cache not written (%s): %s", entry, exc)

@@ -143,7 +143,7 @@ class ProjectData:
         if entry is not None and not (entry / project_cache.META).is_file():
             entry = None  # not written (read-only project, full disk)
         kept = (len(model), len(kb)) if merged is not None and store is None else None
-        stamp = str(hit.meta.get("stamp", "")) if hit is not None and kept is not None else ""
+        stamp = hit.stamp if hit is not None and kept is not None else ""
         return cls(manifest=manifest, scenario=scenario, model=model, kb=kb, import_dir=import_dir,
                    kb_files=kb_files, _merged=merged, cache_entry=entry, _merged_of=kept, _kept_stamp=stamp)
 
