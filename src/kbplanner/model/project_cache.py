@@ -1,3 +1,4 @@
+# Over 500 lines: the entry (key, read, write), its pickled graphs (seal, edits) and kept rows; to split.
 """The project cache (4D model loading): a loaded project kept by a content hash of all its inputs.
 
 Loading a project imports the IFC (itself cached, :func:`kbplanner.model.project_data.import_cached`),
