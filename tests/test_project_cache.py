@@ -4,6 +4,7 @@ commands at once leave one whole entry."""
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import subprocess
@@ -11,11 +12,12 @@ import sys
 from pathlib import Path
 
 import pytest
-from rdflib import URIRef
+from rdflib import Graph, Literal, URIRef
 from rdflib.compare import isomorphic
 
 from kbplanner.cli import NO_CACHE_ENV as CLI_NO_CACHE_ENV
 from kbplanner.cli import main
+from kbplanner.core.cache_seal import sealed
 from kbplanner.model import project_cache
 from kbplanner.model.project_data import CACHE_ENV, ProjectData
 
@@ -132,7 +134,7 @@ def test_two_commands_at_once_leave_one_whole_entry_and_no_temporary_folder(case
     entries = _entries(cache)
     assert len(entries) == 1 and not entries[0].startswith(".")
     assert {p.name for p in (cache / project_cache.SUBDIR / entries[0]).iterdir()} == {
-        project_cache.MODEL_NT, project_cache.KB_NT, project_cache.META}
+        project_cache.MODEL_NT, project_cache.KB_NT, project_cache.META}  # info runs on Oxigraph: no pickle
     third = subprocess.run(cmd, capture_output=True, text=True, env=env, check=True, timeout=300)
     assert third.stdout == outs[0][0]
 
@@ -141,11 +143,18 @@ def test_a_damaged_entry_is_not_used_and_is_replaced(case: tuple[Path, Path]) ->
     proj, cache = case
     cold, _ = _load(proj)
     entry = cache / project_cache.SUBDIR / _entries(cache)[0]
-    for store in (None, "oxigraph"):  # read by rdflib, read straight into Oxigraph
-        (entry / project_cache.MODEL_NT).write_text("<a> <b> .\n", encoding="utf-8")  # not N-Triples
+    assert not (entry / project_cache.GRAPHS).exists()  # written by the first read with rdflib
+    _, said = _load(proj)
+    assert "project from cache" in said and (entry / project_cache.GRAPHS).is_file()
+    cut = (entry / project_cache.GRAPHS).read_bytes()[:-100]  # a pickle cut short
+    for store, name, damaged in ((None, project_cache.GRAPHS, b"\x80\x05garbage"),  # unpickled
+                                 (None, project_cache.GRAPHS, cut),
+                                 ("oxigraph", project_cache.MODEL_NT, b"<a> <b> .\n")):  # not N-Triples
+        (entry / name).write_bytes(damaged)
         again, said = _load(proj, store=store)
         assert "project from cache" not in said and again.info() == cold.info()
-        assert (entry / project_cache.MODEL_NT).stat().st_size > 1000  # replaced by the full load
+        _, said = _load(proj)  # the entry written again, read again (by rdflib: its pickle kept)
+        assert "project from cache" in said and (entry / name).stat().st_size > 1000
     (entry / project_cache.META).unlink()
     again, said = _load(proj)
     assert "project from cache" not in said and again.info() == cold.info()
@@ -174,3 +183,90 @@ def test_world_tables_read_from_the_cache_equal_those_read_from_the_graph_until_
     tasks = second.pristine_rows([("world_tasks", False)])["world_tasks"].rows
     second.model.remove((URIRef(tasks[0][0]), None, None))  # an API user edits the loaded graph
     assert len(second.pristine_rows([("world_tasks", False)])["world_tasks"].rows) == len(tasks) - 1
+
+
+def _literals(g: Graph) -> list[tuple[str, ...]]:
+    return sorted((repr(o), repr(o.value), str(o.ill_typed), str(o.language), str(o.datatype))
+                  for o in g.objects() if isinstance(o, Literal))
+
+
+def test_the_pickled_graphs_are_those_the_n_triples_give_and_answer_the_same_rows(
+        case: tuple[Path, Path]) -> None:
+    from kbplanner.core.named_queries import catalogue, run_named
+
+    proj, _ = case
+    cold, _ = _load(proj)
+    first, said = _load(proj)  # parses the N-Triples, keeps the pickle
+    assert "project from cache" in said and first.cache_entry is not None
+    assert (first.cache_entry / project_cache.GRAPHS).is_file()
+    warm, said = _load(proj)  # unpickles
+    assert "project from cache" in said and warm.cache_entry is not None
+    assert set(warm.model) == set(first.model) and warm._kept_stamp == first._kept_stamp
+    meta = json.loads((warm.cache_entry / project_cache.META).read_text(encoding="utf-8"))
+    for kept, name, ns in ((warm.model, project_cache.MODEL_NT, "model_namespaces"),
+                           (warm.kb, project_cache.KB_NT, "kb_namespaces")):
+        parsed = project_cache._graph(warm.cache_entry / name, meta[ns])
+        assert set(kept) == set(parsed) and len(kept) == len(parsed)
+        for s in parsed.subjects(unique=True):  # the same order of a subject's triples
+            assert list(kept.predicate_objects(s)) == list(parsed.predicate_objects(s))
+        assert _literals(kept) == _literals(parsed)  # values, datatypes, languages as parsed
+        assert sorted(kept.namespaces()) == sorted(parsed.namespaces())
+    merged = project_cache.merged_graph(warm.model, warm.kb)
+    assert set(warm.graph) == set(merged) and sorted(warm.graph.namespaces()) == sorted(merged.namespaces())
+    assert isomorphic(warm.graph, cold.graph)
+    for name in catalogue():  # every named query, no value bound: the same rows
+        got, want = run_named(warm.graph, name), run_named(cold.graph, name)
+        assert got.columns == want.columns, name
+        assert sorted(map(repr, got.rows)) == sorted(map(repr, want.rows)), name
+
+
+def test_the_kept_merged_graph_is_merged_again_after_an_edit(case: tuple[Path, Path]) -> None:
+    proj, _ = case
+    _load(proj)
+    warm, _ = _load(proj)
+    extra = (URIRef("urn:x:a"), URIRef("urn:x:b"), Literal("c"))
+    warm.model.add(extra)
+    assert extra in warm.graph and set(warm.graph) == set(warm.model) | set(warm.kb)
+
+
+def test_the_kept_stamp_stands_for_the_unpickled_graphs_until_one_is_edited(case: tuple[Path, Path]) -> None:
+    proj, _ = case
+    _load(proj)
+    _load(proj)
+    warm, _ = _load(proj)
+    assert warm.cache_entry is not None and (warm.cache_entry / project_cache.GRAPHS).is_file()
+    assert warm._kept_stamp == project_cache.graphs_stamp(warm.model, warm.kb)  # the graphs as unpickled
+    assert project_cache.unedited(warm.model, warm.kb)
+    warm.kb.remove((None, None, Literal("no such value")))  # a removal that removes nothing is an edit too
+    assert not project_cache.unedited(warm.model, warm.kb) and project_cache.unedited(warm.model)
+    cold = ProjectData.load(proj, scenario=SCENARIO, store=None)
+    assert project_cache.unedited(cold.model)  # read from the entry again
+
+
+class _Touch:
+    """A pickle that, unpickled, creates a file (what a foreign pickle could do)."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+
+    def __reduce__(self) -> tuple[object, ...]:
+        return (Path.touch, (self.path,))
+
+
+def test_a_graphs_pickle_without_this_users_seal_is_never_unpickled(case: tuple[Path, Path],
+                                                                      tmp_path: Path) -> None:
+    import pickle
+
+    proj, cache = case
+    cold, _ = _load(proj)
+    _load(proj)  # keeps the pickle
+    entry = cache / project_cache.SUBDIR / _entries(cache)[0]
+    witness = tmp_path / "unpickled"
+    (entry / project_cache.GRAPHS).write_bytes(pickle.dumps(_Touch(witness)))  # a project from elsewhere
+    again, said = _load(proj)
+    assert not witness.exists() and "project from cache" not in said and again.info() == cold.info()
+    for _ in range(2):  # read (the pickle kept again, sealed), then unpickled
+        _, said = _load(proj)
+        assert "project from cache" in said and not witness.exists()
+    mark, _, data = (entry / project_cache.GRAPHS).read_bytes().partition(b"\n")
+    assert sealed(data, mark.decode())

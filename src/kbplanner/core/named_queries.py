@@ -194,12 +194,13 @@ def evaluates_text(graph: Graph) -> bool:
 @cache
 def prepared(name: str) -> Query | None:
     """The named query parsed and translated by rdflib, once per process (parsing costs about 40 ms a
-    query); None when it cannot be prepared alone (a prefix only a graph declares): then it is parsed
-    with the graph's prefixes at each run."""
-    from rdflib.plugins.sparql.processor import prepareQuery
+    query) and kept across processes (:func:`kbplanner.core.sparql_cache.prepare_text`); None when it
+    cannot be prepared alone (a prefix only a graph declares): then it is parsed with the graph's
+    prefixes at each run."""
+    from kbplanner.core.sparql_cache import prepare_text
 
     try:
-        return prepareQuery(get_query(name).text)
+        return prepare_text(get_query(name).text)
     except Exception:  # parsed again, with the graph's prefixes, where it runs
         return None
 

@@ -15,13 +15,13 @@ from functools import cache
 from pathlib import Path
 
 from rdflib import OWL, RDF, RDFS, XSD, Graph, Literal, Namespace, URIRef
-from rdflib.plugins.sparql import prepareQuery
 from rdflib.plugins.sparql.sparql import Query
 from rdflib.term import BNode, Identifier, Node
 
 from kbplanner.core.named_queries import evaluates_text, prepared
 from kbplanner.core.rdf_io import bind_prefixes, parse_turtle
 from kbplanner.core.resources import data_dir, ontology_files
+from kbplanner.core.sparql_cache import prepare_text
 from kbplanner.core.vocab import KBP
 
 log = logging.getLogger(__name__)
@@ -136,7 +136,7 @@ def _text(name: str) -> str:
 
 def _prepared(name: str) -> Query:
     """The parsed query (parsing costs about 40 ms per query with rdflib; done once per process)."""
-    return prepared(name) or prepareQuery(_text(name))
+    return prepared(name) or prepare_text(_text(name))
 
 
 def select(graph: Graph, name: str, **bindings: Identifier) -> list[dict[str, Node | None]]:

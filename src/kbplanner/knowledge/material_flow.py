@@ -29,6 +29,8 @@ from rdflib import Graph, URIRef
 from rdflib.term import Identifier
 
 from kbplanner.core.errors import KnowledgeBaseError
+from kbplanner.core.named_queries import evaluates_text
+from kbplanner.core.sparql_cache import prepared_text
 from kbplanner.core.vocab import KBP
 from kbplanner.knowledge.binding_paths import read_path, sparql_path
 from kbplanner.knowledge.knowledge_base import curie, source_of
@@ -50,7 +52,8 @@ class MaterialFlow:
         """The storages the path reaches from ``element`` (sorted; empty when the model lacks them)."""
         if not self.query:
             return []
-        rows = model.query(self.query, initBindings={"focus": element})
+        prepared = None if evaluates_text(model) else prepared_text(self.query)  # parsed once, kept
+        rows = model.query(prepared or self.query, initBindings={"focus": element})
         return sorted({r[1] for r in rows if isinstance(r[1], URIRef)}, key=str)  # type: ignore[index]
 
 

@@ -1,13 +1,21 @@
+# Over 500 lines: the entry (key, read, write), its pickled graphs (seal, edits) and kept rows; to split.
 """The project cache (4D model loading): a loaded project kept by a content hash of all its inputs.
 
 Loading a project imports the IFC (itself cached, :func:`kbplanner.model.project_data.import_cached`),
 reads the schedule, parses the site, jobsite, augmentation and scenario Turtle and the knowledge base,
 and checks their numbers: seconds of work that give the same graphs as long as no input changes. This
 module keeps the result, the model graph and the knowledge-base graph of one project and scenario, as
-N-Triples, so that the next command reads two files instead.
+N-Triples (read straight into Oxigraph) and as the rdflib graphs read from them, pickled with the
+merged graph (model + knowledge base) the queries run on, so that the next command unpickles one file
+(a quarter of the time of parsing the N-Triples and merging the graphs) instead.
 
-- Where: ``PROJECT/.kbplanner-cache/project/KEY/`` (``model.nt``, ``kb.nt``, ``meta.json``), or
-  ``$KBPLANNER_CACHE_DIR/project/KEY/`` when that variable is set; the IFC import cache lives beside it.
+- Where: ``PROJECT/.kbplanner-cache/project/KEY/`` (``model.nt``, ``kb.nt``, ``graphs.pickle``,
+  ``meta.json``), or ``$KBPLANNER_CACHE_DIR/project/KEY/`` when that variable is set; the IFC import
+  cache lives beside it. ``graphs.pickle`` is the entry's own: written by the first command that reads
+  the entry with rdflib (the graphs that parsing its N-Triples gives, their merge and their stamp;
+  commands on Oxigraph never need it), read only from an entry whose key matches and only
+  if it bears this user's seal (:mod:`kbplanner.core.cache_seal`: a project folder copied from
+  elsewhere with its cache never gets its pickle unpickled; the entry is loaded again and replaced).
 - Off: ``KBPLANNER_NO_CACHE=1`` (``kbplanner --no-cache``): nothing is read from or written to it.
 - Key: SHA-256 of the cache format, kbplanner's version, the source of the loading code (``core``,
   ``model``, ``knowledge``) and the named queries, the project directory, the scenario, and the
@@ -25,10 +33,13 @@ N-Triples, so that the next command reads two files instead.
 
 from __future__ import annotations
 
+import gc
 import hashlib
+import io
 import json
 import logging
 import os
+import pickle
 import shutil
 import tempfile
 from collections.abc import Iterable, Sequence
@@ -38,10 +49,13 @@ from decimal import Decimal
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from rdflib import Graph
+from rdflib import Graph, Literal, URIRef
 from rdflib.exceptions import ParserError
+from rdflib.plugins.stores.memory import Memory
 
+from kbplanner.core.cache_seal import seal, sealed
 from kbplanner.core.named_queries import QueryResult
+from kbplanner.core.rdf_io import bind_prefixes
 from kbplanner.core.resources import data_dir, ontology_files
 from kbplanner.core.version import __version__
 
@@ -50,10 +64,10 @@ if TYPE_CHECKING:
 
 log = logging.getLogger(__name__)
 
-FORMAT = "1"
+FORMAT = "2"
 NO_CACHE_ENV = "KBPLANNER_NO_CACHE"
 SUBDIR = "project"
-MODEL_NT, KB_NT, META = "model.nt", "kb.nt", "meta.json"
+MODEL_NT, KB_NT, GRAPHS, META = "model.nt", "kb.nt", "graphs.pickle", "meta.json"
 # The code that builds the graphs, and the named queries (the schedule reads one; the kept rows are theirs).
 _CODE_FILES = (("core", "*.py"), ("model", "*.py"), ("knowledge", "*.py"), ("queries", "*.rq"))
 
@@ -128,6 +142,130 @@ def entry_dir(root: Path, manifest: Manifest, scenario: str | None) -> Path:
     return root / SUBDIR / entry_key(manifest, scenario)
 
 
+# ---- the merged graph, and the graphs pickled ------------------------------------------------------
+
+def merged_graph(model: Graph, kb: Graph) -> Graph:
+    """The model and the knowledge base in one graph (the graph the named queries run on)."""
+    g = Graph()
+    bind_prefixes(g)
+    for t in model:
+        g.add(t)
+    for t in kb:
+        g.add(t)
+    return g
+
+
+def _uriref(text: str) -> URIRef:
+    """An IRI as ``URIRef(text)`` makes it (without checking its characters again)."""
+    return str.__new__(URIRef, text)
+
+
+def _literal(lexical: str, language: str | None, datatype: URIRef | None, value: Any,
+             ill_typed: bool | None) -> Literal:
+    """A literal with the lexical form, language, datatype and value it was written with (not parsed
+    again)."""
+    lit = str.__new__(Literal, lexical)
+    lit._language = language
+    lit._datatype = datatype
+    lit._value = value
+    lit._ill_typed = ill_typed
+    return lit
+
+
+# the Python values of literals that pickle as themselves (others: the literal is parsed again)
+_PLAIN_VALUES = (type(None), str, bool, int, float, Decimal, datetime, date)
+
+
+class _TermPickler(pickle.Pickler):
+    """Pickles IRIs and literals by their parts, so that unpickling neither checks IRIs nor parses
+    literal values again (rdflib's own reduction does both: three quarters of the time)."""
+
+    def reducer_override(self, obj: Any) -> Any:
+        kind = type(obj)
+        if kind is URIRef:
+            return _uriref, (str(obj),)
+        if kind is Literal and type(obj._value) in _PLAIN_VALUES:
+            return _literal, (str(obj), obj._language, obj._datatype, obj._value, obj._ill_typed)
+        return NotImplemented
+
+
+def dump_graphs(model: Graph, kb: Graph, merged: Graph, stamp: str) -> bytes:
+    """The pickle of the three graphs of an entry and the stamp of the first two."""
+    buf = io.BytesIO()
+    _TermPickler(buf, protocol=pickle.HIGHEST_PROTOCOL).dump((model, kb, merged, stamp))
+    return buf.getvalue()
+
+
+class KeptMemory(Memory):
+    """The in-memory store of a graph unpickled from an entry: the same store, noting any edit (every
+    change of an rdflib graph reaches its store's ``add`` or ``remove``), so that the entry's stamp of
+    its graphs (:func:`graphs_stamp`, kept in ``graphs.pickle``) stands for them while none was made."""
+
+    edited = False
+
+    def add(self, triple: Any, context: Any, quoted: bool = False) -> None:
+        self.edited = True
+        super().add(triple, context, quoted)
+
+    def remove(self, triple: Any, context: Any = None) -> None:
+        self.edited = True
+        super().remove(triple, context)
+
+
+def unedited(*graphs: Graph) -> bool:
+    """Whether every graph is one unpickled from an entry and none was changed since."""
+    return all(isinstance(g.store, KeptMemory) and not g.store.edited for g in graphs)
+
+
+def _note_edits(*graphs: Graph) -> None:
+    for g in graphs:
+        if type(g.store) is Memory:
+            g.store.__class__ = KeptMemory
+
+
+def load_graphs(path: Path) -> tuple[Graph, Graph, Graph, str]:
+    """The model, knowledge-base and merged graphs and the stamp :func:`keep_graphs` wrote, if the file
+    bears this user's seal (:mod:`kbplanner.core.cache_seal`; else ValueError: nothing is unpickled).
+    The cyclic garbage collector is paused meanwhile: the hundred thousand containers unpickled would
+    start it dozens of times, four fifths of the time, to find nothing."""
+    mark, _, data = path.read_bytes().partition(b"\n")
+    if not sealed(data, mark.decode("ascii", "replace")):
+        raise ValueError(f"{path} is not sealed by this user's kbplanner")
+    paused = gc.isenabled()
+    gc.disable()
+    try:
+        got = pickle.loads(data)
+    finally:
+        if paused:
+            gc.enable()
+    if not (isinstance(got, tuple) and len(got) == 4 and all(isinstance(g, Graph) for g in got[:3])
+            and isinstance(got[3], str)):
+        raise ValueError(f"{path} holds no graphs")
+    _note_edits(got[0], got[1])  # the model and the knowledge base: their edits are noted
+    return got[0], got[1], got[2], got[3]
+
+
+def keep_graphs(entry: Path, model: Graph, kb: Graph, merged: Graph, stamp: str) -> None:
+    """Write ``graphs.pickle`` into ``entry`` (sealed; atomic replace; nothing where no key can be kept;
+    an error is logged, never raised)."""
+    try:
+        data = dump_graphs(model, kb, merged, stamp)
+        mark = seal(data)
+        if mark is None:
+            return
+        fd, tmp = tempfile.mkstemp(prefix=f".{GRAPHS}.", dir=entry)
+        try:
+            with os.fdopen(fd, "wb") as fh:
+                fh.write(mark.encode("ascii") + b"\n" + data)
+            os.chmod(tmp, 0o666 & ~_umask())
+            os.replace(tmp, entry / GRAPHS)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+    except (OSError, pickle.PicklingError, TypeError, AttributeError) as exc:  # the pickle is an aid
+        log.info("graphs not kept in %s: %s", entry, exc)
+
+
 # ---- reading -------------------------------------------------------------------------------------
 
 class _SameLabels(dict[str, str]):
@@ -149,19 +287,26 @@ def _graph(path: Path, namespaces: Sequence[Sequence[str]]) -> Graph:
 
 @dataclass
 class CacheEntry:
-    """A whole cache entry: the knowledge base read, the model graph read on request."""
+    """A whole cache entry: the knowledge base read; the model graph (and, where rdflib holds the
+    graphs, the merged graph) read with it from ``graphs.pickle``, or on request from ``model.nt``."""
 
     path: Path
     meta: dict[str, Any]
     kb: Graph
     import_dir: Path
     kb_files: list[Path]
+    model: Graph | None = None
+    merged: Graph | None = None
+    stamp: str = ""  # graphs_stamp of model and kb, when read with them
 
     def graphs(self, store: str | None) -> tuple[Graph, Graph | None] | None:
-        """The model graph, and the merged model + knowledge-base graph where ``store`` is an in-memory
-        Oxigraph (read straight into it, :func:`kbplanner.core.stores.place_files`; else ``None``:
-        the loader places or merges as after a full load). ``None`` when the entry cannot be read
-        (removed meanwhile): the caller loads from the inputs."""
+        """The model graph, and the merged model + knowledge-base graph: the pickled one (rdflib), or,
+        where ``store`` is an in-memory Oxigraph, read straight into it
+        (:func:`kbplanner.core.stores.place_files`; else ``None``: the loader places or merges as
+        after a full load). ``None`` when the entry cannot be read (removed meanwhile): the caller
+        loads from the inputs."""
+        if store is None and self.model is not None:
+            return self.model, self.merged
         try:
             if store is not None:
                 from kbplanner.core.stores import place_files
@@ -178,9 +323,11 @@ class CacheEntry:
         return model, None
 
 
-def read_entry(entry: Path) -> CacheEntry | None:
+def read_entry(entry: Path, store: str | None = None) -> CacheEntry | None:
     """The project kept in ``entry``, or ``None`` when there is none, it is incomplete or any file it
-    records as read through ``owl:imports`` changed."""
+    records as read through ``owl:imports`` changed. With rdflib in memory (``store`` None) the graphs
+    are unpickled (a damaged pickle: ``None``, the entry is replaced by the full load); with another
+    store the knowledge base is parsed from ``kb.nt``."""
     try:
         meta: dict[str, Any] = json.loads((entry / META).read_text(encoding="utf-8"))
         if meta.get("format") != FORMAT:
@@ -192,15 +339,39 @@ def read_entry(entry: Path) -> CacheEntry | None:
         import_dir = Path(meta["import_dir"])
         if not import_dir.is_dir() or not (entry / MODEL_NT).is_file():
             return None
-        kb = _graph(entry / KB_NT, meta["kb_namespaces"])
+        model = merged = None
+        stamp = ""
+        if store is None and (entry / GRAPHS).is_file():
+            model, kb, merged, stamp = _unpickled(entry)
+            if len(model) != meta["model_triples"]:
+                return None
+        else:
+            kb = _graph(entry / KB_NT, meta["kb_namespaces"])
         if len(kb) != meta["kb_triples"]:
             return None
+        if store is None and model is None:  # the first read by rdflib: parsed, merged, kept pickled
+            model = _graph(entry / MODEL_NT, meta["model_namespaces"])
+            if len(model) != meta["model_triples"]:
+                return None
+            merged = merged_graph(model, kb)
+            stamp = graphs_stamp(model, kb)
+            keep_graphs(entry, model, kb, merged, stamp)
+            _note_edits(model, kb)
     except (OSError, ValueError, KeyError, TypeError, ParserError) as exc:  # missing, half-removed, damaged
         log.info("project cache %s not used: %s", entry, exc)
         return None
     log.info("project from cache %s", entry)
     return CacheEntry(path=entry, meta=meta, kb=kb, import_dir=import_dir,
-                      kb_files=[Path(p) for p in meta["kb_files"]])
+                      kb_files=[Path(p) for p in meta["kb_files"]], model=model, merged=merged, stamp=stamp)
+
+
+def _unpickled(entry: Path) -> tuple[Graph, Graph, Graph, str]:
+    try:
+        return load_graphs(entry / GRAPHS)
+    except OSError:
+        raise
+    except Exception as exc:  # a damaged pickle raises about anything: the entry is not used
+        raise ValueError(f"{entry / GRAPHS}: {exc}") from None
 
 
 # ---- writing -------------------------------------------------------------------------------------
@@ -219,7 +390,7 @@ def write_entry(entry: Path, project: CachedProject, reads: Iterable[Path], decl
     error is logged, not raised (the cache is an aid)."""
     known = {Path(p).resolve() for p in declared}
     extra = {str(Path(p).resolve()): _sha256(Path(p)) for p in reads if Path(p).resolve() not in known}
-    meta = {
+    meta: dict[str, Any] = {
         "format": FORMAT,
         "kbplanner": __version__,
         "owner": owner,

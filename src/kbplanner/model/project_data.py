@@ -91,6 +91,8 @@ class ProjectData:
     kb_files: list[Path] = field(default_factory=list)
     _merged: Graph | None = field(default=None, repr=False)
     cache_entry: Path | None = field(default=None, repr=False)  # the project cache entry of the load
+    _merged_of: tuple[int, int] | None = field(default=None, repr=False)  # sizes of a kept merged graph
+    _kept_stamp: str = field(default="", repr=False)  # the entry's stamp of the graphs unpickled from it
 
     # ---- loading -------------------------------------------------------------------------------
     @classmethod
@@ -124,7 +126,7 @@ class ProjectData:
         say = progress or (lambda _msg: None)
         entry = (project_cache.entry_dir(cache_root(manifest.directory), manifest, scenario)
                  if project_cache.enabled() else None)
-        hit = project_cache.read_entry(entry) if entry is not None else None
+        hit = project_cache.read_entry(entry, store) if entry is not None else None
         from_cache = hit.graphs(store) if hit is not None else None
         merged: Graph | None = None
         if hit is not None and from_cache is not None:
@@ -140,8 +142,10 @@ class ProjectData:
                                          graph_base=f"{manifest.base}graph/{scenario or 'bare'}/")
         if entry is not None and not (entry / project_cache.META).is_file():
             entry = None  # not written (read-only project, full disk)
+        kept = (len(model), len(kb)) if merged is not None and store is None else None
+        stamp = hit.stamp if hit is not None and kept is not None else ""
         return cls(manifest=manifest, scenario=scenario, model=model, kb=kb, import_dir=import_dir,
-                   kb_files=kb_files, _merged=merged, cache_entry=entry)
+                   kb_files=kb_files, _merged=merged, cache_entry=entry, _merged_of=kept, _kept_stamp=stamp)
 
     # ---- basic properties ----------------------------------------------------------------------
     @property
@@ -162,14 +166,13 @@ class ProjectData:
     @property
     def graph(self) -> Graph:
         """The model and the knowledge base merged (for queries that need both). Do not mutate."""
+        if self._merged is not None and self._merged_of is not None and (
+                self._merged_of != (len(self.model), len(self.kb))
+                or not project_cache.unedited(self.model, self.kb)):
+            self._merged = None  # the merged graph kept in the cache, and the model or KB edited since
         if self._merged is None:
-            g = Graph()
-            bind_prefixes(g)
-            for t in self.model:
-                g.add(t)
-            for t in self.kb:
-                g.add(t)
-            self._merged = g
+            self._merged = project_cache.merged_graph(self.model, self.kb)
+            self._merged_of = None
         return self._merged
 
     def mesh_path(self, mesh_file: str) -> Path:
@@ -195,7 +198,10 @@ class ProjectData:
         backend = describe(self.graph)
         if entry is not None and backend not in ("memory", "oxigraph"):
             entry = None  # an endpoint's rows are the server's business
-        stamp = project_cache.graphs_stamp(self.model, self.kb) if entry is not None else ""
+        stamp = ""
+        if entry is not None:  # the entry's stamp while the graphs are those unpickled from it, unedited
+            stamp = (self._kept_stamp if self._kept_stamp and project_cache.unedited(self.model, self.kb)
+                     else project_cache.graphs_stamp(self.model, self.kb))
         out: dict[str, QueryResult] = {}
         for name, merged in queries:
             kept = project_cache.read_rows(entry, name, backend, stamp) if entry is not None else None

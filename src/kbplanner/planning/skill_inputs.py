@@ -32,11 +32,11 @@ from functools import lru_cache
 from typing import Any
 
 from rdflib import Graph, Literal, URIRef
-from rdflib.plugins.sparql import prepareQuery
 from rdflib.plugins.sparql.sparql import Query
 from rdflib.term import BNode, Identifier, Node, _is_valid_uri
 
 from kbplanner.core.errors import KnowledgeBaseError
+from kbplanner.core.sparql_cache import prepare_text
 from kbplanner.core.vocab import KBP
 from kbplanner.knowledge.binding_paths import (
     SequencePath,
@@ -103,7 +103,7 @@ def value_query(binding: Binding) -> str:
 
 @lru_cache(maxsize=1024)
 def _prepared_text(text: str) -> Query:
-    return prepareQuery(text)
+    return prepare_text(text)
 
 
 def prepared_query(binding: Binding) -> Query:
