@@ -151,7 +151,7 @@ def write_geometry_kinds(path: Path, schema: Literal["IFC2X3", "IFC4", "IFC4X3"]
     plates = []
     for n in range(2):
         plate = _rooted(f, "IfcPlate", f"Assembly plate {n + 1}", f"assembly-part-{n}")
-        _box(f, plate, 6.0 + n, 4.0, 0.0, 1.0, 0.1, 1.5, 1.0)
+        _box(f, plate, 6.0 + n, 4.0, 0.0, 1.0, 0.1, 1.5)
         plates.append(plate)
         out.extra[f"assembly_part_{n}"] = plate.GlobalId
     ifcopenshell.api.aggregate.assign_object(f, products=plates, relating_object=assembly)
@@ -161,7 +161,7 @@ def write_geometry_kinds(path: Path, schema: Literal["IFC2X3", "IFC4", "IFC4X3"]
     parts = []
     for n in range(2):
         part = _rooted(f, "IfcBuildingElementPart", f"Leaf {n + 1}", f"wall-part-{n}")
-        _box(f, part, 8.45 + 0.05 * n, 1.0, 0.0, 0.05, 1.5, 2.5, 1.0)
+        _box(f, part, 8.45 + 0.05 * n, 1.0, 0.0, 0.05, 1.5, 2.5)
         parts.append(part)
         out.extra[f"wall_part_{n}"] = part.GlobalId
     ifcopenshell.api.aggregate.assign_object(f, products=parts, relating_object=parted)
@@ -170,7 +170,7 @@ def write_geometry_kinds(path: Path, schema: Literal["IFC2X3", "IFC4", "IFC4X3"]
     if schema != "IFC4X3":
         standard = _product(f, "IfcWallStandardCase", "Standard case wall", "standard-case", level1,
                             (1.0, 4.0, 0.0), None)
-        _box(f, standard, 1.0, 4.0, 0.0, 0.1, 1.5, 3.0, 1.0)
+        _box(f, standard, 1.0, 4.0, 0.0, 0.1, 1.5, 3.0)
         out.extra["standard_case"] = standard.GlobalId
 
     circle = f.create_entity("IfcCircleProfileDef", ProfileType="AREA", Radius=0.2, Position=f.create_entity(
@@ -226,7 +226,7 @@ def write_without_storeys(path: Path, schema: Literal["IFC2X3", "IFC4"] = "IFC4"
     f.remove(storey)
     del placement  # still the placement the storey's elements are placed relative to
     column = _rooted(f, "IfcColumn", "Uncontained column", "uncontained")
-    _box(f, column, 2.0, 2.0, 0.0, 0.3, 0.3, 2.5, 1.0)
+    _box(f, column, 2.0, 2.0, 0.0, 0.3, 0.3, 2.5)
     out.extra["uncontained"] = column.GlobalId
     f.write(str(path))
     return out
