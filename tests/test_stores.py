@@ -221,3 +221,13 @@ def test_cli_commands_take_store_and_print_the_same_table(building: Path, endpoi
     assert main(["validate", str(building), "--scenario", SCENARIO, "--store", endpoint]) == 0
     assert main(["info", str(building), "--store", "nonsense"]) == 2
     assert "unknown store" in capsys.readouterr().err
+
+
+def test_upload_texts_are_constant_and_values_are_bound_rows() -> None:
+    from kbplanner.core.stores import CLEAR_GRAPH, INSERT_TRIPLES, bind_rows, bind_values
+
+    g, s, p = URIRef("urn:g"), URIRef("http://ex.org/a"), URIRef("http://ex.org/p")
+    text = bind_rows(INSERT_TRIPLES, ("g", "s", "p", "o"), [(g, s, p, Literal('say "hi"'))])
+    assert text.startswith("INSERT { GRAPH ?g { ?s ?p ?o } } WHERE {") and text.endswith("}")
+    assert '( <urn:g> <http://ex.org/a> <http://ex.org/p> "say \\"hi\\"" )' in text
+    assert bind_values(CLEAR_GRAPH, {"g": g}).startswith("DELETE { GRAPH ?g { ?s ?p ?o } } WHERE {")

@@ -39,7 +39,7 @@ import time
 import urllib.error
 import urllib.parse
 import urllib.request
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from decimal import Decimal
 from io import BytesIO
 from pathlib import Path
@@ -174,6 +174,24 @@ def bind_values(query: str, bindings: Mapping[str, Identifier]) -> str:
     return query[:at] + block + query[at:]
 
 
+def bind_rows(query: str, names: Sequence[str], rows: Iterable[Sequence[Node]]) -> str:
+    """``query`` with a VALUES block of several rows for the variables ``names`` (as :func:`bind_values`):
+    the update text stays constant, the rows are rendered by the same term serialiser."""
+    body = "\n".join("( " + " ".join(_node_to_sparql(t) for t in row) + " )" for row in rows)
+    block = "\nVALUES ( {} ) {{\n{}\n}}\n".format(" ".join(Variable(n).n3() for n in names), body)
+    at = _top_where_block(query)
+    if at is None:
+        raise QueryError("the update has no WHERE group to bind values in", element=query[:60],
+                         fix="write the update as INSERT { ... } WHERE { }")
+    return query[:at] + block + query[at:]
+
+
+# Constant update texts of EndpointStore.upload; the graph and the triples are bound as VALUES rows.
+CLEAR_GRAPH = "DELETE { GRAPH ?g { ?s ?p ?o } } WHERE { GRAPH ?g { ?s ?p ?o } }"
+INSERT_TRIPLES = "INSERT { GRAPH ?g { ?s ?p ?o } } WHERE { }"
+GRAPH_NOT_EMPTY = "ASK WHERE { GRAPH ?g { ?s ?p ?o } }"
+
+
 class EndpointStore(SPARQLUpdateStore):
     """rdflib's SPARQL update store with bounded HTTP waits, clear errors, skolemised blank nodes,
     VALUES placed inside the WHERE group, and an optional fixed dataset (several default graphs)."""
@@ -246,24 +264,25 @@ class EndpointStore(SPARQLUpdateStore):
     # ---- writing -------------------------------------------------------------------------
     def upload(self, graph_iri: str, triples: Iterable[tuple[Node, Node, Node]],
                batch: int = UPLOAD_BATCH) -> int:
-        """Replace the named graph ``graph_iri`` by ``triples`` (INSERT DATA in batches); the count."""
-        g = _node_to_sparql(URIRef(graph_iri))
-        self._update(f"DROP SILENT GRAPH {g}")
-        n, lines = 0, []
+        """Replace the named graph ``graph_iri`` by ``triples`` (constant updates, the graph and the triples
+        bound as VALUES rows, in batches); the count."""
+        g = URIRef(graph_iri)
+        self._update(bind_values(CLEAR_GRAPH, {"g": g}))
+        n, rows = 0, []
         for s, p, o in triples:
-            lines.append(f"{_node_to_sparql(s)} {_node_to_sparql(p)} {_node_to_sparql(o)} .")
-            if len(lines) >= batch:
-                self._update(f"INSERT DATA {{ GRAPH {g} {{\n" + "\n".join(lines) + "\n} }")
-                n += len(lines)
-                lines = []
-        if lines:
-            self._update(f"INSERT DATA {{ GRAPH {g} {{\n" + "\n".join(lines) + "\n} }")
-            n += len(lines)
+            rows.append((g, s, p, o))
+            if len(rows) >= batch:
+                self._update(bind_rows(INSERT_TRIPLES, ("g", "s", "p", "o"), rows))
+                n += len(rows)
+                rows = []
+        if rows:
+            self._update(bind_rows(INSERT_TRIPLES, ("g", "s", "p", "o"), rows))
+            n += len(rows)
         return n
 
     def has_graph(self, graph_iri: str) -> bool:
         """Whether the endpoint holds a non-empty named graph ``graph_iri``."""
-        result = self._query("ASK { GRAPH " + _node_to_sparql(URIRef(graph_iri)) + " { ?s ?p ?o } }")
+        result = self._query(bind_values(GRAPH_NOT_EMPTY, {"g": URIRef(graph_iri)}))
         return bool(result.askAnswer)
 
 
