@@ -127,25 +127,37 @@ def _kernel(rects: tuple[Rect, ...], resolution: float, yaw_lo: float, yaw_hi: f
     n_sub = max(2, math.ceil((yaw_hi - yaw_lo) / _SUB_ANGLE_RAD) + 1)
     h = kernel_half_size(rects, resolution, margin_m)
     offs = np.arange(-h, h + 1) * resolution
-    xx, yy = np.meshgrid(offs, offs)
-    out = np.zeros(xx.shape, dtype=bool)
     eps = 1e-9
     # A rectangle grown by an axis-aligned square (Minkowski sum of two centrally symmetric convex
     # polygons) is exactly the intersection of four slabs: along the rectangle's two axes and along
-    # x and y, each as wide as the two shapes' support functions added.
+    # x and y, each as wide as the two shapes' support functions added. Every (sub-angle, rectangle)
+    # at once: the scalars as one float each (Python floats, math.cos/sin), the cells' offsets along
+    # x and y as vectors broadcast against each other - each cell's value is the very float
+    # ``xx - cx`` etc. of a meshgrid gives (tests/test_footprint_kernel.py compares with that).
+    cxs, cys, uxs, uys, t1, t2, t3, t4 = ([] for _ in range(8))
     for yaw in np.linspace(yaw_lo, yaw_hi, n_sub):
         c, s = math.cos(float(yaw)), math.sin(float(yaw))
         for r in rects:
-            cx, cy = c * r.cx - s * r.cy, s * r.cx + c * r.cy
             a = float(yaw) + r.yaw
             ux, uy = math.cos(a), math.sin(a)
             hl, hw = r.length / 2, r.width / 2
-            dx, dy = xx - cx, yy - cy
-            inside = np.abs(dx * ux + dy * uy) <= hl + grow * (abs(ux) + abs(uy)) + eps
-            inside &= np.abs(-dx * uy + dy * ux) <= hw + grow * (abs(uy) + abs(ux)) + eps
-            inside &= np.abs(dx) <= hl * abs(ux) + hw * abs(uy) + grow + eps
-            inside &= np.abs(dy) <= hl * abs(uy) + hw * abs(ux) + grow + eps
-            out |= inside
+            cxs.append(c * r.cx - s * r.cy)
+            cys.append(s * r.cx + c * r.cy)
+            uxs.append(ux)
+            uys.append(uy)
+            t1.append(hl + grow * (abs(ux) + abs(uy)) + eps)
+            t2.append(hw + grow * (abs(uy) + abs(ux)) + eps)
+            t3.append(hl * abs(ux) + hw * abs(uy) + grow + eps)
+            t4.append(hl * abs(uy) + hw * abs(ux) + grow + eps)
+    col = np.array  # (m, 1, 1) columns against (1, 1, n) x offsets and (1, n, 1) y offsets
+    cx, cy = col(cxs)[:, None, None], col(cys)[:, None, None]
+    ux, uy = col(uxs)[:, None, None], col(uys)[:, None, None]
+    dx, dy = offs[None, None, :] - cx, offs[None, :, None] - cy
+    inside = np.abs(dx * ux + dy * uy) <= col(t1)[:, None, None]
+    inside &= np.abs(-dx * uy + dy * ux) <= col(t2)[:, None, None]
+    inside &= np.abs(dx) <= col(t3)[:, None, None]
+    inside &= np.abs(dy) <= col(t4)[:, None, None]
+    out = np.ascontiguousarray(inside.any(axis=0))
     out.setflags(write=False)
     return out
 
