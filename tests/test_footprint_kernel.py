@@ -1,5 +1,5 @@
 """B5 configuration space build (world layer): the footprint kernels rasterised for every (sub-angle,
-rectangle) at once (``footprint._kernel``) are, cell for cell, the kernels of the former loop over
+rectangle) at once (``cspace_fft.rasterised_kernel``) are, cell for cell, the kernels of the former loop over
 sub-angles and rectangles on a meshgrid, on random footprints, resolutions, yaw intervals and margins."""
 
 from __future__ import annotations

@@ -1,0 +1,206 @@
+"""Configuration space build (B3 fit checks, B4 carry legs, B5 navigation): footprint kernels and the
+FFT correlation that turns an occupancy grid into one free map per yaw bin.
+
+:meth:`kbplanner.world.footprint.ConfigurationSpace.build` calls :func:`free_maps`; the kernels
+(:func:`rasterised_kernel`: the footprint swept over a yaw bin, grown by half a cell each side and
+a margin) and their distinct set per footprint (:func:`kernel_set`) are kept for the process. The
+free maps are exact: a cell of bin ``k`` is free when no occupied cell and no cell off the grid lies
+under bin ``k``'s kernel (the FFT's sums of cells are rounded far below the 0.5 they are compared with;
+tests/test_cspace_unpadded.py compares with a binary dilation and with the build before session 11).
+
+Example:
+    >>> from kbplanner.world.footprint import Rect
+    >>> occ = np.zeros((20, 30), dtype=bool); occ[:, 20] = True
+    >>> free = free_maps(occ, (Rect(0, 0, 0.5, 0.3),), 0.05, 8, 0.0)
+    >>> free.shape, bool(free[0, 10, 10]), bool(free[0, 10, 19])
+    ((8, 20, 30), True, False)
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+import numpy.typing as npt
+from scipy import fft as sp_fft
+
+BoolArray = npt.NDArray[np.bool_]
+
+
+class Rect(Protocol):
+    """What is read of a :class:`kbplanner.world.footprint.Rect` here."""
+
+    @property
+    def cx(self) -> float: ...
+    @property
+    def cy(self) -> float: ...
+    @property
+    def length(self) -> float: ...
+    @property
+    def width(self) -> float: ...
+    @property
+    def yaw(self) -> float: ...
+    def corners(self, yaw: float = 0.0) -> npt.NDArray[np.float64]: ...
+
+_SUB_ANGLE_RAD = math.radians(0.5)  # sweep step when covering a yaw bin
+
+
+def kernel_half_size(rects: tuple[Rect, ...], resolution: float, margin_m: float) -> int:
+    """Half the side (cells) of every kernel of a footprint, whatever its yaw interval: the kernel of
+    :meth:`Footprint.kernel` has shape (2h+1, 2h+1)."""
+    radius = float(max(np.hypot(*r.corners().T).max() for r in rects))  # Footprint.radius_m
+    return math.ceil((radius + resolution + margin_m) / resolution) + 1
+
+
+@functools.lru_cache(maxsize=4096)
+def rasterised_kernel(rects: tuple[Rect, ...], resolution: float, yaw_lo: float, yaw_hi: float,
+            margin_m: float) -> BoolArray:
+    """:meth:`Footprint.kernel` (read-only), memoised: a navigation rebuilds configuration spaces for the same
+    footprints (robot, robot + load in each carry mode) on many windows of the map, and rasterising the
+    swept footprint is the costly part of a build."""
+    grow = resolution + margin_m
+    n_sub = max(2, math.ceil((yaw_hi - yaw_lo) / _SUB_ANGLE_RAD) + 1)
+    h = kernel_half_size(rects, resolution, margin_m)
+    offs = np.arange(-h, h + 1) * resolution
+    eps = 1e-9
+    # A rectangle grown by an axis-aligned square (Minkowski sum of two centrally symmetric convex
+    # polygons) is exactly the intersection of four slabs: along the rectangle's two axes and along
+    # x and y, each as wide as the two shapes' support functions added. Every (sub-angle, rectangle)
+    # at once: the scalars as one float each (Python floats, math.cos/sin), the cells' offsets along
+    # x and y as vectors broadcast against each other - each cell's value is the very float
+    # ``xx - cx`` etc. of a meshgrid gives (tests/test_footprint_kernel.py compares with that).
+    cxs, cys, uxs, uys, t1, t2, t3, t4 = ([] for _ in range(8))
+    for yaw in np.linspace(yaw_lo, yaw_hi, n_sub):
+        c, s = math.cos(float(yaw)), math.sin(float(yaw))
+        for r in rects:
+            a = float(yaw) + r.yaw
+            ux, uy = math.cos(a), math.sin(a)
+            hl, hw = r.length / 2, r.width / 2
+            cxs.append(c * r.cx - s * r.cy)
+            cys.append(s * r.cx + c * r.cy)
+            uxs.append(ux)
+            uys.append(uy)
+            t1.append(hl + grow * (abs(ux) + abs(uy)) + eps)
+            t2.append(hw + grow * (abs(uy) + abs(ux)) + eps)
+            t3.append(hl * abs(ux) + hw * abs(uy) + grow + eps)
+            t4.append(hl * abs(uy) + hw * abs(ux) + grow + eps)
+    col = np.array  # (m, 1, 1) columns against (1, 1, n) x offsets and (1, n, 1) y offsets
+    cxa, cya = col(cxs)[:, None, None], col(cys)[:, None, None]
+    uxa, uya = col(uxs)[:, None, None], col(uys)[:, None, None]
+    dx, dy = offs[None, None, :] - cxa, offs[None, :, None] - cya
+    inside = np.abs(dx * uxa + dy * uya) <= col(t1)[:, None, None]
+    inside &= np.abs(-dx * uya + dy * uxa) <= col(t2)[:, None, None]
+    inside &= np.abs(dx) <= col(t3)[:, None, None]
+    inside &= np.abs(dy) <= col(t4)[:, None, None]
+    out = np.ascontiguousarray(inside.any(axis=0))
+    out.setflags(write=False)
+    return out
+
+
+#: Complex cells (frequency rows x columns x bins) transformed at once by a build, about 32 MB
+_BATCH_CELLS = 256 * 1024
+
+
+@dataclass(frozen=True)
+class _KernelSet:
+    """The kernels of every yaw bin of a footprint, as :func:`free_maps` correlates them:
+    ``flipped[j]`` the j-th distinct kernel turned half a turn (float32, all ``2h+1`` square), ``index[k]``
+    bin ``k``'s distinct kernel."""
+
+    h: int
+    flipped: npt.NDArray[np.float32]
+    index: npt.NDArray[np.intp]
+    #: per distinct kernel, the offsets (dy0, dy1, dx0, dx1) of its first and last rows and columns
+    #: that hold a cell, from the robot's cell ((0, -1, 0, -1) for an empty kernel: nothing to block)
+    extents: tuple[tuple[int, int, int, int], ...]
+
+
+@functools.lru_cache(maxsize=64)
+def kernel_set(rects: tuple[Rect, ...], resolution: float, n_bins: int, margin_m: float) -> _KernelSet:
+    width = 2 * math.pi / n_bins
+    kernels = [rasterised_kernel(rects, resolution, k * width - width / 2, k * width + width / 2, margin_m)
+               for k in range(n_bins)]
+    h = max(k.shape[0] for k in kernels) // 2
+    size = 2 * h + 1
+    seen: dict[tuple[tuple[int, ...], bytes], int] = {}
+    index = np.empty(n_bins, dtype=np.intp)
+    flipped: list[npt.NDArray[np.float32]] = []
+    extents: list[tuple[int, int, int, int]] = []
+    for k, kern in enumerate(kernels):
+        j = seen.setdefault((kern.shape, kern.tobytes()), len(flipped))
+        index[k] = j
+        if j == len(flipped):
+            hk = kern.shape[0] // 2
+            full = np.zeros((size, size), dtype=np.float32)
+            full[h - hk : h + hk + 1, h - hk : h + hk + 1] = kern
+            flipped.append(np.ascontiguousarray(full[::-1, ::-1]))
+            rows, cols = np.nonzero(kern)
+            extents.append((int(rows.min()) - hk, int(rows.max()) - hk, int(cols.min()) - hk,
+                            int(cols.max()) - hk) if len(rows) else (0, -1, 0, -1))
+    stack = np.stack(flipped)
+    stack.setflags(write=False)
+    index.setflags(write=False)
+    return _KernelSet(h=h, flipped=stack, index=index, extents=tuple(extents))
+
+
+def free_maps(occupied: BoolArray, rects: tuple[Rect, ...], resolution: float, n_yaw_bins: int,
+              margin_m: float) -> BoolArray:
+    """``free[bin, iy, ix]``: whether the footprint of ``rects`` at cell (ix, iy), any yaw of the bin
+    (bin ``k`` covers [k*w - w/2, k*w + w/2], w = 2*pi / n_yaw_bins), any position in the cell, is
+    clear of every occupied cell of ``occupied`` and of the cells off it."""
+    kset = kernel_set(rects, resolution, n_yaw_bins, margin_m)
+    h = kset.h
+    ny, nx = occupied.shape
+    free = np.empty((n_yaw_bins, ny, nx), dtype=bool)
+    # Correlation by FFT of the grid (its transform computed once for all bins, the kernels all of one
+    # size) with each bin's kernel: hits < 0.5 means no occupied cell of the grid under the swept
+    # footprint. Cells off the grid count as occupied: a cell is also blocked where the kernel's extent
+    # (its first and last rows and columns that hold a cell) leaves the grid - the very cells that a
+    # correlation of the grid padded with h occupied cells all round blocks for them (the build before
+    # session 11; tests/test_cspace_unpadded.py). The transform is circular: a length of at least n + h
+    # keeps every wrapped-around term out of the cells kept (see hits_many).
+    if ny and nx:
+        shape = (sp_fft.next_fast_len(ny + h, real=True), sp_fft.next_fast_len(nx + h, real=True))
+        rows_f = sp_fft.rfft(occupied.astype(np.float32), n=shape[1], axis=1)
+        grid_f = sp_fft.fft(rows_f, n=shape[0], axis=0, overwrite_x=True)
+        # one free map per distinct kernel (e.g. a centrally symmetric footprint half a turn later has
+        # the same), the bins' transforms a few at a time
+        n_distinct = len(kset.flipped)
+        distinct = np.empty((n_distinct, ny, nx), dtype=bool)
+        step = max(1, _BATCH_CELLS // (shape[0] * (shape[1] // 2 + 1)))
+        for i in range(0, n_distinct, step):
+            hits = hits_many(grid_f, kset.flipped[i : i + step], h, shape, ny, nx)
+            np.less(hits, 0.5, out=distinct[i : i + step])
+        for j, (dy0, dy1, dx0, dx1) in enumerate(kset.extents):
+            y0, y1, x0, x1 = max(0, -dy0), min(ny, ny - dy1), max(0, -dx0), min(nx, nx - dx1)
+            if y0 >= y1 or x0 >= x1:
+                distinct[j] = False
+                continue
+            distinct[j, :y0] = False
+            distinct[j, y1:] = False
+            distinct[j, :, :x0] = False
+            distinct[j, :, x1:] = False
+        if n_distinct == n_yaw_bins:
+            free = distinct
+        else:
+            np.take(distinct, kset.index, axis=0, out=free)
+    return free
+
+
+def hits_many(grid_f: npt.NDArray[np.complex64], flipped: npt.NDArray[np.float32], h: int,
+               shape: tuple[int, ...], ny: int, nx: int) -> npt.NDArray[np.float32]:
+    """How many occupied cells of the grid each of several kernels covers at each of its cells:
+    ``flipped`` (n, size, size) as :class:`_KernelSet` keeps them, ``grid_f`` the grid's transform
+    (unpadded, ``shape``). Rows and columns ``h ..`` of the circular convolution with the flipped kernel
+    in the top-left ``size x size`` corner, each transform along one axis of the stack, the two passes of
+    each 2-D transform done by hand so that only rows that hold something are transformed along x: the
+    kernel's ``size`` rows (the others are zero) and, back, the ``ny`` rows kept. Counts of cells; the
+    rounding (float32) stays far below the 0.5 they are compared with (tests/test_cspace_unpadded.py)."""
+    kern_f = sp_fft.fft(sp_fft.rfft(flipped, n=shape[1], axis=2), n=shape[0], axis=1, overwrite_x=True)
+    kern_f *= grid_f
+    rows = sp_fft.ifft(kern_f, axis=1, overwrite_x=True)[:, h : h + ny]
+    out: npt.NDArray[np.float32] = sp_fft.irfft(rows, n=shape[1], axis=2)[:, :, h : h + nx]
+    return out
