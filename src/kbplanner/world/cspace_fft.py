@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -105,7 +106,7 @@ _BATCH_CELLS = 256 * 1024
 
 
 @dataclass(frozen=True)
-class _KernelSet:
+class KernelSet:
     """The kernels of every yaw bin of a footprint, as :func:`free_maps` correlates them:
     ``flipped[j]`` the j-th distinct kernel turned half a turn (float32, all ``2h+1`` square), ``index[k]``
     bin ``k``'s distinct kernel."""
@@ -117,9 +118,13 @@ class _KernelSet:
     #: that hold a cell, from the robot's cell ((0, -1, 0, -1) for an empty kernel: nothing to block)
     extents: tuple[tuple[int, int, int, int], ...]
 
+    def bin_extents(self) -> tuple[tuple[int, int, int, int], ...]:
+        """:attr:`extents` of every yaw bin's kernel."""
+        return tuple(self.extents[j] for j in self.index)
+
 
 @functools.lru_cache(maxsize=64)
-def kernel_set(rects: tuple[Rect, ...], resolution: float, n_bins: int, margin_m: float) -> _KernelSet:
+def kernel_set(rects: tuple[Rect, ...], resolution: float, n_bins: int, margin_m: float) -> KernelSet:
     width = 2 * math.pi / n_bins
     kernels = [rasterised_kernel(rects, resolution, k * width - width / 2, k * width + width / 2, margin_m)
                for k in range(n_bins)]
@@ -143,7 +148,7 @@ def kernel_set(rects: tuple[Rect, ...], resolution: float, n_bins: int, margin_m
     stack = np.stack(flipped)
     stack.setflags(write=False)
     index.setflags(write=False)
-    return _KernelSet(h=h, flipped=stack, index=index, extents=tuple(extents))
+    return KernelSet(h=h, flipped=stack, index=index, extents=tuple(extents))
 
 
 def free_maps(occupied: BoolArray, rects: tuple[Rect, ...], resolution: float, n_yaw_bins: int,
@@ -174,15 +179,7 @@ def free_maps(occupied: BoolArray, rects: tuple[Rect, ...], resolution: float, n
         for i in range(0, n_distinct, step):
             hits = hits_many(grid_f, kset.flipped[i : i + step], h, shape, ny, nx)
             np.less(hits, 0.5, out=distinct[i : i + step])
-        for j, (dy0, dy1, dx0, dx1) in enumerate(kset.extents):
-            y0, y1, x0, x1 = max(0, -dy0), min(ny, ny - dy1), max(0, -dx0), min(nx, nx - dx1)
-            if y0 >= y1 or x0 >= x1:
-                distinct[j] = False
-                continue
-            distinct[j, :y0] = False
-            distinct[j, y1:] = False
-            distinct[j, :, :x0] = False
-            distinct[j, :, x1:] = False
+        block_off_grid(distinct, kset.extents)
         if n_distinct == n_yaw_bins:
             free = distinct
         else:
@@ -190,10 +187,26 @@ def free_maps(occupied: BoolArray, rects: tuple[Rect, ...], resolution: float, n
     return free
 
 
+def block_off_grid(free: BoolArray, extents: Sequence[tuple[int, int, int, int]]) -> None:
+    """Block, in place, the cells of each map ``free[j]`` whose kernel (``extents[j]``, as
+    :class:`KernelSet` keeps them) reaches off the grid: what cells off the grid counted as occupied
+    give."""
+    ny, nx = free.shape[1:]
+    for j, (dy0, dy1, dx0, dx1) in enumerate(extents):
+        y0, y1, x0, x1 = max(0, -dy0), min(ny, ny - dy1), max(0, -dx0), min(nx, nx - dx1)
+        if y0 >= y1 or x0 >= x1:
+            free[j] = False
+            continue
+        free[j, :y0] = False
+        free[j, y1:] = False
+        free[j, :, :x0] = False
+        free[j, :, x1:] = False
+
+
 def hits_many(grid_f: npt.NDArray[np.complex64], flipped: npt.NDArray[np.float32], h: int,
                shape: tuple[int, ...], ny: int, nx: int) -> npt.NDArray[np.float32]:
     """How many occupied cells of the grid each of several kernels covers at each of its cells:
-    ``flipped`` (n, size, size) as :class:`_KernelSet` keeps them, ``grid_f`` the grid's transform
+    ``flipped`` (n, size, size) as :class:`KernelSet` keeps them, ``grid_f`` the grid's transform
     (unpadded, ``shape``). Rows and columns ``h ..`` of the circular convolution with the flipped kernel
     in the top-left ``size x size`` corner, each transform along one axis of the stack, the two passes of
     each 2-D transform done by hand so that only rows that hold something are transformed along x: the
