@@ -79,14 +79,27 @@ def test_free_maps_equal_the_padded_build_and_a_dilation(seed: int, fp: Footprin
         assert np.array_equal(free[k], _dilated(occ, fp, res, k, n_bins, margin))
 
 
-@pytest.mark.parametrize("shape", [(1, 1), (4, 90), (90, 3), (20, 20), (0, 7)])
+@pytest.mark.parametrize("shape", [(1, 1), (4, 90), (90, 3), (20, 20), (0, 7), (10, 10), (8, 40), (40, 8)])
 @pytest.mark.parametrize("fill", [False, True])
 def test_grids_smaller_than_a_kernel_empty_or_full(shape: tuple[int, int], fill: bool) -> None:
     occ = np.full(shape, fill, dtype=bool)
     for fp in FOOTPRINTS:
-        got = cspace_fft.free_maps(occ, fp.rects, 0.05, 12, 0.0)
-        assert np.array_equal(got, _padded_build(occ, fp, 0.05, 12, 0.0))
+        for res in (0.05, 0.02):
+            got = cspace_fft.free_maps(occ, fp.rects, res, 12, 0.0)
+            assert np.array_equal(got, _padded_build(occ, fp, res, 12, 0.0))
     assert not cspace_fft.free_maps(occ, FOOTPRINTS[0].rects, 0.05, 12, 0.0).any()  # nothing fits
+
+
+def test_a_small_kernel_off_the_robot_on_a_grid_shorter_than_the_kernel_square() -> None:
+    """The transform (n + h) is shorter than the kernel's square (2h + 1), yet the load fits: the rows
+    of the kernel left out are off the grid (here ahead of a robot whose base is tiny)."""
+    fp = Footprint((Rect(0.0, 0.0, 0.04, 0.04), Rect(0.6, 0.0, 0.1, 0.1)), name="tiny base, load ahead")
+    occ = np.zeros((9, 30), dtype=bool)
+    occ[4, 20] = True
+    got = cspace_fft.free_maps(occ, fp.rects, 0.05, 72, 0.0)
+    assert cspace_fft.kernel_set(fp.rects, 0.05, 72, 0.0).h >= 9  # the transform along y: 9 + h < 2h + 1
+    assert np.array_equal(got, _padded_build(occ, fp, 0.05, 72, 0.0))
+    assert got[0].any() and not got[0].all()
 
 
 def test_a_space_with_room_is_free_somewhere_and_blocked_near_the_edge() -> None:

@@ -101,8 +101,8 @@ def rasterised_kernel(rects: tuple[Rect, ...], resolution: float, yaw_lo: float,
     return out
 
 
-#: Complex cells (frequency rows x columns x bins) transformed at once by a build, about 32 MB
-_BATCH_CELLS = 256 * 1024
+#: Complex cells (frequency rows x columns x bins) transformed at once by a build (512 kB: in the caches)
+_BATCH_CELLS = 64 * 1024
 
 
 @dataclass(frozen=True)
@@ -175,9 +175,10 @@ def free_maps(occupied: BoolArray, rects: tuple[Rect, ...], resolution: float, n
         # the same), the bins' transforms a few at a time
         n_distinct = len(kset.flipped)
         distinct = np.empty((n_distinct, ny, nx), dtype=bool)
-        step = max(1, _BATCH_CELLS // (shape[0] * (shape[1] // 2 + 1)))
+        step = max(1, min(n_distinct, _BATCH_CELLS // (shape[0] * (shape[1] // 2 + 1))))
+        work = np.empty((step, shape[0], shape[1] // 2 + 1), dtype=np.complex64)  # reused: no new pages
         for i in range(0, n_distinct, step):
-            hits = hits_many(grid_f, kset.flipped[i : i + step], h, shape, ny, nx)
+            hits = hits_many(grid_f, kset.flipped[i : i + step], h, shape, ny, nx, work)
             np.less(hits, 0.5, out=distinct[i : i + step])
         block_off_grid(distinct, kset.extents)
         if n_distinct == n_yaw_bins:
@@ -204,16 +205,31 @@ def block_off_grid(free: BoolArray, extents: Sequence[tuple[int, int, int, int]]
 
 
 def hits_many(grid_f: npt.NDArray[np.complex64], flipped: npt.NDArray[np.float32], h: int,
-               shape: tuple[int, ...], ny: int, nx: int) -> npt.NDArray[np.float32]:
+              shape: tuple[int, ...], ny: int, nx: int,
+              work: npt.NDArray[np.complex64] | None = None) -> npt.NDArray[np.float32]:
     """How many occupied cells of the grid each of several kernels covers at each of its cells:
     ``flipped`` (n, size, size) as :class:`KernelSet` keeps them, ``grid_f`` the grid's transform
     (unpadded, ``shape``). Rows and columns ``h ..`` of the circular convolution with the flipped kernel
     in the top-left ``size x size`` corner, each transform along one axis of the stack, the two passes of
     each 2-D transform done by hand so that only rows that hold something are transformed along x: the
-    kernel's ``size`` rows (the others are zero) and, back, the ``ny`` rows kept. Counts of cells; the
-    rounding (float32) stays far below the 0.5 they are compared with (tests/test_cspace_unpadded.py)."""
-    kern_f = sp_fft.fft(sp_fft.rfft(flipped, n=shape[1], axis=2), n=shape[0], axis=1, overwrite_x=True)
-    kern_f *= grid_f
-    rows = sp_fft.ifft(kern_f, axis=1, overwrite_x=True)[:, h : h + ny]
-    out: npt.NDArray[np.float32] = sp_fft.irfft(rows, n=shape[1], axis=2)[:, :, h : h + nx]
-    return out
+    kernel's ``size`` rows (the others are zero) and, back, the ``ny`` rows kept. ``work``: an array of
+    at least (n, shape[0], shape[1] // 2 + 1) to transform in (a fresh one costs its pages each time).
+    Counts of cells; the rounding (float32) stays far below the 0.5 they are compared with
+    (tests/test_cspace_unpadded.py).
+
+    Where a transform is shorter than the kernel (a grid of at most ``h`` rows or columns), the kernel's
+    rows or columns past it are left out: they are offsets of ``n`` cells or more to the left or below
+    the robot's cell, off the grid from every cell, whose cells :func:`block_off_grid` blocks anyway."""
+    n = len(flipped)
+    m, nh = shape[0], shape[1] // 2 + 1
+    if work is None or work.shape[0] < n or work.shape[1:] != (m, nh):
+        work = np.empty((n, m, nh), dtype=np.complex64)
+    spec = work[:n]
+    rows_f = sp_fft.rfft(flipped, n=shape[1], axis=2)[:, :m]
+    spec[:, : rows_f.shape[1]] = rows_f
+    spec[:, rows_f.shape[1] :] = 0
+    spec = sp_fft.fft(spec, axis=1, overwrite_x=True)
+    spec *= grid_f
+    rows = sp_fft.ifft(spec, axis=1, overwrite_x=True)[:, h : h + ny]
+    out: npt.NDArray[np.float32] = sp_fft.irfft(rows, n=shape[1], axis=2, overwrite_x=True)
+    return out[:, :, h : h + nx]
