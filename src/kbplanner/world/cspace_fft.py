@@ -58,10 +58,9 @@ def kernel_half_size(rects: tuple[Rect, ...], resolution: float, margin_m: float
 
 @functools.lru_cache(maxsize=4096)
 def rasterised_kernel(rects: tuple[Rect, ...], resolution: float, yaw_lo: float, yaw_hi: float,
-            margin_m: float) -> BoolArray:
-    """:meth:`Footprint.kernel` (read-only), memoised: a navigation rebuilds configuration spaces for the same
-    footprints (robot, robot + load in each carry mode) on many windows of the map, and rasterising the
-    swept footprint is the costly part of a build."""
+                      margin_m: float) -> BoolArray:
+    """:meth:`Footprint.kernel` (read-only), memoised: a navigation rebuilds configuration spaces for
+    the same footprints (robot, robot + load in each carry mode) on many windows of the map."""
     grow = resolution + margin_m
     n_sub = max(2, math.ceil((yaw_hi - yaw_lo) / _SUB_ANGLE_RAD) + 1)
     h = kernel_half_size(rects, resolution, margin_m)
@@ -69,10 +68,11 @@ def rasterised_kernel(rects: tuple[Rect, ...], resolution: float, yaw_lo: float,
     eps = 1e-9
     # A rectangle grown by an axis-aligned square (Minkowski sum of two centrally symmetric convex
     # polygons) is exactly the intersection of four slabs: along the rectangle's two axes and along
-    # x and y, each as wide as the two shapes' support functions added. Every (sub-angle, rectangle)
-    # at once: the scalars as one float each (Python floats, math.cos/sin), the cells' offsets along
-    # x and y as vectors broadcast against each other - each cell's value is the very float
-    # ``xx - cx`` etc. of a meshgrid gives (tests/test_footprint_kernel.py compares with that).
+    # x and y, each as wide as the two shapes' support functions added. Every sub-angle of a rectangle
+    # at once, on the box of cells its x and y slabs leave: the scalars as one float each (Python
+    # floats, math.cos/sin), the cells' offsets along x and y as vectors broadcast against each other -
+    # each cell's value is the very float ``xx - cx`` etc. of a meshgrid gives
+    # (tests/test_footprint_kernel.py compares with the loop over a meshgrid).
     cxs, cys, uxs, uys, t1, t2, t3, t4 = ([] for _ in range(8))
     for yaw in np.linspace(yaw_lo, yaw_hi, n_sub):
         c, s = math.cos(float(yaw)), math.sin(float(yaw))
@@ -88,15 +88,24 @@ def rasterised_kernel(rects: tuple[Rect, ...], resolution: float, yaw_lo: float,
             t2.append(hw + grow * (abs(uy) + abs(ux)) + eps)
             t3.append(hl * abs(ux) + hw * abs(uy) + grow + eps)
             t4.append(hl * abs(uy) + hw * abs(ux) + grow + eps)
-    col = np.array  # (m, 1, 1) columns against (1, 1, n) x offsets and (1, n, 1) y offsets
-    cxa, cya = col(cxs)[:, None, None], col(cys)[:, None, None]
-    uxa, uya = col(uxs)[:, None, None], col(uys)[:, None, None]
-    dx, dy = offs[None, None, :] - cxa, offs[None, :, None] - cya
-    inside = np.abs(dx * uxa + dy * uya) <= col(t1)[:, None, None]
-    inside &= np.abs(-dx * uya + dy * uxa) <= col(t2)[:, None, None]
-    inside &= np.abs(dx) <= col(t3)[:, None, None]
-    inside &= np.abs(dy) <= col(t4)[:, None, None]
-    out = np.ascontiguousarray(inside.any(axis=0))
+    out = np.zeros((2 * h + 1, 2 * h + 1), dtype=bool)
+    n_rects = len(rects)
+    for i in range(n_rects):  # each rectangle over its sub-angles, on the box its x and y slabs leave
+        cx, cy = np.array(cxs[i::n_rects])[:, None], np.array(cys[i::n_rects])[:, None]
+        ux, uy = np.array(uxs[i::n_rects])[:, None, None], np.array(uys[i::n_rects])[:, None, None]
+        in_x = np.abs(offs[None, :] - cx) <= np.array(t3[i::n_rects])[:, None]  # (sub-angle, column)
+        in_y = np.abs(offs[None, :] - cy) <= np.array(t4[i::n_rects])[:, None]  # (sub-angle, row)
+        cols, rows = np.nonzero(in_x.any(axis=0))[0], np.nonzero(in_y.any(axis=0))[0]
+        if not len(cols) or not len(rows):
+            continue
+        x0, x1, y0, y1 = int(cols[0]), int(cols[-1]) + 1, int(rows[0]), int(rows[-1]) + 1
+        dx = (offs[None, x0:x1] - cx)[:, None, :]  # (sub-angle, 1, column): the floats of xx - cx
+        dy = (offs[None, y0:y1] - cy)[:, :, None]  # (sub-angle, row, 1)
+        inside = np.abs(dx * ux + dy * uy) <= np.array(t1[i::n_rects])[:, None, None]
+        inside &= np.abs(-dx * uy + dy * ux) <= np.array(t2[i::n_rects])[:, None, None]
+        inside &= in_x[:, None, x0:x1]
+        inside &= in_y[:, y0:y1, None]
+        out[y0:y1, x0:x1] |= inside.any(axis=0)
     out.setflags(write=False)
     return out
 
