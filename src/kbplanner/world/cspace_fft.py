@@ -92,7 +92,7 @@ def rasterised_kernel(rects: tuple[Rect, ...], resolution: float, yaw_lo: float,
     n_rects = len(rects)
     for i in range(n_rects):  # each rectangle over its sub-angles, on the box its x and y slabs leave
         cx, cy = np.array(cxs[i::n_rects])[:, None], np.array(cys[i::n_rects])[:, None]
-        ux, uy = np.array(uxs[i::n_rects])[:, None, None], np.array(uys[i::n_rects])[:, None, None]
+        uxa, uya = np.array(uxs[i::n_rects])[:, None, None], np.array(uys[i::n_rects])[:, None, None]
         in_x = np.abs(offs[None, :] - cx) <= np.array(t3[i::n_rects])[:, None]  # (sub-angle, column)
         in_y = np.abs(offs[None, :] - cy) <= np.array(t4[i::n_rects])[:, None]  # (sub-angle, row)
         cols, rows = np.nonzero(in_x.any(axis=0))[0], np.nonzero(in_y.any(axis=0))[0]
@@ -101,8 +101,8 @@ def rasterised_kernel(rects: tuple[Rect, ...], resolution: float, yaw_lo: float,
         x0, x1, y0, y1 = int(cols[0]), int(cols[-1]) + 1, int(rows[0]), int(rows[-1]) + 1
         dx = (offs[None, x0:x1] - cx)[:, None, :]  # (sub-angle, 1, column): the floats of xx - cx
         dy = (offs[None, y0:y1] - cy)[:, :, None]  # (sub-angle, row, 1)
-        inside = np.abs(dx * ux + dy * uy) <= np.array(t1[i::n_rects])[:, None, None]
-        inside &= np.abs(-dx * uy + dy * ux) <= np.array(t2[i::n_rects])[:, None, None]
+        inside = np.abs(dx * uxa + dy * uya) <= np.array(t1[i::n_rects])[:, None, None]
+        inside &= np.abs(-dx * uya + dy * uxa) <= np.array(t2[i::n_rects])[:, None, None]
         inside &= in_x[:, None, x0:x1]
         inside &= in_y[:, y0:y1, None]
         out[y0:y1, x0:x1] |= inside.any(axis=0)
