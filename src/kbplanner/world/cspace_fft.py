@@ -117,15 +117,16 @@ _BATCH_CELLS = 64 * 1024
 @dataclass(frozen=True)
 class KernelSet:
     """The kernels of every yaw bin of a footprint, as :func:`free_maps` correlates them:
-    ``flipped[j]`` the j-th distinct kernel turned half a turn (float32, all ``2h+1`` square), ``index[k]``
-    bin ``k``'s distinct kernel."""
+    ``flipped[j]`` the j-th distinct kernel turned half a turn (all ``2h+1`` square), ``index[k]``
+    bin ``k``'s distinct kernel, ``first[j]`` the first bin of kernel ``j``."""
 
     h: int
-    flipped: npt.NDArray[np.float32]
+    flipped: BoolArray
     index: npt.NDArray[np.intp]
     #: per distinct kernel, the offsets (dy0, dy1, dx0, dx1) of its first and last rows and columns
     #: that hold a cell, from the robot's cell ((0, -1, 0, -1) for an empty kernel: nothing to block)
     extents: tuple[tuple[int, int, int, int], ...]
+    first: tuple[int, ...]
 
     def bin_extents(self) -> tuple[tuple[int, int, int, int], ...]:
         """:attr:`extents` of every yaw bin's kernel."""
@@ -141,14 +142,16 @@ def kernel_set(rects: tuple[Rect, ...], resolution: float, n_bins: int, margin_m
     size = 2 * h + 1
     seen: dict[tuple[tuple[int, ...], bytes], int] = {}
     index = np.empty(n_bins, dtype=np.intp)
-    flipped: list[npt.NDArray[np.float32]] = []
+    flipped: list[BoolArray] = []
+    first: list[int] = []
     extents: list[tuple[int, int, int, int]] = []
     for k, kern in enumerate(kernels):
         j = seen.setdefault((kern.shape, kern.tobytes()), len(flipped))
         index[k] = j
         if j == len(flipped):
             hk = kern.shape[0] // 2
-            full = np.zeros((size, size), dtype=np.float32)
+            full = np.zeros((size, size), dtype=bool)
+            first.append(k)
             full[h - hk : h + hk + 1, h - hk : h + hk + 1] = kern
             flipped.append(np.ascontiguousarray(full[::-1, ::-1]))
             rows, cols = np.nonzero(kern)
@@ -157,7 +160,7 @@ def kernel_set(rects: tuple[Rect, ...], resolution: float, n_bins: int, margin_m
     stack = np.stack(flipped)
     stack.setflags(write=False)
     index.setflags(write=False)
-    return KernelSet(h=h, flipped=stack, index=index, extents=tuple(extents))
+    return KernelSet(h=h, flipped=stack, index=index, extents=tuple(extents), first=tuple(first))
 
 
 def free_maps(occupied: BoolArray, rects: tuple[Rect, ...], resolution: float, n_yaw_bins: int,
@@ -181,19 +184,19 @@ def free_maps(occupied: BoolArray, rects: tuple[Rect, ...], resolution: float, n
         rows_f = sp_fft.rfft(occupied.astype(np.float32), n=shape[1], axis=1)
         grid_f = sp_fft.fft(rows_f, n=shape[0], axis=0, overwrite_x=True)
         # one free map per distinct kernel (e.g. a centrally symmetric footprint half a turn later has
-        # the same), the bins' transforms a few at a time
+        # the same), written in its first bin and copied to the others; the transforms a few at a time
         n_distinct = len(kset.flipped)
-        distinct = np.empty((n_distinct, ny, nx), dtype=bool)
         step = max(1, min(n_distinct, _BATCH_CELLS // (shape[0] * (shape[1] // 2 + 1))))
         work = np.empty((step, shape[0], shape[1] // 2 + 1), dtype=np.complex64)  # reused: no new pages
         for i in range(0, n_distinct, step):
             hits = hits_many(grid_f, kset.flipped[i : i + step], h, shape, ny, nx, work)
-            np.less(hits, 0.5, out=distinct[i : i + step])
-        block_off_grid(distinct, kset.extents)
-        if n_distinct == n_yaw_bins:
-            free = distinct
-        else:
-            np.take(distinct, kset.index, axis=0, out=free)
+            for j in range(i, min(i + step, n_distinct)):
+                k = kset.first[j]
+                np.less(hits[j - i], 0.5, out=free[k])
+                block_off_grid(free[k : k + 1], kset.extents[j : j + 1])
+        for k, j in enumerate(kset.index):
+            if kset.first[j] != k:
+                free[k] = free[kset.first[j]]
     return free
 
 
@@ -213,7 +216,7 @@ def block_off_grid(free: BoolArray, extents: Sequence[tuple[int, int, int, int]]
         free[j, :, x1:] = False
 
 
-def hits_many(grid_f: npt.NDArray[np.complex64], flipped: npt.NDArray[np.float32], h: int,
+def hits_many(grid_f: npt.NDArray[np.complex64], flipped: BoolArray, h: int,
               shape: tuple[int, ...], ny: int, nx: int,
               work: npt.NDArray[np.complex64] | None = None) -> npt.NDArray[np.float32]:
     """How many occupied cells of the grid each of several kernels covers at each of its cells:
@@ -234,7 +237,7 @@ def hits_many(grid_f: npt.NDArray[np.complex64], flipped: npt.NDArray[np.float32
     if work is None or work.shape[0] < n or work.shape[1:] != (m, nh):
         work = np.empty((n, m, nh), dtype=np.complex64)
     spec = work[:n]
-    rows_f = sp_fft.rfft(flipped, n=shape[1], axis=2)[:, :m]
+    rows_f = sp_fft.rfft(flipped.astype(np.float32), n=shape[1], axis=2)[:, :m]
     spec[:, : rows_f.shape[1]] = rows_f
     spec[:, rows_f.shape[1] :] = 0
     spec = sp_fft.fft(spec, axis=1, overwrite_x=True)
