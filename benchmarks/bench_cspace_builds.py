@@ -11,7 +11,8 @@ wrappers (``time.process_time``) around ``ConfigurationSpace.build``, the correl
 as shares.
 
 Usage: .venv/bin/python benchmarks/bench_cspace_builds.py [--before REF] [--scenario S ...] [--seed N]
-Prints a table and writes benchmarks/results/cspace_builds.json (or --out).
+Prints a table and writes benchmarks/results/cspace_builds.json (or --out); ``--markdown-from JSON`` prints
+the Markdown table of such a result (for the docs) without running anything.
 """
 
 from __future__ import annotations
@@ -107,6 +108,34 @@ def _run(src: Path, scenario: str, seed: int, tmp: Path, label: str) -> dict[str
     return data
 
 
+_ROWS = (("build", "`ConfigurationSpace.build`"), ("correlation", "of it, the FFT correlations"),
+         ("kernels", "of it, rasterising kernels"), ("crops", "crops of kept spaces (`_cropped`)"),
+         ("labelling", "labellings"), ("store_write", "written to the folder"))
+
+
+def markdown(data: dict[str, Any]) -> str:
+    """The Markdown table of a result: one row per function, CPU s (calls) before / after per scenario."""
+    rows = data["scenarios"]
+    names = [f"{r['scenario']} {data['before']} / this tree" for r in rows]
+    head = "| CPU s (calls) | " + " | ".join(names) + " |"
+    lines = [head, "| --- |" + " ---: |" * len(rows)]
+    for key, name in _ROWS:
+        cells = []
+        for r in rows:
+            b, a = r["before"]["functions"].get(key, {}), r["after"]["functions"].get(key, {})
+            cells.append(f"{b.get('cpu_s', 0.0):.2f} ({b.get('calls', 0)}) / {a.get('cpu_s', 0.0):.2f} "
+                         f"({a.get('calls', 0)})")
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    lines.append("| the command after its imports | " + " | ".join(
+        f"{r['before']['command_cpu_s']:.2f} / {r['after']['command_cpu_s']:.2f}" for r in rows) + " |")
+    load = data.get("load_average_end", ["?"])[0]
+    lines.append("")
+    lines.append(f"(`bench_cspace_builds.py --before {data['before']}`: one run each, seed "
+                 f"{rows[0]['seed']}, the configuration-space folder empty, B4 run; load average {load} "
+                 "at the end)")
+    return "\n".join(lines)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--before", default="main", help="git ref of the baseline (default main)")
@@ -114,7 +143,11 @@ def main() -> None:
                     help="scenario(s); default storage-inside, storage-outside")
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--out", type=Path, default=RESULTS_DIR / "cspace_builds.json")
+    ap.add_argument("--markdown-from", type=Path, help="print the Markdown table of a result and stop")
     args = ap.parse_args()
+    if args.markdown_from:
+        print(markdown(json.loads(args.markdown_from.read_text())))
+        return
     scenarios = args.scenario or ["storage-inside", "storage-outside"]
     rows = []
     with tempfile.TemporaryDirectory() as name:
