@@ -6,11 +6,13 @@ process, with its own empty cache folder (``KBPLANNER_CACHE_DIR``: the project l
 so only the spaces and B4's refined plan are new) and B4 run (the refined-plan cache not read). Counting
 wrappers (``time.process_time``) around ``ConfigurationSpace.build``, the correlation
 (``cspace_fft.hits_many``, or ``footprint._hits`` in a tree before session 11), the kernels' rasterisation,
-``cspace_cache._cropped``, the labellings and the store's reads and writes give CPU seconds and calls;
-``command_cpu_s`` is the command's after its imports. One run each on a shared machine: read the seconds
-as shares.
+``cspace_cache._cropped``, the labellings, the store's reads and writes and the simulation step
+(``executor.simulate``) give CPU seconds and calls (the correlation's calls: batches of bins in this tree);
+``command_cpu_s`` is the command's after its imports. ``--rounds N``: N runs per tree, alternating,
+medians. On a shared machine read the seconds as shares.
 
 Usage: .venv/bin/python benchmarks/bench_cspace_builds.py [--before REF] [--scenario S ...] [--seed N]
+       [--rounds N]
 Prints a table and writes benchmarks/results/cspace_builds.json (or --out); ``--markdown-from JSON`` prints
 the Markdown table of such a result (for the docs) without running anything.
 """
@@ -20,6 +22,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -72,6 +75,8 @@ try:
 except ImportError:
     fp._kernel = wrap(fp, "_kernel", "kernels")
     wrap(fp, "_hits", "correlation")
+import kbplanner.simulation.executor as ex
+wrap(ex, "simulate", "step")
 wrap(cc, "_cropped", "crops")
 wrap(cst, "write", "store_write")
 wrap(cst, "read", "store_read")
@@ -92,15 +97,15 @@ def _export(ref: str, into: Path) -> Path:
     return into / "src"
 
 
-def _run(src: Path, scenario: str, seed: int, tmp: Path, label: str) -> dict[str, Any]:
-    cache = tmp / f"cache-{label}-{scenario}"
+def _run(src: Path, scenario: str, seed: int, tmp: Path, label: str, k: int) -> dict[str, Any]:
+    cache = tmp / f"cache-{label}-{scenario}-{k}"
     env = dict(os.environ, PYTHONPATH=str(src), KBPLANNER_CACHE_DIR=str(cache))
     project = src.parent / "data" / "case_study"
     subprocess.run([sys.executable, "-m", "kbplanner", "plan", str(project), "--scenario", scenario,
                     "--seed", str(seed), "--no-feasibility"], env=env, check=True, capture_output=True)
-    result = tmp / f"{label}-{scenario}.json"
+    result = tmp / f"{label}-{scenario}-{k}.json"
     cmd = [sys.executable, "-c", _CHILD, str(result), "simulate", str(project), "--scenario", scenario,
-           "--seed", str(seed), "--out", str(tmp / f"out-{label}-{scenario}")]
+           "--seed", str(seed), "--out", str(tmp / f"out-{label}-{scenario}-{k}")]
     proc = subprocess.run(cmd, env=env, capture_output=True, text=True)
     if not result.is_file():
         raise SystemExit(f"{label} {scenario}: no result (exit {proc.returncode}):\n{proc.stderr[-2000:]}")
@@ -108,7 +113,19 @@ def _run(src: Path, scenario: str, seed: int, tmp: Path, label: str) -> dict[str
     return data
 
 
-_ROWS = (("build", "`ConfigurationSpace.build`"), ("correlation", "of it, the FFT correlations"),
+def _median_of(runs: list[dict[str, Any]]) -> dict[str, Any]:
+    """Per function, the median CPU seconds (and calls) over the runs; the command's median."""
+    names = sorted({n for r in runs for n in r["functions"]})
+    def med(name: str, key: str, default: float) -> float:
+        return float(statistics.median(r["functions"].get(name, {}).get(key, default) for r in runs))
+
+    funcs = {n: {"calls": int(med(n, "calls", 0)), "cpu_s": round(med(n, "cpu_s", 0.0), 3)} for n in names}
+    command = round(statistics.median(r["command_cpu_s"] for r in runs), 3)
+    return {"command_cpu_s": command, "functions": funcs}
+
+
+_ROWS = (("step", "the simulation step (`executor.simulate`)"), ("build", "`ConfigurationSpace.build`"),
+         ("correlation", "of it, the FFT correlations"),
          ("kernels", "of it, rasterising kernels"), ("crops", "crops of kept spaces (`_cropped`)"),
          ("labelling", "labellings"), ("store_write", "written to the folder"))
 
@@ -130,7 +147,8 @@ def markdown(data: dict[str, Any]) -> str:
         f"{r['before']['command_cpu_s']:.2f} / {r['after']['command_cpu_s']:.2f}" for r in rows) + " |")
     load = data.get("load_average_end", ["?"])[0]
     lines.append("")
-    lines.append(f"(`bench_cspace_builds.py --before {data['before']}`: one run each, seed "
+    lines.append(f"(`bench_cspace_builds.py --before {data['before']} --rounds {rows[0].get('rounds', 1)}`: "
+                 f"medians, runs alternating, seed "
                  f"{rows[0]['seed']}, the configuration-space folder empty, B4 run; load average {load} "
                  "at the end)")
     return "\n".join(lines)
@@ -142,6 +160,7 @@ def main() -> None:
     ap.add_argument("--scenario", action="append",
                     help="scenario(s); default storage-inside, storage-outside")
     ap.add_argument("--seed", type=int, default=7)
+    ap.add_argument("--rounds", type=int, default=1, help="runs per tree, alternating (medians reported)")
     ap.add_argument("--out", type=Path, default=RESULTS_DIR / "cspace_builds.json")
     ap.add_argument("--markdown-from", type=Path, help="print the Markdown table of a result and stop")
     args = ap.parse_args()
@@ -155,9 +174,12 @@ def main() -> None:
         (tmp / "before").mkdir()
         before_src = _export(args.before, tmp / "before")
         for s in scenarios:
-            row = {"scenario": s, "seed": args.seed,
-                   "before": _run(before_src, s, args.seed, tmp, "before"),
-                   "after": _run(REPO / "src", s, args.seed, tmp, "after")}
+            runs: dict[str, list[dict[str, Any]]] = {"before": [], "after": []}
+            for k in range(args.rounds):
+                runs["before"].append(_run(before_src, s, args.seed, tmp, "before", k))
+                runs["after"].append(_run(REPO / "src", s, args.seed, tmp, "after", k))
+            row = {"scenario": s, "seed": args.seed, "rounds": args.rounds, "runs": runs,
+                   "before": _median_of(runs["before"]), "after": _median_of(runs["after"])}
             rows.append(row)
             print(f"{s} (seed {args.seed}): CPU s before / after")
             names = sorted(set(row["before"]["functions"]) | set(row["after"]["functions"]))
