@@ -137,6 +137,8 @@ def markdown(data: dict[str, Any]) -> str:
     head = "| CPU s (calls) | " + " | ".join(names) + " |"
     lines = [head, "| --- |" + " ---: |" * len(rows)]
     for key, name in _ROWS:
+        if not any(key in r[side]["functions"] for r in rows for side in ("before", "after")):
+            continue
         cells = []
         for r in rows:
             b, a = r["before"]["functions"].get(key, {}), r["after"]["functions"].get(key, {})
