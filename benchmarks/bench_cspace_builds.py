@@ -97,10 +97,11 @@ def _export(ref: str, into: Path) -> Path:
     return into / "src"
 
 
-def _run(src: Path, scenario: str, seed: int, tmp: Path, label: str, k: int) -> dict[str, Any]:
+def _run(src: Path, scenario: str, seed: int, tmp: Path, label: str, k: int,
+         same_project: bool = False) -> dict[str, Any]:
     cache = tmp / f"cache-{label}-{scenario}-{k}"
     env = dict(os.environ, PYTHONPATH=str(src), KBPLANNER_CACHE_DIR=str(cache))
-    project = src.parent / "data" / "case_study"
+    project = (REPO if same_project else src.parent) / "data" / "case_study"
     subprocess.run([sys.executable, "-m", "kbplanner", "plan", str(project), "--scenario", scenario,
                     "--seed", str(seed), "--no-feasibility"], env=env, check=True, capture_output=True)
     result = tmp / f"{label}-{scenario}-{k}.json"
@@ -149,7 +150,9 @@ def markdown(data: dict[str, Any]) -> str:
         f"{r['before']['command_cpu_s']:.2f} / {r['after']['command_cpu_s']:.2f}" for r in rows) + " |")
     load = data.get("load_average_end", ["?"])[0]
     lines.append("")
-    lines.append(f"(`bench_cspace_builds.py --before {data['before']} --rounds {rows[0].get('rounds', 1)}`: "
+    flags = f"--rounds {rows[0].get('rounds', 1)}"
+    flags += " --same-project" if rows[0].get("same_project") else ""
+    lines.append(f"(`bench_cspace_builds.py --before {data['before']} {flags}`: "
                  f"medians, runs alternating, seed "
                  f"{rows[0]['seed']}, the configuration-space folder empty, B4 run; load average {load} "
                  "at the end)")
@@ -163,6 +166,8 @@ def main() -> None:
                     help="scenario(s); default storage-inside, storage-outside")
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--rounds", type=int, default=1, help="runs per tree, alternating (medians reported)")
+    ap.add_argument("--same-project", action="store_true",
+                    help="both trees run this tree's data/case_study (default: each its own)")
     ap.add_argument("--out", type=Path, default=RESULTS_DIR / "cspace_builds.json")
     ap.add_argument("--markdown-from", type=Path, help="print the Markdown table of a result and stop")
     args = ap.parse_args()
@@ -178,9 +183,10 @@ def main() -> None:
         for s in scenarios:
             runs: dict[str, list[dict[str, Any]]] = {"before": [], "after": []}
             for k in range(args.rounds):
-                runs["before"].append(_run(before_src, s, args.seed, tmp, "before", k))
-                runs["after"].append(_run(REPO / "src", s, args.seed, tmp, "after", k))
+                runs["before"].append(_run(before_src, s, args.seed, tmp, "before", k, args.same_project))
+                runs["after"].append(_run(REPO / "src", s, args.seed, tmp, "after", k, args.same_project))
             row = {"scenario": s, "seed": args.seed, "rounds": args.rounds, "runs": runs,
+                   "same_project": args.same_project,
                    "before": _median_of(runs["before"]), "after": _median_of(runs["after"])}
             rows.append(row)
             print(f"{s} (seed {args.seed}): CPU s before / after")
