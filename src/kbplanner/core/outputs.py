@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from kbplanner.core.errors import KbplannerError
+from kbplanner.core.later_bytes import resolved
 from kbplanner.core.output_dirs import run_directory
 
 __all__ = ["atomic_write_bytes", "atomic_write_text", "file_mode", "input_hashes", "json_text",
@@ -40,7 +41,11 @@ def file_mode() -> int:
 
 
 def atomic_write_bytes(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` via a temporary file in the same directory and ``os.replace``."""
+    """Write ``data`` to ``path`` via a temporary file in the same directory and ``os.replace``.
+
+    ``data`` may be a :class:`~kbplanner.core.later_bytes.LaterBytes` (a key frame a worker process
+    renders): its content is waited for first."""
+    data = resolved(data)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
