@@ -110,3 +110,12 @@ def test_later_bytes_wait_once_and_copy_as_their_content() -> None:
     assert resolved(later) == b"content" and later.result() == b"content" and calls == [1]
     assert pickle.loads(pickle.dumps(later)) == b"content" and copy.copy(later) == b"content"
     assert resolved(b"now") == b"now"
+
+
+def test_versions_are_read_once_and_each_caller_gets_its_own_dict() -> None:
+    from kbplanner.core.outputs import versions
+
+    first = versions()
+    assert first["python"] and "pybullet" in first
+    first["python"] = "changed by a caller"
+    assert versions()["python"] != "changed by a caller" and versions() == versions()

@@ -8,6 +8,7 @@ half-written file that looks complete. JSON is strict: a NaN or infinity is refu
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import math
@@ -116,14 +117,21 @@ _PACKAGES = ("kbplanner", "rdflib", "pyshacl", "owlready2", "ifcopenshell", "pyb
 
 
 def versions() -> dict[str, str]:
-    """Versions of Python and of the packages a run depends on."""
-    out = {"python": platform.python_version()}
+    """Versions of Python and of the packages a run depends on (a new dict each call)."""
+    return dict(_versions())
+
+
+@functools.cache
+def _versions() -> tuple[tuple[str, str], ...]:
+    """The versions, read once per process (``importlib.metadata`` scans every installed distribution:
+    a command asked twice, for the refined-plan cache's key and the run's manifest)."""
+    out = [("python", platform.python_version())]
     for name in _PACKAGES:
         try:
-            out[name] = metadata.version(name)
+            out.append((name, metadata.version(name)))
         except metadata.PackageNotFoundError:
-            out[name] = "not installed"
-    return out
+            out.append((name, "not installed"))
+    return tuple(out)
 
 
 def input_hashes(files: list[Path], root: Path) -> dict[str, str]:
