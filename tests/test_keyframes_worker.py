@@ -84,6 +84,17 @@ def test_a_failed_worker_is_an_error_when_its_image_is_asked_for() -> None:
     later = keyframes._in_worker(broken)
     with pytest.raises(RuntimeError, match=r"key frame worker .* without an image"):
         resolved(later)
+    cut = keyframes._in_worker(lambda: b"\x89PNG\r\n\x1a\n" + bytes(100))  # no IEND: not a whole image
+    with pytest.raises(RuntimeError, match=r"key frame worker .* status 0 without an image"):
+        resolved(cut)
+
+
+def test_with_the_gui_key_frames_are_rendered_in_the_process(env: SimEnv,
+                                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(env, "gui", True)
+    assert not worker_possible(env)
+    png = render_png(env, SIZE)
+    assert not isinstance(png, LaterBytes) and png.startswith(b"\x89PNG")
 
 
 @linux_only

@@ -153,15 +153,20 @@ def _in_worker(render: Callable[[], bytes]) -> bytes:
     return LaterBytes(lambda: _collect(pid, read_fd), lambda: _discard(pid, read_fd))
 
 
+_PNG_END = b"IEND\xaeB`\x82"  # the last chunk of every PNG: the worker wrote it whole
+
+
 def _collect(pid: int, read_fd: int) -> bytes:
     """The worker's PNG, once it has ended."""
     with os.fdopen(read_fd, "rb") as fh:
         data = fh.read()
-    _, status = os.waitpid(pid, 0)
-    if os.waitstatus_to_exitcode(status) != 0 or not data.startswith(b"\x89PNG"):
-        raise RuntimeError(f"the key frame worker (process {pid}) ended with status "
-                           f"{os.waitstatus_to_exitcode(status)} without an image (run again, or with "
-                           "--no-keyframes)")
+    try:
+        code = os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1])
+    except ChildProcessError:  # reaped by someone else (SIGCHLD ignored): the image tells
+        code = 0
+    if code != 0 or not data.startswith(b"\x89PNG") or not data.endswith(_PNG_END):
+        raise RuntimeError(f"the key frame worker (process {pid}) ended with status {code} without an image "
+                           "(run again, or with --no-keyframes)")
     return data
 
 
@@ -170,5 +175,5 @@ def _discard(pid: int, read_fd: int) -> None:
     try:
         os.close(read_fd)
         os.waitpid(pid, 0)
-    except OSError:
+    except Exception:  # already reaped, or the interpreter is shutting down
         pass
