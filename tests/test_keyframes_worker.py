@@ -77,13 +77,14 @@ def test_a_key_frame_leaves_every_body_where_it_was(env: SimEnv) -> None:
 
 
 @linux_only
-def test_a_failed_worker_is_an_error_when_its_image_is_asked_for() -> None:
+def test_a_failed_worker_is_an_error_when_its_image_is_asked_for(tmp_path: Path) -> None:
     def broken() -> bytes:
         raise ValueError("no picture")
 
     later = keyframes._in_worker(broken)
     with pytest.raises(RuntimeError, match=r"key frame worker .* without an image"):
-        resolved(later)
+        atomic_write_bytes(tmp_path / "frame.png", later)
+    assert list(tmp_path.iterdir()) == []  # nothing half-written
     cut = keyframes._in_worker(lambda: b"\x89PNG\r\n\x1a\n" + bytes(100))  # no IEND: not a whole image
     with pytest.raises(RuntimeError, match=r"key frame worker .* status 0 without an image"):
         resolved(cut)
