@@ -23,6 +23,7 @@ import io
 import math
 import os
 import sys
+import warnings
 from collections.abc import Callable
 
 import numpy as np
@@ -142,6 +143,9 @@ def _in_worker(render: Callable[[], bytes]) -> bytes:
         code = 1
         try:
             os.close(read_fd)
+            # a warning would write to stderr, whose lock another thread of the parent (a progress
+            # bar's) may have held at the fork: the worker says nothing, its status tells
+            warnings.simplefilter("ignore")
             data = render()
             view = memoryview(data)
             while view:
