@@ -95,24 +95,24 @@ class WindowParts:
         # joint components of the parts of the first window on the same cells, per (y0, y1, x0, x1)
         self.joints: dict[tuple[int, int, int, int], tuple[tuple[int, ...], npt.NDArray[np.int64]]] = {}
 
-    def joins(self, i: int, k: int, a: Pose2, b: Pose2, *, build: bool = True) -> bool | None:
+    def joins(self, i: int, k: int, a: Pose2, b: Pose2) -> bool | None:
         """Whether footprint ``k`` joins ``a`` and ``b`` on window ``i``, as the window's configuration
-        space says; None where no part decides (``build`` False: only the parts kept are asked)."""
+        space says; None where no part decides."""
         pa, pb = (a.x, a.y, a.yaw), (b.x, b.y, b.yaw)
-        for part in self.parts_for(i, k, a, b, build=build):
+        for part in self.parts_for(i, k, a, b):
             got = part.joined(pa, pb)
             if got is not None:
                 return got
         return None
 
-    def parts_for(self, i: int, k: int, a: Pose2, b: Pose2, *, build: bool = True) -> Iterator[PartJoin]:
-        """Parts of window ``i`` holding ``a`` and ``b`` for footprint ``k``: those kept, then (``build``)
-        new ones while fewer than :data:`PARTS_PER_SPACE` were made (the first around them, the next
-        wider and around the goals' centre too, so that later goals fall in it)."""
+    def parts_for(self, i: int, k: int, a: Pose2, b: Pose2) -> Iterator[PartJoin]:
+        """Parts of window ``i`` holding ``a`` and ``b`` for footprint ``k``: those kept, then new ones
+        while fewer than :data:`PARTS_PER_SPACE` were made (the first around them, the next wider and
+        around the goals' centre too, so that later goals fall in it)."""
         pa, pb = (a.x, a.y, a.yaw), (b.x, b.y, b.yaw)
         parts = self.parts.setdefault((i, k), [])
         yield from [p for p in parts if p.holds(pa) and p.holds(pb)]
-        while build and len(parts) < PARTS_PER_SPACE:
+        while len(parts) < PARTS_PER_SPACE:
             points = [(a.x, a.y), (b.x, b.y)] + ([self.around] if parts else [])
             part = PartJoin(self.window(i), self.footprints[k], points, diagonal=True, n_bins=self.n_bins,
                             margin_cells=PART_MARGIN_CELLS * (1 + len(parts)))
@@ -129,12 +129,10 @@ class WindowParts:
             parts.append(part)
         return part
 
-    def reaches(self, start: Pose2, goal: Pose2, *, build: bool = True) -> bool:
+    def reaches(self, start: Pose2, goal: Pose2) -> bool:
         """Whether the start and ``goal`` share a joint component on a part of the first window around
-        them (then they do on the window), without labelling the window (``build`` False: only on the
-        parts kept)."""
-        return any(self._pair_joins(first, start, goal)
-                   for first in self.parts_for(0, 0, start, goal, build=build))
+        them (then they do on the window), without labelling the window."""
+        return any(self._pair_joins(first, start, goal) for first in self.parts_for(0, 0, start, goal))
 
     def _pair_joins(self, first: PartJoin, start: Pose2, goal: Pose2) -> bool:
         """Whether the start and ``goal`` share a joint component on the cells of part ``first``."""

@@ -62,8 +62,7 @@ import shapely
 
 from kbplanner.planning.base_poses import N_YAW_BINS, PoseChecker, mark_polygon, nearest_free_pose, window
 from kbplanner.planning.carry import NARROW, NORMAL, CarryGeometry
-from kbplanner.planning.carry_coarse import GROUP, CoarseJoin
-from kbplanner.planning.carry_parts import PART_MARGIN_CELLS, WindowParts, joint_components
+from kbplanner.planning.carry_parts import WindowParts, joint_components
 from kbplanner.planning.plan_model import Pose2
 from kbplanner.world.cspace_cache import configuration_space
 from kbplanner.world.footprint import ConfigurationSpace, Footprint
@@ -81,8 +80,6 @@ WHOLE_MAP_MAX_CELLS = 250_000
 #: as the bisection builds it several times (a hint for the reason and the install order, which B4
 #: checks again; the verdict is :class:`CarryReach`'s).
 BLOCKER_MARGINS_M: tuple[float | None, ...] = WINDOW_MARGINS_M[:1]
-#: Merged-bin proofs (:class:`~kbplanner.planning.carry_coarse.CoarseJoin`) kept per window and footprints.
-COARSE_PER_SPACE = 2
 
 
 @dataclass
@@ -145,7 +142,6 @@ class CarryReach:
         self._spaces: dict[tuple[int, int], ConfigurationSpace] = {}
         self._windows: dict[int, tuple[OccupancyGrid, PoseChecker]] = {}
         self._parts = WindowParts(self._window, self.footprints, around, n_bins)
-        self._coarse: dict[tuple[int, tuple[int, ...]], list[CoarseJoin]] = {}
         n_cells = grid.shape[0] * grid.shape[1]
         # the whole map only where it is small enough to label quickly; else the largest window is final
         self.capped = self.margins[-1] is None and n_cells > WHOLE_MAP_MAX_CELLS and len(self.margins) > 1
@@ -195,29 +191,6 @@ class CarryReach:
             if got is not None:
                 return got
         return self._space(i, k).joined(pa, pb, diagonal=True)
-
-    def _coarse_joins(self, i: int, ks: tuple[int, ...], a: Pose2, b: Pose2) -> bool:
-        """Whether footprints ``ks`` (switching where both fit) are proven to join ``a`` and ``b`` on
-        window ``i`` on merged yaw bins (:class:`~kbplanner.planning.carry_coarse.CoarseJoin`: True is
-        the window's answer; False: not proven). Kept per window and footprints, at most
-        :data:`COARSE_PER_SPACE`, the first around the poses and the goals' centre, the next wider."""
-        if self.n_bins % GROUP or self.n_bins // GROUP < 3:
-            return False
-        pa, pb = (a.x, a.y, a.yaw), (b.x, b.y, b.yaw)
-        kept = self._coarse.setdefault((i, ks), [])
-        for c in kept:
-            if c.holds(pa) and c.holds(pb) and c.joined(pa, pb):
-                return True
-        win, checker = self._window_checker(i)
-        fps = [self.footprints[k] for k in ks]
-        while len(kept) < COARSE_PER_SPACE:
-            c = CoarseJoin(win, fps, [(a.x, a.y), (b.x, b.y), self.around],
-                           margin_cells=PART_MARGIN_CELLS * (1 + len(kept)),
-                           free_at=lambda j, p: checker.free(fps[j], *p), n_bins=self.n_bins)
-            kept.append(c)
-            if c.joined(pa, pb):
-                return True
-        return False
 
     def _first_joins(self, goal: Pose2) -> bool:
         """Whether the first footprint alone (the normal carry: the navigation's first try) joins the
@@ -327,9 +300,7 @@ class CarryReach:
         """Whether ``goal`` lies in the start's joint component (on the smallest window that joins them)."""
         if self._first_joins(goal):
             return True
-        every = tuple(range(len(self.footprints)))
-        if 0 not in self._levels and (self._coarse_joins(0, every, self.start, goal)
-                                      or self._parts.reaches(self.start, goal)):
+        if 0 not in self._levels and self._parts.reaches(self.start, goal):
             return True
         for i in range(len(self.margins)):
             level = self._level(i)

@@ -17,13 +17,6 @@ So two poses in one component of the part are joined (True); when the component 
 on the rim, they are joined exactly when the components are the same (False otherwise); else the part
 does not decide (None) and the caller asks the whole space.
 
-:func:`grouped_free` gives the free maps of a part of a grid with the yaw bins merged in groups (a cell
-free in a group only where the footprint is free in every bin of it: the bins' kernels united, one
-correlation per group); with groups of one bin, the free maps exactly. :func:`ring_labels` labels such
-maps like :meth:`~kbplanner.world.footprint.ConfigurationSpace.labels_and_roots` (26-connected, the yaw
-axis a ring). Merged bins join fewer cells, never more: B4's carry-leg check proves joins with them
-cheaply (:mod:`kbplanner.planning.carry_coarse`).
-
 Example:
     >>> import numpy as np
     >>> from kbplanner.world.footprint import Footprint, Rect
@@ -45,10 +38,9 @@ import math
 
 import numpy as np
 import numpy.typing as npt
-from scipy import fft as sp_fft
 
 from kbplanner.world.cspace_cache import configuration_space, kernel_reach
-from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect
+from kbplanner.world.footprint import ConfigurationSpace, Footprint
 from kbplanner.world.occupancy import OccupancyGrid
 
 Pose = tuple[float, float, float]
@@ -136,51 +128,3 @@ class PartJoin:
         if ca not in self.rim or cb not in self.rim:
             return False  # one of them is the same component on the grid
         return None
-
-
-def grouped_free(grid: OccupancyGrid, footprint: Footprint, region: tuple[int, int, int, int], group: int,
-                 n_bins: int = 72) -> npt.NDArray[np.bool_]:
-    """Free maps of ``footprint`` on the cells ``region`` (y0, y1, x0, x1) of ``grid``, the yaw bins
-    merged ``group`` at a time: (n_bins // group, y1 - y0, x1 - x0), coarse bin ``j`` free at a cell only
-    where no occupied cell lies under the kernel of any of bins ``j * group .. j * group + group - 1``
-    (the kernels :meth:`~kbplanner.world.footprint.ConfigurationSpace.build` and
-    :class:`~kbplanner.planning.base_poses.PoseChecker` use, united). Cells off the grid count as
-    occupied. ``group`` 1: the grid's free maps on the region exactly (the occupied cells under a kernel
-    counted by FFT in float32, integers far from the 0.5 they are compared with, as the build does).
-    """
-    if n_bins % group:
-        raise ValueError(f"{n_bins} yaw bins do not split into groups of {group}")
-    y0, y1, x0, x1 = region
-    sy, sx = y1 - y0, x1 - x0
-    res = grid.resolution
-    width = 2 * math.pi / n_bins
-    kernels = [footprint.kernel(res, k * width - width / 2, k * width + width / 2) for k in range(n_bins)]
-    h = kernels[0].shape[0] // 2
-    ny, nx = grid.shape
-    occ = np.ones((sy + 2 * h, sx + 2 * h), dtype=np.float32)  # the region grown by the kernels' reach
-    gy0, gy1, gx0, gx1 = max(0, y0 - h), min(ny, y1 + h), max(0, x0 - h), min(nx, x1 + h)
-    occ[gy0 - (y0 - h):gy1 - (y0 - h), gx0 - (x0 - h):gx1 - (x0 - h)] = grid.occupied[gy0:gy1, gx0:gx1]
-    # a circular correlation at least as long as the grown region keeps every wrapped term out of
-    # the cells kept (rows 2h .. 2h + sy - 1 of the convolution with the flipped kernel)
-    shape = (sp_fft.next_fast_len(sy + 2 * h, real=True), sp_fft.next_fast_len(sx + 2 * h, real=True))
-    occ_f = sp_fft.rfft2(occ, shape)
-    out = np.empty((n_bins // group, sy, sx), dtype=bool)
-    for j in range(n_bins // group):
-        kern = np.logical_or.reduce(kernels[j * group:(j + 1) * group])
-        kern_f = sp_fft.rfft2(kern[::-1, ::-1].astype(np.float32), shape)
-        hits = sp_fft.irfft2(occ_f * kern_f, shape)[2 * h:2 * h + sy, 2 * h:2 * h + sx]
-        out[j] = hits < 0.5
-    return out
-
-
-def ring_labels(free: npt.NDArray[np.bool_]) -> tuple[npt.NDArray[np.int32], npt.NDArray[np.int64]]:
-    """26-connected labels of free maps (bins, y, x), the bin axis a ring, and each label's root, as
-    :meth:`~kbplanner.world.footprint.ConfigurationSpace.labels_and_roots` gives them (``roots[labels]``:
-    the component, 0 blocked); no two cells on opposite edges are joined."""
-    n, sy, sx = free.shape
-    box = np.zeros((n, sy + 2, sx + 2), dtype=bool)  # a blocked cell all round (the ring's shifts wrap)
-    box[:, 1:-1, 1:-1] = free
-    grid = OccupancyGrid(np.zeros((sy + 2, sx + 2), dtype=bool), origin=(0.0, 0.0), resolution=1.0)
-    sub = ConfigurationSpace(grid=grid, footprint=Footprint((Rect(0.0, 0.0, 1.0, 1.0),)), free=box)
-    labels, roots = sub._labels_and_roots(True)
-    return labels[:, 1:-1, 1:-1], roots
