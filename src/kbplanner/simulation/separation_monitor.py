@@ -144,6 +144,7 @@ class SeparationMonitor:
             self._tracks.clear()
             return []  # nobody could be seen within the horizon: the scan would change nothing
         ignore = [env.held.body] if env.held is not None else []
+        env.sync()  # the workers' and the held element's bodies where they are now
         # only the rays that can reach a person (their hits are those of a whole scan)
         s = scan(env.robot, self.lidar, ignore=ignore, near=xy, near_radius_m=WORKER_RADIUS_M + 0.25)
         assert s.points is not None

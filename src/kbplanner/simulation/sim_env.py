@@ -28,6 +28,12 @@ physics is not stepped except by :meth:`SimEnv.settle` where it matters.
   the robot moves kinematically, :meth:`SimEnv.step` also puts the element where the constraint
   holds it (tool frame times the inverse grasp). :meth:`SimEnv.detach` removes the constraint and
   :meth:`SimEnv.fix` makes the element static where it is (it is fixed to the structure).
+- Bodies placed when looked at: the worker capsules and the held element are put where they are
+  (the crowd's positions, the grasp on the tool) only before something looks at them - a lidar scan
+  or a ray test (:meth:`SimEnv.sync`), a key frame, a task body's frame, a physics step - and the
+  held element also before the robot moves again (the robot tells the environment); nothing else in
+  the loop reads them from PyBullet, so the bodies are where they would be had they been placed
+  every period, at a fraction of the calls.
 - The navigation grid: the storey's occupancy grid plus every element installed so far.
 
 Example:
@@ -96,6 +102,40 @@ class WorkerBody:
     label: str
 
 
+class _SimRobot(RobotModel):
+    """The environment's robot: tells the environment before it moves (a held element still to be
+    placed where the grasp held it is placed for the pose the robot had), and keeps the arguments
+    of its last :meth:`set_base_pose` and :meth:`set_arm`, which put it back in that pose."""
+
+    before_move: Callable[[], None] | None = None
+    base_set: tuple[float, float, float, float | None] | None = None
+    arm_set: tuple[float, ...] | None = None
+
+    def set_base_pose(self, x: float, y: float, yaw: float, z: float | None = None) -> None:
+        if self.before_move is not None:
+            self.before_move()
+        super().set_base_pose(x, y, yaw, z)
+        self.base_set = (x, y, yaw, z)
+
+    def set_arm(self, q: Sequence[float]) -> None:
+        if self.before_move is not None:
+            self.before_move()
+        super().set_arm(q)
+        self.arm_set = tuple(q)
+
+    def pose_set(self) -> tuple[tuple[float, float, float, float | None], tuple[float, ...]] | None:
+        """The base's and the arm's last setting (None: one of them was never set here)."""
+        if self.base_set is None or self.arm_set is None:
+            return None
+        return self.base_set, self.arm_set
+
+    def put(self, pose: tuple[tuple[float, float, float, float | None], tuple[float, ...]]) -> None:
+        """Set the base and the arm as :meth:`pose_set` gave them (the same PyBullet state)."""
+        super().set_base_pose(*pose[0])
+        super().set_arm(pose[1])
+        self.base_set, self.arm_set = pose
+
+
 class SimEnv:
     """The simulation environment (see module docstring)."""
 
@@ -136,6 +176,10 @@ class SimEnv:
         self._worker_orn: dict[int, Any] = {}  # the quaternion of each body's last heading
         self._on_floor: tuple[World, str | None, float, bool] | None = None  # workers_on_robot_floor
         self._followed: tuple[Held, Any, Any] | None = None  # follow(): what, the tool, the body's pose
+        self._follow_due = False  # follow() asked since the held element was last placed
+        # the robot's pose set when follow() was last asked, once it has moved since (else None)
+        self._follow_at: tuple[tuple[float, float, float, float | None], tuple[float, ...]] | None = None
+        self._workers_due = False  # the workers moved since their bodies were last placed
         self._xy: tuple[np.ndarray | None, int, np.ndarray] | None = None  # worker_xy(): of what, tick, xy
         self.tick = 0
         self.held: Held | None = None
@@ -159,7 +203,10 @@ class SimEnv:
         if mode == p.GUI:
             p.configureDebugVisualizer(p.COV_ENABLE_GUI, 0, physicsClientId=self.client)
         self.sim = load_world(self.world, self.client, visuals=self.visuals or mode == p.GUI)
-        self._robot = RobotModel.load(self.robot_name, client=self.client)
+        robot = _SimRobot.load(self.robot_name, client=self.client)
+        assert isinstance(robot, _SimRobot)
+        robot.before_move = self._robot_moves
+        self._robot = robot
         self._robot.floor_z = self.robot_floor_z
         self._robot.kinematic = True  # only settle() steps physics here (and tells the robot)
         start = self.world.robot_start
@@ -173,20 +220,31 @@ class SimEnv:
         self.tick = 0
         self.held = None
         self._followed = None
+        self._follow_due = False
+        self._follow_at = None
         self.installed = []
         self.grid = self.base_grid
         self._xy = None
         self._move_workers()
 
     def step(self) -> float:
-        """Advance the clock by one control period; move workers and the held element. Returns t (s)."""
+        """Advance the clock by one control period; move workers and the held element (their bodies
+        are placed when looked at, :meth:`sync`). Returns t (s)."""
         self.tick += 1
         if self.crowd is not None:
             hazard = self.hazard if self.workers_on_robot_floor else None
             self.crowd.step(hazard() if hazard is not None else None)
-        self._move_workers()
+        if self.workers:
+            self._workers_due = True
         self.follow()
         return self.t
+
+    def sync(self) -> None:
+        """Place the worker bodies and the held element where they are now, before PyBullet is asked
+        about them (a scan, a ray test, an image, a physics step, a body's pose)."""
+        if self._workers_due:
+            self._move_workers()
+        self._place_held()
 
     def close(self) -> None:
         """Disconnect (idempotent)."""
@@ -270,6 +328,7 @@ class SimEnv:
 
     def element_frame(self, iri: str) -> Matrix:
         """Where a task element's own frame is now (site)."""
+        self._place_held()
         return np.asarray(element_frame(self.world_bodies, self.element(iri)), dtype=np.float64)
 
     def set_element_frame(self, iri: str, frame: Matrix) -> None:
@@ -340,7 +399,44 @@ class SimEnv:
         return self.held
 
     def follow(self) -> None:
-        """Put the held element where the grasp holds it (after a kinematic robot motion).
+        """The held element follows the tool (after a kinematic robot motion): placed where the grasp
+        holds it now when something looks at it (:meth:`sync`), even if the robot has moved since."""
+        if self.held is not None:
+            self._follow_due = True
+            self._follow_at = None
+
+    def _robot_moves(self) -> None:
+        """The robot is about to move: keep its pose for the held element still to be placed."""
+        if self._follow_due and self._follow_at is None:
+            robot = self._robot
+            at = robot.pose_set() if isinstance(robot, _SimRobot) else None
+            if at is None:
+                self._place_held()  # (a pose it was not given here: place the element now)
+            else:
+                self._follow_at = at
+
+    def _place_held(self) -> None:
+        """Put the held element where the grasp held it when :meth:`follow` was last asked, if it was
+        asked since the element was last put: with the robot put back in the pose it had then for
+        the tool's pose (the same PyBullet state, so the same numbers), and again where it is."""
+        if not self._follow_due:
+            return
+        self._follow_due = False
+        at, self._follow_at = self._follow_at, None
+        robot = self._robot
+        if at is None or not isinstance(robot, _SimRobot):
+            self._put_held()
+            return
+        now = robot.pose_set()
+        assert now is not None
+        robot.put(at)
+        try:
+            self._put_held()
+        finally:
+            robot.put(now)
+
+    def _put_held(self) -> None:
+        """Put the held element where the grasp holds it now.
 
         Skipped when neither the tool nor the element has moved since the last time (the same
         pose would be set again): the tool's pose and the element body's are compared as PyBullet
@@ -369,6 +465,7 @@ class SimEnv:
 
         if self.held is None:
             raise KbplannerError("the gripper holds nothing", element="SimEnv.detach", fix="grasp first")
+        self._place_held()
         held = self.held
         p.removeConstraint(held.constraint, physicsClientId=self.client)
         self.held = None
@@ -405,6 +502,7 @@ class SimEnv:
         """Step physics for ``seconds`` (the clock does not move); largest displacement (m) of a task body."""
         import pybullet as p
 
+        self.sync()
         bodies = self.world_bodies.task_bodies
         before = {i: np.array(p.getBasePositionAndOrientation(b, physicsClientId=self.client)[0])
                   for i, b in bodies.items()}
@@ -446,6 +544,7 @@ class SimEnv:
     def _move_workers(self) -> None:
         import pybullet as p
 
+        self._workers_due = False
         z = self.world.ground_z + WORKER_HEIGHT_M / 2
         placed = self._worker_placed
         for k, (w, pose) in enumerate(zip(self.workers, self.worker_poses(), strict=True)):
