@@ -28,12 +28,10 @@ physics is not stepped except by :meth:`SimEnv.settle` where it matters.
   the robot moves kinematically, :meth:`SimEnv.step` also puts the element where the constraint
   holds it (tool frame times the inverse grasp). :meth:`SimEnv.detach` removes the constraint and
   :meth:`SimEnv.fix` makes the element static where it is (it is fixed to the structure).
-- Bodies placed when looked at: the worker capsules and the held element are put where they are
-  (the crowd's positions, the grasp on the tool) only before something looks at them - a lidar scan
-  or a ray test (:meth:`SimEnv.sync`), a key frame, a task body's frame, a physics step - and the
-  held element also before the robot moves again (the robot tells the environment); nothing else in
-  the loop reads them from PyBullet, so the bodies are where they would be had they been placed
-  every period, at a fraction of the calls.
+- Bodies placed when looked at (:mod:`kbplanner.simulation.sim_bodies`): the worker capsules and the
+  held element are put where they are (the crowd's positions, the grasp on the tool) only before
+  something looks at them - a lidar scan or a ray test (:meth:`SimEnv.sync`), a key frame, a task
+  body's frame, a physics step -; nothing else in the loop reads them from PyBullet.
 - The navigation grid: the storey's occupancy grid plus every element installed so far.
 
 Example:
@@ -51,19 +49,25 @@ import logging
 import math
 import os
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from kbplanner.core.errors import KbplannerError
-from kbplanner.core.iris import slug
 from kbplanner.planning.base_poses import element_polygon, mark_polygon
 from kbplanner.planning.carry import Matrix
 from kbplanner.robot.robot_model import RobotModel
 from kbplanner.simulation.crowd import Crowd
 from kbplanner.simulation.floors import FLOOR_GAP_M, robot_floor_z
 from kbplanner.simulation.held_pose import matrix_of, quat_of
+from kbplanner.simulation.sim_bodies import (
+    WORKER_HEIGHT_M,
+    Held,
+    HeldPlacer,
+    SimRobot,
+    WorkerBodies,
+    WorkerBody,
+    place_body,
+)
 from kbplanner.simulation.sim_world import SimWorld, element_frame, load_world
 from kbplanner.simulation.social_force import Obstacle
 from kbplanner.simulation.workers import WORKER_RADIUS_M, WorkerMotion, WorkerSpec
@@ -72,68 +76,8 @@ from kbplanner.world.world_types import World, WorldElement
 
 log = logging.getLogger(__name__)
 
-WORKER_HEIGHT_M = 1.7
-_RGBA_WORKER = (0.1, 0.6, 0.2, 1.0)
-
-
-@dataclass
-class Held:
-    """The element in the gripper: its body, the constraint and the tool frame in its frame."""
-
-    element: WorldElement
-    body: int
-    constraint: int
-    tool_in_element: Matrix
-    element_in_tool: Matrix | None = None  # inv(tool_in_element), computed once
-    com_in_element: Matrix | None = None  # the body's centre of mass frame in the element's, once
-
-    def __post_init__(self) -> None:
-        if self.element_in_tool is None:
-            self.element_in_tool = np.asarray(np.linalg.inv(self.tool_in_element), dtype=np.float64)
-
-
-@dataclass(frozen=True)
-class WorkerBody:
-    """A worker's capsule body and the column slug used in the trajectories (``motion``: scripted)."""
-
-    motion: WorkerMotion | None
-    body: int
-    slug: str
-    label: str
-
-
-class _SimRobot(RobotModel):
-    """The environment's robot: tells the environment before it moves (a held element still to be
-    placed where the grasp held it is placed for the pose the robot had), and keeps the arguments
-    of its last :meth:`set_base_pose` and :meth:`set_arm`, which put it back in that pose."""
-
-    before_move: Callable[[], None] | None = None
-    base_set: tuple[float, float, float, float | None] | None = None
-    arm_set: tuple[float, ...] | None = None
-
-    def set_base_pose(self, x: float, y: float, yaw: float, z: float | None = None) -> None:
-        if self.before_move is not None:
-            self.before_move()
-        super().set_base_pose(x, y, yaw, z)
-        self.base_set = (x, y, yaw, z)
-
-    def set_arm(self, q: Sequence[float]) -> None:
-        if self.before_move is not None:
-            self.before_move()
-        super().set_arm(q)
-        self.arm_set = tuple(q)
-
-    def pose_set(self) -> tuple[tuple[float, float, float, float | None], tuple[float, ...]] | None:
-        """The base's and the arm's last setting (None: one of them was never set here)."""
-        if self.base_set is None or self.arm_set is None:
-            return None
-        return self.base_set, self.arm_set
-
-    def put(self, pose: tuple[tuple[float, float, float, float | None], tuple[float, ...]]) -> None:
-        """Set the base and the arm as :meth:`pose_set` gave them (the same PyBullet state)."""
-        super().set_base_pose(*pose[0])
-        super().set_arm(pose[1])
-        self.base_set, self.arm_set = pose
+__all__ = ["FLOOR_GAP_M", "WORKER_HEIGHT_M", "WORKER_RADIUS_M", "Held", "SimEnv", "WorkerBody",
+           "angle_between"]
 
 
 class SimEnv:
@@ -172,13 +116,9 @@ class SimEnv:
         self.sim: SimWorld | None = None
         self._robot: RobotModel | None = None
         self.workers: tuple[WorkerBody, ...] = ()
-        self._worker_placed: list[tuple[float, float, float] | None] = []  # where each body was put last
-        self._worker_orn: dict[int, Any] = {}  # the quaternion of each body's last heading
+        self._bodies: WorkerBodies | None = None  # the workers' capsules
+        self._placer = HeldPlacer(-1)  # where the held element goes (placed when looked at)
         self._on_floor: tuple[World, str | None, float, bool] | None = None  # workers_on_robot_floor
-        self._followed: tuple[Held, Any, Any] | None = None  # follow(): what, the tool, the body's pose
-        self._follow_due = False  # follow() asked since the held element was last placed
-        # the robot's pose set when follow() was last asked, once it has moved since (else None)
-        self._follow_at: tuple[tuple[float, float, float, float | None], tuple[float, ...]] | None = None
         self._workers_due = False  # the workers moved since their bodies were last placed
         self._xy: tuple[np.ndarray | None, int, np.ndarray] | None = None  # worker_xy(): of what, tick, xy
         self.tick = 0
@@ -203,8 +143,8 @@ class SimEnv:
         if mode == p.GUI:
             p.configureDebugVisualizer(p.COV_ENABLE_GUI, 0, physicsClientId=self.client)
         self.sim = load_world(self.world, self.client, visuals=self.visuals or mode == p.GUI)
-        robot = _SimRobot.load(self.robot_name, client=self.client)
-        assert isinstance(robot, _SimRobot)
+        robot = SimRobot.load(self.robot_name, client=self.client)
+        assert isinstance(robot, SimRobot)
         robot.before_move = self._robot_moves
         self._robot = robot
         self._robot.floor_z = self.robot_floor_z
@@ -214,14 +154,12 @@ class SimEnv:
                                   start.yaw if start else 0.0)
         self.crowd = Crowd(self.reactive, self.walk_grid, seed=self.seed, control_hz=self.control_hz) \
             if self.reactive else None
-        self.workers = self._make_workers()
-        self._worker_placed = [None] * len(self.workers)
-        self._worker_orn = {}
+        self._bodies = WorkerBodies(self.client, [(None, s) for s in self.reactive] +
+                                    [(m, m.spec) for m in self.worker_motions])
+        self.workers = self._bodies.bodies
         self.tick = 0
         self.held = None
-        self._followed = None
-        self._follow_due = False
-        self._follow_at = None
+        self._placer = HeldPlacer(self.client)
         self.installed = []
         self.grid = self.base_grid
         self._xy = None
@@ -340,10 +278,7 @@ class SimEnv:
 
     def _place(self, body: int, com: Matrix) -> None:
         """Put a body's centre of mass frame at ``com`` (site), kinematically."""
-        import pybullet as p
-
-        p.resetBasePositionAndOrientation(body, com[:3, 3].tolist(), quat_of(com),
-                                          physicsClientId=self.client)
+        place_body(self.client, body, com)
 
     def worker_poses(self) -> list[tuple[float, float, float]]:
         """(x, y, heading) of every worker now, in :attr:`workers` order."""
@@ -400,64 +335,18 @@ class SimEnv:
 
     def follow(self) -> None:
         """The held element follows the tool (after a kinematic robot motion): placed where the grasp
-        holds it now when something looks at it (:meth:`sync`), even if the robot has moved since."""
+        holds it now when something looks at it (:meth:`sync`), even if the robot has moved since
+        (:class:`~kbplanner.simulation.sim_bodies.HeldPlacer`)."""
         if self.held is not None:
-            self._follow_due = True
-            self._follow_at = None
+            self._placer.follow()
 
     def _robot_moves(self) -> None:
-        """The robot is about to move: keep its pose for the held element still to be placed."""
-        if self._follow_due and self._follow_at is None:
-            robot = self._robot
-            at = robot.pose_set() if isinstance(robot, _SimRobot) else None
-            if at is None:
-                self._place_held()  # (a pose it was not given here: place the element now)
-            else:
-                self._follow_at = at
+        """The robot is about to move: the held element still to be placed keeps the robot's pose."""
+        self._placer.robot_moves(self.held, self.robot)
 
     def _place_held(self) -> None:
-        """Put the held element where the grasp held it when :meth:`follow` was last asked, if it was
-        asked since the element was last put: with the robot put back in the pose it had then for
-        the tool's pose (the same PyBullet state, so the same numbers), and again where it is."""
-        if not self._follow_due:
-            return
-        self._follow_due = False
-        at, self._follow_at = self._follow_at, None
-        robot = self._robot
-        if at is None or not isinstance(robot, _SimRobot):
-            self._put_held()
-            return
-        now = robot.pose_set()
-        assert now is not None
-        robot.put(at)
-        try:
-            self._put_held()
-        finally:
-            robot.put(now)
-
-    def _put_held(self) -> None:
-        """Put the held element where the grasp holds it now.
-
-        Skipped when neither the tool nor the element has moved since the last time (the same
-        pose would be set again): the tool's pose and the element body's are compared as PyBullet
-        reports them, which is cheaper than the frames."""
-        import pybullet as p
-
-        held = self.held
-        if held is None:
-            return
-        assert held.element_in_tool is not None
-        body = held.body
-        tool = self.robot.tool_pose()
-        if self._followed is not None and self._followed[0] is held and self._followed[1] == tool and \
-                self._followed[2] == p.getBasePositionAndOrientation(body, physicsClientId=self.client):
-            return
-        pos, orn = tool
-        if held.com_in_element is None:
-            assert held.element.local_bounds is not None
-            held.com_in_element = _translation(held.element.local_bounds.center)
-        self._place(body, matrix_of(pos, orn) @ held.element_in_tool @ held.com_in_element)
-        self._followed = (held, tool, p.getBasePositionAndOrientation(body, physicsClientId=self.client))
+        """Put the held element where the grasp held it when :meth:`follow` was last asked."""
+        self._placer.place(self.held, self.robot)
 
     def detach(self) -> WorldElement:
         """Release: remove the constraint (collisions with the robot stay filtered until fixed)."""
@@ -517,50 +406,11 @@ class SimEnv:
         return moved
 
     # ---- workers ---------------------------------------------------------------------------------
-    def _make_workers(self) -> tuple[WorkerBody, ...]:
-        import pybullet as p
-
-        out = []
-        used: set[str] = set()
-        cyl = WORKER_HEIGHT_M - 2 * WORKER_RADIUS_M
-        shape = p.createCollisionShape(p.GEOM_CAPSULE, radius=WORKER_RADIUS_M, height=cyl,
-                                       physicsClientId=self.client)
-        visual = p.createVisualShape(p.GEOM_CAPSULE, radius=WORKER_RADIUS_M, length=cyl,
-                                     rgbaColor=_RGBA_WORKER,
-                                     physicsClientId=self.client)
-        specs = [(None, s) for s in self.reactive] + [(m, m.spec) for m in self.worker_motions]
-        for m, spec in specs:
-            name = slug(spec.label) or "worker"
-            base, n = name, 2
-            while name in used:
-                name = f"{base}-{n}"
-                n += 1
-            used.add(name)
-            body = p.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=shape, baseVisualShapeIndex=visual,
-                                     basePosition=[0.0, 0.0, -20.0], physicsClientId=self.client)
-            out.append(WorkerBody(m, int(body), name, spec.label))
-        return tuple(out)
-
     def _move_workers(self) -> None:
-        import pybullet as p
-
+        """Put the worker capsules where the workers are now."""
         self._workers_due = False
-        z = self.world.ground_z + WORKER_HEIGHT_M / 2
-        placed = self._worker_placed
-        for k, (w, pose) in enumerate(zip(self.workers, self.worker_poses(), strict=True)):
-            last = placed[k]
-            if last == pose:  # standing where the body already is (kinematic, mass 0)
-                continue
-            x, y, heading = pose
-            if last is not None and last[2] == heading and math.copysign(1.0, last[2]) == \
-                    math.copysign(1.0, heading) and k in self._worker_orn:
-                orn = self._worker_orn[k]  # the same heading (bit for bit): the same quaternion
-            else:
-                orn = p.getQuaternionFromEuler([0.0, 0.0, heading])
-                self._worker_orn[k] = orn
-            p.resetBasePositionAndOrientation(w.body, [x, y, z], orn,
-                                              physicsClientId=self.client)
-            placed[k] = pose
+        if self._bodies is not None:
+            self._bodies.place(self.worker_poses(), self.world.ground_z + WORKER_HEIGHT_M / 2)
 
 
 def _translation(v: Sequence[float]) -> Matrix:
