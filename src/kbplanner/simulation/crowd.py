@@ -108,13 +108,20 @@ class Crowd:
             a.anchor = (stop.x, stop.y)
             pos.append(a.anchor)
             self.agents.append(a)
-        self.pos = np.array(pos, dtype=np.float64).reshape(-1, 2)
-        self.vel = np.zeros_like(self.pos)
-        self.heading = np.zeros(len(self.agents))
+        # the state in plain floats (the arrays pos, vel and heading are made from them when asked)
+        self._xs: list[float] = [float(x) for x, _ in pos]
+        self._ys: list[float] = [float(y) for _, y in pos]
+        self._vxs: list[float] = [0.0] * len(pos)
+        self._vys: list[float] = [0.0] * len(pos)
+        self._hs: list[float] = [0.0] * len(pos)
+        self._pos: FloatArray | None = np.array(pos, dtype=np.float64).reshape(-1, 2)
+        self._vel: FloatArray | None = np.zeros_like(self._pos)
+        self._heading: FloatArray | None = np.zeros(len(self.agents))
+        self._sp: list[float] | None = [0.0] * len(pos)  # the speeds of the velocities (None: not known)
         self.t = 0.0
         delays = sorted({max(0, round(a.params.reaction_time_s * control_hz)) for a in self.agents})
         self._delays = delays
-        self._positions: tuple[FloatArray, list[tuple[float, float, float]]] | None = None
+        self._positions: list[tuple[float, float, float]] | None = None  # positions(), until the next step
         # per-worker constants of every step
         self._params = [a.params for a in self.agents]
         self._v0 = np.array([a.v0 for a in self.agents])
@@ -125,7 +132,6 @@ class Crowd:
         self._k = constants_of(self._params)
         self._vmax = self._v0 * self._k["vmax_factor"]  # cap_speed's limits: the same product
         self._vmax_list: list[float] = self._vmax.tolist()
-        self._speeds: tuple[FloatArray, list[float]] | None = None  # the speeds of ``vel`` (that array)
         self._walk = free_cell_check(self.router.free, self.router.grid)  # the walking map is fixed
         self._active.flags.writeable = False
         self._one_delay = len(self._masks) == 1 and bool(self._masks[0].all())
@@ -133,6 +139,52 @@ class Crowd:
 
     def __len__(self) -> int:
         return len(self.agents)
+
+    # ---- the state as arrays -------------------------------------------------------------------------
+    @property
+    def pos(self) -> FloatArray:
+        """(n, 2) positions (the same array until the workers move; read it, do not change it)."""
+        if self._pos is None:
+            self._pos = np.array([self._xs, self._ys], dtype=np.float64).T.reshape(len(self._xs), 2)
+        return self._pos
+
+    @pos.setter
+    def pos(self, value: FloatArray) -> None:
+        arr = np.asarray(value, dtype=np.float64).reshape(-1, 2)
+        self._xs, self._ys = arr[:, 0].tolist(), arr[:, 1].tolist()
+        self._pos, self._positions = arr, None
+
+    @property
+    def vel(self) -> FloatArray:
+        """(n, 2) velocities (the same array until the workers move)."""
+        if self._vel is None:
+            self._vel = np.array([self._vxs, self._vys], dtype=np.float64).T.reshape(len(self._vxs), 2)
+        return self._vel
+
+    @vel.setter
+    def vel(self, value: FloatArray) -> None:
+        arr = np.asarray(value, dtype=np.float64).reshape(-1, 2)
+        self._vxs, self._vys = arr[:, 0].tolist(), arr[:, 1].tolist()
+        self._vel, self._sp = arr, None
+
+    @property
+    def heading(self) -> FloatArray:
+        """(n,) walking directions (rad; kept while standing)."""
+        if self._heading is None:
+            self._heading = np.array(self._hs, dtype=np.float64)
+        return self._heading
+
+    @heading.setter
+    def heading(self, value: FloatArray) -> None:
+        arr = np.asarray(value, dtype=np.float64)
+        self._hs, self._heading, self._positions = arr.tolist(), arr, None
+
+    def speed_list(self) -> list[float]:
+        """The walking speed of every worker (``np.hypot`` of the velocities), as floats."""
+        if self._sp is None:
+            self._sp = _hypot(np.array(self._vxs, dtype=np.float64), np.array(self._vys, dtype=np.float64)
+                              ).tolist()
+        return self._sp
 
     # ---- route following ---------------------------------------------------------------------------
     def _desired(self) -> FloatArray:
@@ -164,10 +216,7 @@ class Crowd:
             self._detours(robot)
         rows = self._desired_rows()
         n = len(self.agents)
-        pos = self.pos.tolist()
-        vel0 = self.vel.tolist()
-        xs, ys = [p[0] for p in pos], [p[1] for p in pos]
-        vxs, vys = [v[0] for v in vel0], [v[1] for v in vel0]
+        xs, ys, vxs, vys = self._xs, self._ys, self._vxs, self._vys
         on = [True] * n
         if len(self._delays) == 1 and self._one_delay:  # everyone sees the robot with the same delay
             idx = len(self._history) - 1 - self._delays[0]
@@ -222,13 +271,17 @@ class Crowd:
             nxs.append(qx)
             nys.append(qy)
             ux[i], uy[i] = vx, vy
-        vel = np.array([ux, uy], dtype=np.float64).T.reshape(n, 2)
-        speed = np.hypot(vel[:, 0], vel[:, 1])
-        moving = speed > 0.05
-        if moving.any():
-            self.heading = np.where(moving, np.arctan2(vel[:, 1], vel[:, 0]), self.heading)
-        self.pos, self.vel = np.array([nxs, nys], dtype=np.float64).T.reshape(n, 2), vel
-        self._speeds = (vel, speed.tolist())
+        # speeds and headings: numpy's hypot and arctan2 on the velocities, as on the former (n, 2) rows
+        vx_arr, vy_arr = np.array(ux, dtype=np.float64), np.array(uy, dtype=np.float64)
+        speed = _hypot(vx_arr, vy_arr).tolist() if n else []
+        moving = [v > 0.05 for v in speed]
+        if any(moving):
+            atan = np.arctan2(vy_arr, vx_arr).tolist()
+            self._hs = [atan[i] if moving[i] else self._hs[i] for i in range(n)]
+            self._heading = None
+        self._xs, self._ys, self._vxs, self._vys, self._sp = nxs, nys, ux, uy, speed
+        self._pos = self._vel = None
+        self._positions = None
         self.t += self.dt
 
     def _accelerations(self, xs: list[float], ys: list[float], vxs: list[float], vys: list[float],
@@ -237,7 +290,9 @@ class Crowd:
         """The social-force accelerations (:func:`accelerations`), on plain floats for a few workers."""
         if len(xs) <= SMALL_CROWD:
             return accelerations_of(xs, ys, vxs, vys, rows, self._k, seen, on)
-        acc = accelerations(self.pos, self.vel, np.array(rows, dtype=np.float64).reshape(-1, 2), self._params,
+        pos = np.array([xs, ys], dtype=np.float64).T.reshape(len(xs), 2)
+        vel = np.array([vxs, vys], dtype=np.float64).T.reshape(len(xs), 2)
+        acc = accelerations(pos, vel, np.array(rows, dtype=np.float64).reshape(-1, 2), self._params,
                             seen, self._active, constants=self._k)
         return acc[:, 0].tolist(), acc[:, 1].tolist()
 
@@ -298,10 +353,13 @@ class Crowd:
 
     def positions(self) -> list[tuple[float, float, float]]:
         """(x, y, heading) of every worker now."""
-        if self._positions is None or self._positions[0] is not self.pos:
-            rows = [(x, y, h) for (x, y), h in zip(self.pos.tolist(), self.heading.tolist(), strict=True)]
-            self._positions = (self.pos, rows)
-        return list(self._positions[1])
+        if self._positions is None:
+            self._positions = list(zip(self._xs, self._ys, self._hs, strict=True))
+        return list(self._positions)
+
+    def xy(self) -> list[tuple[float, float]]:
+        """(x, y) of every worker now, as floats."""
+        return list(zip(self._xs, self._ys, strict=True))
 
     def speeds(self) -> FloatArray:
         """Walking speed (m/s) of every worker now."""

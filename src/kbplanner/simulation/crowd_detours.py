@@ -27,8 +27,7 @@ if TYPE_CHECKING:
 
 def detours(crowd: Crowd, robot: Obstacle) -> None:
     """A walking worker held up by the robot for STUCK_S walks round it (see module docstring)."""
-    kept = crowd._speeds
-    sp = kept[1] if kept is not None and kept[0] is crowd.vel else np.hypot(crowd.vel[:, 0], crowd.vel[:, 1])
+    sp = crowd.speed_list()
     for i, a in enumerate(crowd.agents):
         if not a.walking or sp[i] >= STUCK_SPEED_MPS:
             a.slow_s = 0.0
@@ -37,7 +36,7 @@ def detours(crowd: Crowd, robot: Obstacle) -> None:
         if a.slow_s < STUCK_S:
             continue
         a.slow_s = 0.0
-        p = crowd.pos[i]
+        p = np.array([crowd._xs[i], crowd._ys[i]], dtype=np.float64)
         goal = a.path[min(a.wp, len(a.path) - 1)]
         radius = reach_m(robot.rects) + WORKER_RADIUS_M + a.params.comfort_distance_m
         # the same look (bit for bit: where, whereto, the robot's pose and footprint) found no way

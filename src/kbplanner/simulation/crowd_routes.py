@@ -38,10 +38,10 @@ _hypot = np.hypot  # on two floats: the numbers of np.hypot on numpy rows
 def desired_rows(crowd: Crowd) -> list[tuple[float, float]]:
     """The desired velocity (x, y) of every worker: along their route, or back to their anchor."""
     rows: list[tuple[float, float]] = []
-    pos = crowd.pos.tolist()
+    xs, ys = crowd._xs, crowd._ys
     t = crowd.t
     for i, a in enumerate(crowd.agents):
-        px, py = pos[i]
+        px, py = xs[i], ys[i]
         if not a.walking and t >= a.until and a.yielding is None:
             a.making_way = False
             there = a.spec.stops[(a.k + 1) % len(a.spec.stops)]
@@ -70,7 +70,7 @@ def desired_rows(crowd: Crowd) -> list[tuple[float, float]]:
             a.way, a.way_slow_s, a.way_best_m = None, 0.0, math.inf
             tx, ty = ax, ay
         else:
-            tx, ty = crowd._way_target(a, crowd.pos[i]).tolist()
+            tx, ty = crowd._way_target(a, np.array([px, py], dtype=np.float64)).tolist()
         dx, dy = tx - px, ty - py
         d = float(_hypot(dx, dy))
         if d > 0.05:
