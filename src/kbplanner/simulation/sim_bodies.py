@@ -69,7 +69,8 @@ class WorkerBody:
 
 class SimRobot(RobotModel):
     """The environment's robot: calls :attr:`before_move` before it moves, and keeps the arguments of
-    its last :meth:`set_base_pose` and :meth:`set_arm`, which put it back in that pose (:meth:`put`)."""
+    its last :meth:`set_base_pose` and :meth:`set_arm`, which put it back in that pose (:meth:`put`)
+    and are its arm joints until physics steps (:meth:`forget_base`)."""
 
     before_move: Callable[[], None] | None = None
     base_set: tuple[float, float, float, float | None] | None = None
@@ -85,7 +86,19 @@ class SimRobot(RobotModel):
         if self.before_move is not None:
             self.before_move()
         super().set_arm(q)
-        self.arm_set = tuple(q)
+        self.arm_set = tuple(float(v) for v in q)
+
+    def arm_positions(self) -> tuple[float, ...]:
+        """The arm joint angles: those of the last :meth:`set_arm` (PyBullet gives back the very
+        numbers it was given), else read."""
+        if self.arm_set is not None:
+            return self.arm_set
+        return super().arm_positions()
+
+    def forget_base(self) -> None:
+        """Physics may have moved the base and the arm: read them again."""
+        super().forget_base()
+        self.arm_set = None
 
     def pose_set(self) -> RobotPose | None:
         """The base's and the arm's last setting (None: one of them was never set here)."""

@@ -290,6 +290,12 @@ class SimEnv:
         """(slug, x, y) of every worker now."""
         return [(w.slug, x, y) for w, (x, y, _) in zip(self.workers, self.worker_poses(), strict=True)]
 
+    def worker_xy_list(self) -> list[tuple[float, float]]:
+        """(x, y) of every worker now, as floats (the numbers of :meth:`worker_xy`)."""
+        if self.crowd is not None and not self.worker_motions:
+            return self.crowd.xy()
+        return [(x, y) for x, y, _ in self.worker_poses()]
+
     def worker_xy(self) -> np.ndarray:
         """(n, 2) positions of every worker now (read only; the same array until a worker moves)."""
         crowd_pos = self.crowd.pos if self.crowd is not None else None
