@@ -11,14 +11,17 @@ read and change.
 from __future__ import annotations
 
 import math
+from collections import deque
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 import numpy.typing as npt
 
 from kbplanner.simulation.separation import WORKER_RADIUS_M
-from kbplanner.simulation.social_force import SocialForceParams
-from kbplanner.simulation.workers import WorkerSpec
+from kbplanner.simulation.social_force import Obstacle, SocialForceParams
+from kbplanner.simulation.workers import WorkerSpec, _Router
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -78,3 +81,33 @@ class Agent:
         if self._points is None or self._points[0] is not self.path:
             self._points = (self.path, self.path.tolist())
         return self._points[1]
+
+
+class CrowdState(Protocol):
+    """What the crowd's parts read and change of the crowd (:class:`kbplanner.simulation.crowd.Crowd`)."""
+
+    agents: list[Agent]
+    router: _Router
+    dt: float
+    t: float
+    _xs: list[float]
+    _ys: list[float]
+    _history: deque[Obstacle | None]
+    _no_detour: dict[int, tuple[bytes, tuple[object, ...]]]
+
+    @property
+    def pos(self) -> FloatArray:
+        """(n, 2) positions."""
+        ...
+
+    def speed_list(self) -> list[float]:
+        """The walking speed of every worker."""
+        ...
+
+    def _way_target(self, a: Agent, p: FloatArray) -> FloatArray: ...
+
+    def _walkable_along(self, pts: FloatArray) -> bool: ...
+
+    def _free_at(self, q: FloatArray) -> bool: ...
+
+    def _clear_many(self, legs: Sequence[tuple[FloatArray, FloatArray]], robot: Obstacle) -> list[bool]: ...

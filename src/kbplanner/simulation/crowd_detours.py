@@ -13,19 +13,15 @@ from __future__ import annotations
 
 import math
 import struct
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-from kbplanner.simulation.crowd_agents import STUCK_S, STUCK_SPEED_MPS, FloatArray
+from kbplanner.simulation.crowd_agents import STUCK_S, STUCK_SPEED_MPS, CrowdState, FloatArray
 from kbplanner.simulation.separation import WORKER_RADIUS_M, reach_m
 from kbplanner.simulation.social_force import Obstacle
 
-if TYPE_CHECKING:
-    from kbplanner.simulation.crowd import Crowd
 
-
-def detours(crowd: Crowd, robot: Obstacle) -> None:
+def detours(crowd: CrowdState, robot: Obstacle) -> None:
     """A walking worker held up by the robot for STUCK_S walks round it (see module docstring)."""
     sp = crowd.speed_list()
     for i, a in enumerate(crowd.agents):

@@ -16,7 +16,6 @@ the latest.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -26,17 +25,15 @@ from kbplanner.simulation.crowd_agents import (
     MAKE_WAY_MAX_HOLD_S,
     MAKE_WAY_RINGS_M,
     OFF_PATH_M,
+    CrowdState,
     FloatArray,
     Yield,
 )
 from kbplanner.simulation.social_force import Obstacle
 from kbplanner.simulation.walk_checks import legs_clear_of, stretch
 
-if TYPE_CHECKING:
-    from kbplanner.simulation.crowd import Crowd
 
-
-def make_way(crowd: Crowd, i: int, path: FloatArray, clear_m: float) -> tuple[float, float] | None:
+def make_way(crowd: CrowdState, i: int, path: FloatArray, clear_m: float) -> tuple[float, float] | None:
     """Worker ``i`` makes way for the robot, whose remaining ``path`` (n, 2, base centre) must pass
     them by ``clear_m`` (footprint reach + S_p + the worker's radius): the spot (see module docstring),
     or None (nowhere better to stand). The worker stays there until the robot has passed."""
@@ -94,7 +91,7 @@ def make_way(crowd: Crowd, i: int, path: FloatArray, clear_m: float) -> tuple[fl
     return spot
 
 
-def release(crowd: Crowd, robot: Obstacle | None) -> None:
+def release(crowd: CrowdState, robot: Obstacle | None) -> None:
     """Workers who made way go back once the robot has passed (see module docstring)."""
     for a in crowd.agents:
         y = a.yielding

@@ -15,7 +15,6 @@ the former code took it and ``np.hypot`` where it did, so the numbers are identi
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -26,16 +25,14 @@ from kbplanner.simulation.crowd_agents import (
     WAY_ROUTED_M,
     WAYPOINT_REACHED_M,
     Agent,
+    CrowdState,
     FloatArray,
 )
-
-if TYPE_CHECKING:
-    from kbplanner.simulation.crowd import Crowd
 
 _hypot = np.hypot  # on two floats: the numbers of np.hypot on numpy rows
 
 
-def desired_rows(crowd: Crowd) -> list[tuple[float, float]]:
+def desired_rows(crowd: CrowdState) -> list[tuple[float, float]]:
     """The desired velocity (x, y) of every worker: along their route, or back to their anchor."""
     rows: list[tuple[float, float]] = []
     xs, ys = crowd._xs, crowd._ys
@@ -81,7 +78,7 @@ def desired_rows(crowd: Crowd) -> list[tuple[float, float]]:
     return rows
 
 
-def way_target(crowd: Crowd, a: Agent, p: FloatArray) -> FloatArray:
+def way_target(crowd: CrowdState, a: Agent, p: FloatArray) -> FloatArray:
     """Where a waiting worker heads for: their anchor, along a walking path (the router's) when it is
     more than ``WAY_ROUTED_M`` away; the path is planned again from where they are when they have
     made little headway for ``STUCK_S`` (not ``HEADWAY_M`` nearer along it: pushed aside by the robot,
