@@ -36,6 +36,7 @@ from __future__ import annotations
 import logging
 import math
 import zlib
+from collections.abc import Sequence
 from dataclasses import replace
 
 import shapely
@@ -421,8 +422,9 @@ class NavigationSkill(Skill):
             if f < 0:
                 return self.fail(f"blocked by a worker for {self.blocked_s:.0f} s")
             if f > 0:
+                full = f == 1.0  # (then the pose is ``nxt``: the same progress)
                 head.s = min(head.s + f, last)
-                x, y, yaw = head.at(head.s)
+                x, y, yaw = nxt if full else head.at(head.s)
                 env.set_base_pose(x, y, yaw)
                 self.driven_m += math.hypot(x - here[0], y - here[1])
             return Status.RUNNING
@@ -437,9 +439,10 @@ class NavigationSkill(Skill):
             return self.fail(f"ended {err:.3f} m from the base pose")
         return Status.SUCCESS
 
-    def _rects(self) -> list[Rect]:
+    def _rects(self) -> Sequence[Rect]:
+        """The hazard footprint's rectangles now (the very list, not a copy: nobody changes it)."""
         env = self.c.env
-        return list(env.hazard().rects if env.hazard is not None else env.robot.spec.footprint().rects)
+        return env.hazard().rects if env.hazard is not None else env.robot.spec.footprint().rects
 
     def _end_slow(self) -> None:
         if self.slow_since is not None:
@@ -460,8 +463,8 @@ class NavigationSkill(Skill):
         sweep = rate * reach_m(rects)
         return self._monitor(env.base_pose(), env.base_pose(), sweep_mps=sweep, rects=rects, replan=False)
 
-    def _monitor(self, here: Pose2D, nxt: Pose2D, *, sweep_mps: float = 0.0, rects: list[Rect] | None = None,
-                 replan: bool = True) -> float:
+    def _monitor(self, here: Pose2D, nxt: Pose2D, *, sweep_mps: float = 0.0,
+                 rects: Sequence[Rect] | None = None, replan: bool = True) -> float:
         """Speed and separation monitoring for one period: the fraction of the step to drive (-1: give up);
         ``replan`` False: stopped for ``replan_after_s``, only ask the person to make way."""
         env = self.c.env
