@@ -103,14 +103,18 @@ def _one(src: Path, source: str | None, scenario: str, seed: int, out: Path, ove
 
 
 def bench(before_src: Path, scenarios: list[str], seeds: list[int], determinism: bool, runs: Path,
-          jobs: int, sources: dict[str, str | None], over: float) -> list[dict[str, Any]]:
-    """Every (scenario, seed) run by both trees; a row per pair with the figures of each."""
+          jobs: int, sources: dict[str, str | None], over: float, only: str | None = None
+          ) -> list[dict[str, Any]]:
+    """Every (scenario, seed) run by both trees (``only``: by that one, no rows); a row per pair with the
+    figures of each."""
     trees = {"before": before_src, "after": REPO / "src"}
-    work = [(s, n, label) for s in scenarios for n in seeds for label in trees]
+    work = [(s, n, label) for s in scenarios for n in seeds for label in trees if only in (None, label)]
     with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
         done = list(pool.map(lambda w: _one(trees[w[2]], sources[w[2]], w[0], w[1],
                                             runs / w[2] / f"{w[0]}-{w[1]}", over), work))
     got = {w: f for w, f in zip(work, done, strict=True)}
+    if only is not None:
+        return []
     rows = []
     for s in scenarios:
         for n in seeds:
@@ -223,6 +227,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seeds", help="several seeds, e.g. 1-20 (instead of --seed)")
     ap.add_argument("--jobs", type=int, default=1, help="commands run at a time")
     ap.add_argument("--keep", type=Path, help="keep the run folders here (and take those of the same commit)")
+    ap.add_argument("--only", choices=("before", "after"),
+                    help="with --keep: make only these runs (kept for a later run), report nothing")
     ap.add_argument("--leg-over", type=float, default=1.15, help="list legs with driven / shortest over this")
     ap.add_argument("--determinism", action="store_true", help="run this tree twice, compare the outputs")
     ap.add_argument("--out", type=Path, default=RESULTS_DIR / "path_quality.json")
@@ -240,7 +246,11 @@ def main(argv: list[str] | None = None) -> int:
         tmp = Path(tmp_name)
         before_src = _export(args.before, tmp)
         runs = args.keep.resolve() if args.keep else tmp / "runs"
-        rows = bench(before_src, scenarios, seeds, args.determinism, runs, args.jobs, sources, args.leg_over)
+        rows = bench(before_src, scenarios, seeds, args.determinism, runs, args.jobs, sources, args.leg_over,
+                     args.only if args.keep else None)
+    if args.only and args.keep:
+        sys.stdout.write(f"made the {args.only} runs under {args.keep}\n")
+        return 0
     out = {"machine": machine_info(("python", "cpus", "platform")), "before": args.before,
            "before_commit": sources["before"], "after_commit": sources["after"], "leg_over": args.leg_over,
            "load_average_start": load_before, "load_average_end": list(os.getloadavg()), "scenarios": rows}
