@@ -7,9 +7,10 @@ of those per-run figures over the seeds, and a table of the legs (navigation ste
 is over ``--leg-over`` (default 1.15) with what they did (carry modes, replans, stops).
 
 The baseline is a git ref (default ``main``) exported with ``git archive``; both run
-``kbplanner simulate data/case_study --scenario S --seed N --out DIR`` with the shared virtualenv (the
-helpers of ``bench_simspeed.py``). ``--determinism`` runs this tree a second time per scenario and
-checks that ``trajectories.csv``, ``events.jsonl`` and ``metrics.json`` are byte-identical. ``--jobs N``
+``kbplanner simulate data/case_study --scenario S --seed N --out DIR --no-keyframes`` with the shared
+virtualenv (the export of ``bench_simspeed.py``). ``--determinism`` runs this tree a second time per
+scenario and checks that ``trajectories.csv``, ``events.jsonl`` and ``metrics.json`` are byte-identical.
+``--jobs N``
 runs N commands at a time; ``--keep DIR`` keeps the run folders under DIR (``before/S-N``, ``after/S-N``)
 and takes a folder already there when it was written by the same commit (the baseline's, or this tree's
 ``HEAD`` with no uncommitted change), so the baseline's runs can be made once.
@@ -33,11 +34,24 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
-from _common import REPO, RESULTS_DIR, machine_info, write_json
-from bench_simspeed import _export, _run
+from _common import REPO, RESULTS_DIR, machine_info, run_measured, write_json
+from bench_simspeed import _export
 
 SAME = ("trajectories.csv", "events.jsonl", "metrics.json")
 STAMP = "bench_source.txt"  # in a kept run folder: the commit whose sources wrote it
+
+
+def _run(src: Path, scenario: str, seed: int, out: Path, log: Path) -> dict[str, Any]:
+    """``kbplanner simulate`` of the case study by the sources ``src`` (no key frames: the figures are
+    those of ``metrics.json``, which key frames do not change), measured."""
+    env = dict(os.environ, PYTHONPATH=str(src))
+    cmd = [sys.executable, "-m", "kbplanner", "simulate", str(src.parent / "data" / "case_study"),
+           "--scenario", scenario, "--seed", str(seed), "--out", str(out), "--no-keyframes"]
+    measured = run_measured(cmd, log=log, timeout_s=1800.0, env=env)
+    if not (out / "metrics.json").is_file():
+        tail = log.read_text()[-2000:]
+        raise SystemExit(f"{' '.join(cmd)} wrote no run (exit {measured['exit']}):\n{tail}")
+    return {"command_s": measured["seconds"], "exit": measured["exit"], "cpu_s": measured["cpu_s"]}
 
 
 def _legs(metrics: dict[str, Any], over: float) -> list[dict[str, Any]]:
