@@ -10,10 +10,9 @@ The baseline is a git ref (default ``main``) exported with ``git archive``; both
 ``kbplanner simulate data/case_study --scenario S --seed N --out DIR --no-keyframes`` with the shared
 virtualenv (the export of ``bench_simspeed.py``). ``--determinism`` runs this tree a second time per
 scenario and checks that ``trajectories.csv``, ``events.jsonl`` and ``metrics.json`` are byte-identical.
-``--jobs N``
-runs N commands at a time; ``--keep DIR`` keeps the run folders under DIR (``before/S-N``, ``after/S-N``)
-and takes a folder already there when it was written by the same commit (the baseline's, or this tree's
-``HEAD`` with no uncommitted change), so the baseline's runs can be made once.
+``--jobs N`` runs N commands at a time; ``--keep DIR`` keeps the run folders under DIR (``before/S-N``,
+``after/S-N``) and takes a folder already there when it was written by the same commit (the
+baseline's, or this tree's ``HEAD`` with no uncommitted change), so the baseline's runs can be made once.
 
 Usage: .venv/bin/python benchmarks/bench_path_quality.py [--before REF] [--scenario S ...] [--seed N |
 --seeds 1-20] [--jobs N] [--keep DIR] [--determinism]. Prints a table (Markdown, as in docs/scale.md) and
