@@ -29,7 +29,7 @@ def test_the_turn_pose_of_the_quickest_pair_of_legs_is_taken() -> None:
     # quicker than the nearest, 0.5 m to the side (1.0 s + 10.01 s)
     assert math.isclose(pose[0], 0.75 * math.cos(math.pi / 4)) and math.isclose(pose[1], -pose[0])
     assert a == f"a {pose[:2]}" and b == f"b {pose[:2]}"
-    assert seconds == 2.0 * 0.5 + math.hypot(10.0 - pose[0], pose[1])
+    assert math.isclose(seconds, 2.0 * 0.75 + math.hypot(10.0 - pose[0], pose[1]))
 
 
 def test_no_turn_pose_or_no_legs_give_none() -> None:
