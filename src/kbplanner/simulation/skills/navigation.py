@@ -49,7 +49,7 @@ from kbplanner.planning.plan_model import Pose2
 from kbplanner.planning.pose_frames import as_pose6_list
 from kbplanner.robot.lidar import LidarSpec, lidar_spec
 from kbplanner.simulation.base_trajectory import time_parameterize
-from kbplanner.simulation.carry_paths import plan_with_carry_modes
+from kbplanner.simulation.carry_paths import cell_alternatives, plan_with_carry_modes
 from kbplanner.simulation.grid_yardstick import grid_shortest_path_length
 from kbplanner.simulation.nav_path import NavSettings
 from kbplanner.simulation.navigation import plan_path
@@ -247,7 +247,26 @@ class NavigationSkill(Skill):
                 seconds = self._drive_s(route)
             if route.length_m <= DETOUR_RATIO * best:
                 break
+        if route.length_m > DETOUR_RATIO * best and space is not None:
+            route = self._cells_instead(route, space, start, goal, settings, seconds)
         return route, space
+
+    def _cells_instead(self, route: Route, space: ConfigurationSpace, start: Pose2D, goal: Pose2D,
+                       settings: NavSettings, seconds: float) -> Route:
+        """A one-mode leg still round the long way: the quickest to drive of it and the cell routes on its
+        space (:func:`~kbplanner.simulation.carry_paths.cell_alternatives`)."""
+        modes = {(m, id(sp)) for _, m, sp in route.pieces}
+        if len(modes) != 1 or route.pieces[0][2] is not space:
+            return route
+        mode = route.pieces[0][1]
+        for alt in cell_alternatives(space, start, goal, settings):
+            self.details["planning_time_s"] += alt.planning_time_s
+            narrow = alt.length_m if mode == NARROW else 0.0
+            other = Route([(list(alt.poses), mode, space)], alt.length_m, narrow)
+            if self._drive_s(other) < seconds - 1e-9:
+                route, seconds = other, self._drive_s(other)
+                self.details["planner"] = alt.planner
+        return route
 
     def _timed(self, leg: Route | str, why: list[str]) -> tuple[Route, float] | None:
         """A planned leg and how long driving it takes (None, the reason kept in ``why``, if it failed)."""
