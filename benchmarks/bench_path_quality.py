@@ -11,8 +11,9 @@ The baseline is a git ref (default ``main``) exported with ``git archive``; both
 virtualenv (the export of ``bench_simspeed.py``). ``--determinism`` runs this tree a second time per
 scenario and checks that ``trajectories.csv``, ``events.jsonl`` and ``metrics.json`` are byte-identical.
 ``--jobs N`` runs N commands at a time; ``--keep DIR`` keeps the run folders under DIR (``before/S-N``,
-``after/S-N``) and takes a folder already there when it was written by the same commit (the
-baseline's, or this tree's ``HEAD`` with no uncommitted change), so the baseline's runs can be made once.
+``after/S-N``) and takes a folder already there when it was written by the same sources (the baseline's,
+or this tree's committed ones: git trees of src, data, ontology, shapes), so the baseline's runs can be
+made once.
 
 Usage: .venv/bin/python benchmarks/bench_path_quality.py [--before REF] [--scenario S ...] [--seed N |
 --seeds 1-20] [--jobs N] [--keep DIR] [--determinism]. Prints a table (Markdown, as in docs/scale.md) and
@@ -91,14 +92,18 @@ def _figures(run: Path, measured: dict[str, Any], over: float) -> dict[str, Any]
             "exit": measured.get("exit")}
 
 
+SOURCES = ("src", "data", "ontology", "shapes")  # what a run reads: a kept run is of the same trees
+
+
 def _source_id(ref: str | None) -> str | None:
-    """The commit of ``ref`` (None: this tree's HEAD, or None where the tree has uncommitted changes)."""
+    """The git trees of ``SOURCES`` at ``ref`` (None: this tree's ``HEAD``, or None where they have
+    uncommitted changes): a commit that changes only docs or benchmarks keeps the runs."""
     def git(*args: str) -> str:
         return subprocess.run(["git", "-C", str(REPO), *args], check=True, capture_output=True,
                               text=True).stdout.strip()
-    if ref is not None:
-        return git("rev-parse", ref)
-    return None if git("status", "--porcelain", "--untracked-files=no") else git("rev-parse", "HEAD")
+    if ref is None and git("status", "--porcelain", "--untracked-files=no", "--", *SOURCES):
+        return None
+    return " ".join(git("rev-parse", f"{ref or 'HEAD'}:{d}") for d in SOURCES)
 
 
 def _one(src: Path, source: str | None, scenario: str, seed: int, out: Path, over: float
