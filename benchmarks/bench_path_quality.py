@@ -140,6 +140,7 @@ def bench(before_src: Path, scenarios: list[str], seeds: list[int], determinism:
                                    "after": got[(s, n, "after")]}
             if determinism:
                 again = runs / "after-again" / f"{s}-{n}"
+                again.parent.mkdir(parents=True, exist_ok=True)
                 _run(REPO / "src", s, n, again, again.with_name(again.name + ".log"))
                 row["after_identical_on_repeat"] = all(
                     (runs / "after" / f"{s}-{n}" / f).read_bytes() == (again / f).read_bytes() for f in SAME)
