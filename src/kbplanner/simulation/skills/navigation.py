@@ -49,7 +49,7 @@ from kbplanner.planning.plan_model import Pose2
 from kbplanner.planning.pose_frames import as_pose6_list
 from kbplanner.robot.lidar import LidarSpec, lidar_spec
 from kbplanner.simulation.base_trajectory import time_parameterize
-from kbplanner.simulation.carry_paths import cell_alternatives, plan_with_carry_modes
+from kbplanner.simulation.carry_paths import cell_alternatives, cells_first, plan_with_carry_modes
 from kbplanner.simulation.grid_yardstick import grid_shortest_path_length
 from kbplanner.simulation.nav_path import NavSettings
 from kbplanner.simulation.navigation import plan_path
@@ -210,7 +210,10 @@ class NavigationSkill(Skill):
         """A leg planned on ``sub`` with its configuration space, or why there is none."""
         if narrow is None:
             cs = configuration_space(sub, fp, settings.n_yaw_bins, settings.margin_m)  # kept per process
-            path = plan_path(cs, start, goal, settings=settings)  # as plan_path(sub, ..., fp) builds it
+            # a carry leg in one mode through a narrow passage takes the cell route, as NV-2's legs do
+            routed = cells_first(cs, start, goal, settings) if self.geo is not None else None
+            # (plan_path(cs, ...) as plan_path(sub, ..., fp) builds it)
+            path = routed or plan_path(cs, start, goal, settings=settings)
             self.details["planning_time_s"] += path.planning_time_s
             if not path.ok:
                 return path.reason
