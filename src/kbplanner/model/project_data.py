@@ -322,6 +322,7 @@ def _load_graphs(manifest: Manifest, scenario: str | None, say: ProgressFn,
         project_cache.write_entry(entry, project_cache.CachedProject(model, kb, import_dir, kb_files), reads,
                                   project_cache.declared_inputs(manifest, scenario),
                                   owner=project_cache.owner_of(manifest, scenario))
+        project_cache.note_edits(model, kb)  # as when read back from the entry: unedited, until edited
     return model, kb, import_dir, kb_files
 
 

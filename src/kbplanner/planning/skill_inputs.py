@@ -152,16 +152,7 @@ def pose_numbers(graph: Graph, node: Node) -> list[float] | None:
         >>> pose_numbers(Graph(), URIRef("urn:x:nothing")) is None
         True
     """
-    kept = memo(graph) if not evaluates_text(graph) else None
-    if kept is not None:  # a loaded model, unedited: every pose's rows at once, in the query's order
-        if "plan_pose" not in kept:
-            every: dict[Node | None, list[dict[str, Node | None]]] = {}
-            for row in select(graph, "plan_pose"):
-                every.setdefault(row["pose"], []).append(row)
-            kept["plan_pose"] = every
-        rows = kept["plan_pose"].get(node, [])
-    else:
-        rows = select(graph, "plan_pose", pose=node)  # type: ignore[arg-type]
+    rows = select(graph, "plan_pose", pose=node)  # type: ignore[arg-type]
     for row in rows:
         xyz = _numbers(row, ("x", "y", "z"), None)
         angles = _numbers(row, ("roll", "pitch", "yaw"), 0.0)
