@@ -11,7 +11,7 @@ from kbplanner.planning.base_poses import escapes
 from kbplanner.planning.carry_reach import CarryReach
 from kbplanner.planning.plan_model import Pose2
 from kbplanner.world import cspace_cache
-from kbplanner.world.cspace_join import PartJoin
+from kbplanner.world.cspace_join import PartJoin, part_free
 from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect
 from kbplanner.world.occupancy import OccupancyGrid
 
@@ -75,6 +75,26 @@ def test_a_part_decides_as_the_whole_space(seed: int, diagonal: bool) -> None:
                 decided[got] += 1
             assert part.joined(a, (a[0] + 50.0, a[1], a[2])) is None  # a pose off the part
     assert decided[True] > 0 and decided[False] > 0
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_part_free_is_the_whole_build_on_the_part(seed: int) -> None:
+    """The part's free maps, computed on the part grown by the kernels' reach only, are the whole grid's
+    build cut to the part: inside, at the grid's edges (cells off it occupied), for a footprint whose
+    kernels repeat half a turn later (kept once) and for 72 bins."""
+    g = _rooms(seed)
+    rng = np.random.default_rng(200 + seed)
+    ny, nx = g.shape
+    symmetric = Footprint((Rect(0, 0, 0.6, 0.4),), "symmetric")
+    for fp, bins in [(FOOTPRINTS[0], BINS), (FOOTPRINTS[1], BINS), (symmetric, BINS), (FOOTPRINTS[1], 72)]:
+        whole = ConfigurationSpace.build(g, fp, bins)
+        for _ in range(3):
+            y0, x0 = int(rng.integers(0, ny // 2)), int(rng.integers(0, nx // 2))
+            region = (y0, int(rng.integers(y0 + 1, ny + 1)), x0, int(rng.integers(x0 + 1, nx + 1)))
+            got = part_free(g, fp, region, bins)
+            np.testing.assert_array_equal(got, whole.free[:, region[0]:region[1], region[2]:region[3]])
+        edge = (0, ny, nx - 7, nx)  # a strip at the grid's edge: off-grid cells occupied
+        np.testing.assert_array_equal(part_free(g, fp, edge, bins), whole.free[:, :, nx - 7:])
 
 
 @pytest.mark.parametrize("seed", range(4))

@@ -8,6 +8,7 @@ half-written file that looks complete. JSON is strict: a NaN or infinity is refu
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import math
@@ -19,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from kbplanner.core.errors import KbplannerError
+from kbplanner.core.later_bytes import resolved
 from kbplanner.core.output_dirs import run_directory
 
 __all__ = ["atomic_write_bytes", "atomic_write_text", "file_mode", "input_hashes", "json_text",
@@ -40,7 +42,11 @@ def file_mode() -> int:
 
 
 def atomic_write_bytes(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` via a temporary file in the same directory and ``os.replace``."""
+    """Write ``data`` to ``path`` via a temporary file in the same directory and ``os.replace``.
+
+    ``data`` may be a :class:`~kbplanner.core.later_bytes.LaterBytes` (a key frame a worker process
+    renders): its content is waited for first."""
+    data = resolved(data)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
@@ -111,14 +117,21 @@ _PACKAGES = ("kbplanner", "rdflib", "pyshacl", "owlready2", "ifcopenshell", "pyb
 
 
 def versions() -> dict[str, str]:
-    """Versions of Python and of the packages a run depends on."""
-    out = {"python": platform.python_version()}
+    """Versions of Python and of the packages a run depends on (a new dict each call)."""
+    return dict(_versions())
+
+
+@functools.cache
+def _versions() -> tuple[tuple[str, str], ...]:
+    """The versions, read once per process (``importlib.metadata`` scans every installed distribution:
+    a command asked twice, for the refined-plan cache's key and the run's manifest)."""
+    out = [("python", platform.python_version())]
     for name in _PACKAGES:
         try:
-            out[name] = metadata.version(name)
+            out.append((name, metadata.version(name)))
         except metadata.PackageNotFoundError:
-            out[name] = "not installed"
-    return out
+            out.append((name, "not installed"))
+    return tuple(out)
 
 
 def input_hashes(files: list[Path], root: Path) -> dict[str, str]:

@@ -1,4 +1,3 @@
-# Over 500 lines: the entry (key, read, write), its pickled graphs (seal, edits) and kept rows; to split.
 """The project cache (4D model loading): a loaded project kept by a content hash of all its inputs.
 
 Loading a project imports the IFC (itself cached, :func:`kbplanner.model.project_data.import_cached`),
@@ -33,41 +32,48 @@ merged graph (model + knowledge base) the queries run on, so that the next comma
 
 from __future__ import annotations
 
-import gc
 import hashlib
-import io
 import json
 import logging
 import os
-import pickle
 import shutil
 import tempfile
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from datetime import date, datetime
-from decimal import Decimal
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from rdflib import Graph, Literal, URIRef
+from rdflib import Graph
 from rdflib.exceptions import ParserError
-from rdflib.plugins.stores.memory import Memory
 
-from kbplanner.core.cache_seal import seal, sealed
-from kbplanner.core.named_queries import QueryResult
-from kbplanner.core.rdf_io import bind_prefixes
 from kbplanner.core.resources import data_dir, ontology_files
 from kbplanner.core.version import __version__
+from kbplanner.model.graph_pickle import (
+    GRAPHS,
+    KeptMemory,
+    dump_graphs,
+    keep_graphs,
+    load_graphs,
+    merged_graph,
+    note_edits,
+    umask,
+    unedited,
+)
+from kbplanner.model.kept_rows import META, ROWS, graphs_stamp, read_rows, write_rows
 
 if TYPE_CHECKING:
     from kbplanner.model.project_manifest import Manifest
+
+__all__ = ["GRAPHS", "META", "ROWS", "CacheEntry", "CachedProject", "KeptMemory", "dump_graphs", "entry_dir",
+           "entry_key", "graphs_stamp", "keep_graphs", "load_graphs", "merged_graph", "read_entry",
+           "read_rows", "unedited", "write_entry", "write_rows"]
 
 log = logging.getLogger(__name__)
 
 FORMAT = "2"
 NO_CACHE_ENV = "KBPLANNER_NO_CACHE"
 SUBDIR = "project"
-MODEL_NT, KB_NT, GRAPHS, META = "model.nt", "kb.nt", "graphs.pickle", "meta.json"
+MODEL_NT, KB_NT = "model.nt", "kb.nt"
 # The code that builds the graphs, and the named queries (the schedule reads one; the kept rows are theirs).
 _CODE_FILES = (("core", "*.py"), ("model", "*.py"), ("knowledge", "*.py"), ("queries", "*.rq"))
 
@@ -140,130 +146,6 @@ def entry_key(manifest: Manifest, scenario: str | None) -> str:
 def entry_dir(root: Path, manifest: Manifest, scenario: str | None) -> Path:
     """The folder of a project's cache entry under the cache ``root``."""
     return root / SUBDIR / entry_key(manifest, scenario)
-
-
-# ---- the merged graph, and the graphs pickled ------------------------------------------------------
-
-def merged_graph(model: Graph, kb: Graph) -> Graph:
-    """The model and the knowledge base in one graph (the graph the named queries run on)."""
-    g = Graph()
-    bind_prefixes(g)
-    for t in model:
-        g.add(t)
-    for t in kb:
-        g.add(t)
-    return g
-
-
-def _uriref(text: str) -> URIRef:
-    """An IRI as ``URIRef(text)`` makes it (without checking its characters again)."""
-    return str.__new__(URIRef, text)
-
-
-def _literal(lexical: str, language: str | None, datatype: URIRef | None, value: Any,
-             ill_typed: bool | None) -> Literal:
-    """A literal with the lexical form, language, datatype and value it was written with (not parsed
-    again)."""
-    lit = str.__new__(Literal, lexical)
-    lit._language = language
-    lit._datatype = datatype
-    lit._value = value
-    lit._ill_typed = ill_typed
-    return lit
-
-
-# the Python values of literals that pickle as themselves (others: the literal is parsed again)
-_PLAIN_VALUES = (type(None), str, bool, int, float, Decimal, datetime, date)
-
-
-class _TermPickler(pickle.Pickler):
-    """Pickles IRIs and literals by their parts, so that unpickling neither checks IRIs nor parses
-    literal values again (rdflib's own reduction does both: three quarters of the time)."""
-
-    def reducer_override(self, obj: Any) -> Any:
-        kind = type(obj)
-        if kind is URIRef:
-            return _uriref, (str(obj),)
-        if kind is Literal and type(obj._value) in _PLAIN_VALUES:
-            return _literal, (str(obj), obj._language, obj._datatype, obj._value, obj._ill_typed)
-        return NotImplemented
-
-
-def dump_graphs(model: Graph, kb: Graph, merged: Graph, stamp: str) -> bytes:
-    """The pickle of the three graphs of an entry and the stamp of the first two."""
-    buf = io.BytesIO()
-    _TermPickler(buf, protocol=pickle.HIGHEST_PROTOCOL).dump((model, kb, merged, stamp))
-    return buf.getvalue()
-
-
-class KeptMemory(Memory):
-    """The in-memory store of a graph unpickled from an entry: the same store, noting any edit (every
-    change of an rdflib graph reaches its store's ``add`` or ``remove``), so that the entry's stamp of
-    its graphs (:func:`graphs_stamp`, kept in ``graphs.pickle``) stands for them while none was made."""
-
-    edited = False
-
-    def add(self, triple: Any, context: Any, quoted: bool = False) -> None:
-        self.edited = True
-        super().add(triple, context, quoted)
-
-    def remove(self, triple: Any, context: Any = None) -> None:
-        self.edited = True
-        super().remove(triple, context)
-
-
-def unedited(*graphs: Graph) -> bool:
-    """Whether every graph is one unpickled from an entry and none was changed since."""
-    return all(isinstance(g.store, KeptMemory) and not g.store.edited for g in graphs)
-
-
-def _note_edits(*graphs: Graph) -> None:
-    for g in graphs:
-        if type(g.store) is Memory:
-            g.store.__class__ = KeptMemory
-
-
-def load_graphs(path: Path) -> tuple[Graph, Graph, Graph, str]:
-    """The model, knowledge-base and merged graphs and the stamp :func:`keep_graphs` wrote, if the file
-    bears this user's seal (:mod:`kbplanner.core.cache_seal`; else ValueError: nothing is unpickled).
-    The cyclic garbage collector is paused meanwhile: the hundred thousand containers unpickled would
-    start it dozens of times, four fifths of the time, to find nothing."""
-    mark, _, data = path.read_bytes().partition(b"\n")
-    if not sealed(data, mark.decode("ascii", "replace")):
-        raise ValueError(f"{path} is not sealed by this user's kbplanner")
-    paused = gc.isenabled()
-    gc.disable()
-    try:
-        got = pickle.loads(data)
-    finally:
-        if paused:
-            gc.enable()
-    if not (isinstance(got, tuple) and len(got) == 4 and all(isinstance(g, Graph) for g in got[:3])
-            and isinstance(got[3], str)):
-        raise ValueError(f"{path} holds no graphs")
-    _note_edits(got[0], got[1])  # the model and the knowledge base: their edits are noted
-    return got[0], got[1], got[2], got[3]
-
-
-def keep_graphs(entry: Path, model: Graph, kb: Graph, merged: Graph, stamp: str) -> None:
-    """Write ``graphs.pickle`` into ``entry`` (sealed; atomic replace; nothing where no key can be kept;
-    an error is logged, never raised)."""
-    try:
-        data = dump_graphs(model, kb, merged, stamp)
-        mark = seal(data)
-        if mark is None:
-            return
-        fd, tmp = tempfile.mkstemp(prefix=f".{GRAPHS}.", dir=entry)
-        try:
-            with os.fdopen(fd, "wb") as fh:
-                fh.write(mark.encode("ascii") + b"\n" + data)
-            os.chmod(tmp, 0o666 & ~_umask())
-            os.replace(tmp, entry / GRAPHS)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
-    except (OSError, pickle.PicklingError, TypeError, AttributeError) as exc:  # the pickle is an aid
-        log.info("graphs not kept in %s: %s", entry, exc)
 
 
 # ---- reading -------------------------------------------------------------------------------------
@@ -356,7 +238,7 @@ def read_entry(entry: Path, store: str | None = None) -> CacheEntry | None:
             merged = merged_graph(model, kb)
             stamp = graphs_stamp(model, kb)
             keep_graphs(entry, model, kb, merged, stamp)
-            _note_edits(model, kb)
+            note_edits(model, kb)
     except (OSError, ValueError, KeyError, TypeError, ParserError) as exc:  # missing, half-removed, damaged
         log.info("project cache %s not used: %s", entry, exc)
         return None
@@ -409,7 +291,7 @@ def write_entry(entry: Path, project: CachedProject, reads: Iterable[Path], decl
         project.model.serialize(tmp / MODEL_NT, format="nt", encoding="utf-8")
         project.kb.serialize(tmp / KB_NT, format="nt", encoding="utf-8")
         (tmp / META).write_text(json.dumps(meta, indent=1) + "\n", encoding="utf-8")  # last: marks it whole
-        os.chmod(tmp, 0o777 & ~_umask())
+        os.chmod(tmp, 0o777 & ~umask())
         if entry.exists():  # a stale entry (an owl:imports file changed): move it aside first
             stale = Path(tempfile.mkdtemp(prefix=f".{entry.name}.stale.", dir=entry.parent))
             os.replace(entry, stale / "entry")
@@ -446,77 +328,3 @@ def _remove_older(entry: Path, owner: str) -> None:
             continue
 
 
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
-# ---- query rows of a loaded project (the world tables, A6) ------------------------------------------
-
-ROWS = "rows"
-
-
-def graphs_stamp(*graphs: Graph) -> str:
-    """A hash of the triples of ``graphs``, whatever their order: the rows kept for an entry are used
-    only while the project's graphs are the ones loaded (an API user may have changed them since)."""
-    total = 0
-    for i, g in enumerate(graphs):
-        for s, p, o in g:
-            digest = hashlib.blake2b(f"{i} {s.n3()} {p.n3()} {o.n3()}".encode(), digest_size=16).digest()
-            total = (total + int.from_bytes(digest, "big")) % (1 << 128)
-    return f"{total:032x}"
-
-
-def _encode(value: Any) -> Any:
-    kind = type(value)
-    if value is None or kind in (str, bool, int, float):
-        return value
-    if kind is Decimal:
-        return {"decimal": str(value)}
-    if kind is datetime:
-        return {"datetime": value.isoformat()}
-    if kind is date:
-        return {"date": value.isoformat()}
-    raise TypeError(f"a value of type {kind.__name__} is not kept")
-
-
-_DECODERS: dict[str, Any] = {"decimal": Decimal, "datetime": datetime.fromisoformat,
-                             "date": date.fromisoformat}
-
-
-def _decode(value: Any) -> Any:
-    if isinstance(value, dict):
-        ((kind, text),) = value.items()
-        return _DECODERS[kind](text)
-    return value
-
-
-def read_rows(entry: Path, name: str, backend: str, stamp: str) -> QueryResult | None:
-    """The rows of the named query ``name`` kept in ``entry`` for graphs with ``stamp`` on ``backend``."""
-    try:
-        data = json.loads((entry / ROWS / f"{name}.{backend}.json").read_text(encoding="utf-8"))
-        if data["stamp"] != stamp:
-            return None
-        return QueryResult(columns=list(data["columns"]),
-                           rows=[tuple(_decode(v) for v in row) for row in data["rows"]])
-    except (OSError, ValueError, KeyError, TypeError):
-        return None
-
-
-def write_rows(entry: Path, name: str, backend: str, stamp: str, result: QueryResult) -> None:
-    """Keep the rows of ``name`` in ``entry`` (atomic replace); values of other types are not kept."""
-    try:
-        text = json.dumps({"stamp": stamp, "columns": result.columns,
-                           "rows": [[_encode(v) for v in row] for row in result.rows]}, allow_nan=False)
-        folder = entry / ROWS
-        if not (entry / META).is_file():
-            return
-        folder.mkdir(exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{name}.", dir=folder)
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.chmod(tmp, 0o666 & ~_umask())
-        os.replace(tmp, folder / f"{name}.{backend}.json")
-    except (OSError, ValueError, TypeError) as exc:
-        log.info("rows of %s not kept in %s: %s", name, entry, exc)

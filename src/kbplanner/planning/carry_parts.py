@@ -28,8 +28,8 @@ from kbplanner.world.occupancy import OccupancyGrid
 #: goals' centre; at most :data:`PARTS_PER_SPACE` parts per window and footprint, then the whole window.
 PART_MARGIN_CELLS = 30
 PARTS_PER_SPACE = 2
-#: joint_components counts the label pairs of two footprints in an array of this many keys at most
-DENSE_PAIR_KEYS = 1 << 20
+#: joint_components marks the label pairs of two footprints in an array of this many keys at most
+DENSE_PAIR_KEYS = 1 << 24
 
 
 def joint_components(parts: Sequence[tuple[npt.NDArray[np.int32], npt.NDArray[np.int64]]]
@@ -67,14 +67,18 @@ def joint_components(parts: Sequence[tuple[npt.NDArray[np.int32], npt.NDArray[np
 def _label_pairs(li: npt.NDArray[np.int32], ni: int, lj: npt.NDArray[np.int32],
                  nj: int) -> npt.NDArray[np.int64]:
     """The distinct pairs of non-zero labels (``li < ni``, ``lj < nj``) on the same cell, as sorted keys
-    ``li * nj + lj``: counted per key (labels are few) where the keys fit :data:`DENSE_PAIR_KEYS`, else
-    the unique keys of the cells free in both (the same keys)."""
+    ``li * nj + lj``: marked per key in a boolean array (labels are few; cheaper than counting them)
+    where the keys fit :data:`DENSE_PAIR_KEYS`, else the unique keys of the cells free in both (the same
+    keys)."""
     if ni * nj <= DENSE_PAIR_KEYS:
-        # keys below DENSE_PAIR_KEYS: no overflow in the labels' own integer type
-        counts = np.bincount((li * nj + lj).ravel(), minlength=ni * nj).reshape(ni, nj)
-        counts[0, :] = 0  # label 0: not free
-        counts[:, 0] = 0
-        return np.flatnonzero(counts).astype(np.int64)
+        # keys below DENSE_PAIR_KEYS < 2**31: no overflow in int32
+        keys = np.multiply(li, nj, dtype=np.int32)
+        keys += lj
+        seen = np.zeros((ni, nj), dtype=bool)
+        seen.reshape(-1)[keys.ravel()] = True
+        seen[0, :] = False  # label 0: not free
+        seen[:, 0] = False
+        return np.flatnonzero(seen).astype(np.int64)
     both = (li > 0) & (lj > 0)
     return np.unique(li[both].astype(np.int64) * nj + lj[both])
 

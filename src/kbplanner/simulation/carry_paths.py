@@ -180,6 +180,33 @@ def cells_first(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: N
     return path if path is not None and path.ok else None
 
 
+DETOUR_CORRIDORS_M = (0.5, 1.0)  # corridor radii of the cell routes tried for a leg gone round the long way
+
+
+def cell_alternatives(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSettings
+                      ) -> list[NavPath]:
+    """Cell routes from start to goal on ``cs`` for a leg the planner drove round the long way (the caller
+    times them against its path): through free cells within each of ``DETOUR_CORRIDORS_M`` of the grid's
+    shortest path (:func:`~kbplanner.simulation.corridor_cells.corridor_cells`) and through the whole
+    window's (:func:`~kbplanner.simulation.cell_path.face_path`), each shortened by exact motion checks in
+    the same space, distinct paths only; no random numbers (the same routes for every seed)."""
+    if not (cs.is_free(*start) and cs.is_free(*goal)):
+        return []
+    out: list[NavPath] = []
+    seen: set[tuple[Pose2D, ...]] = set()
+    why = "round the long way: a cell route tried"
+    for radius in (*DETOUR_CORRIDORS_M, None):
+        t0 = time.perf_counter()
+        cells = face_path(cs, start, goal) if radius is None else corridor_cells(cs, start, goal, radius)
+        if cells is None:
+            continue
+        path = cell_route(cs, start, goal, settings, t0, why, cells)
+        if path is not None and path.ok and path.poses not in seen:
+            seen.add(path.poses)
+            out.append(path)
+    return out
+
+
 def plan_with_carry_modes(
     grid: OccupancyGrid,
     start: Pose2D,

@@ -240,6 +240,7 @@ class _Run:
                        action=step.action_label if step else "", details=details)
         if self.settings.keyframes and kind in KEYFRAME_EVENTS and kind not in self._frames_done:
             self._frames_done.add(kind)
+            self.env.sync()
             self.keyframes.append((kind, render_png(self.env, self.settings.keyframe_size)))
 
     def sample(self, force: bool = False, arm: tuple[float, ...] | None = None) -> None:
@@ -263,6 +264,7 @@ class _Run:
         self.ctx.step = None
         self.emit("end", installed=sum(1 for e in out if e.outcome == INSTALLED), elements=len(out))
         if self.settings.keyframes:
+            self.env.sync()
             self.keyframes.append(("end", render_png(self.env, self.settings.keyframe_size)))
         self.sample(force=True)
         return out

@@ -49,8 +49,15 @@ def clean(value: Any) -> Any:
     return value
 
 
+_Sample = tuple[float, float, float, float, Sequence[float], str, str, "int | None",
+                list[tuple[float, float]]]
+
+
 class Recorder:
-    """Collects trajectory rows and events of one run (see module docstring)."""
+    """Collects trajectory rows and events of one run (see module docstring).
+
+    (A row's numbers are kept as they are recorded and written out as text once, by
+    :meth:`trajectories_csv`: the same cells, not formatted every period.)"""
 
     def __init__(self, env: SimEnv, record_hz: float) -> None:
         self.env = env
@@ -60,7 +67,8 @@ class Recorder:
         self.header = ["t_s", "x", "y", "yaw", *joints, "carried", "carry_mode", "step"]
         for w in env.workers:
             self.header += [f"{w.slug}_x", f"{w.slug}_y"]
-        self.rows: list[str] = [",".join(self.header)]
+        self._samples: list[_Sample] = []
+        self._text: tuple[int, list[str]] | None = None  # rows as text, of how many samples
         # one format per row part (the cells of _f: t in 10 ms, robot in 0.1 mm / mrad, workers in mm)
         self._robot_format = ",".join(["%.2f", *["%.4f"] * (3 + n)])
         self._worker_format = "".join(",%.3f,%.3f" for _ in env.workers)
@@ -77,10 +85,23 @@ class Recorder:
         self._last_tick = env.tick
         x, y, yaw = env.base_pose()
         q = env.robot.arm_positions() if arm is None else arm
-        robot = _fixed(self._robot_format % (env.t, x, y, yaw, *q))
-        workers = [v for wx, wy, _ in env.worker_poses() for v in (wx, wy)]  # in env.workers' order
-        tail = "".join([",", carried, ",", carry_mode, ",", "" if step is None else str(step)])
-        self.rows.append(robot + tail + (_fixed(self._worker_format % tuple(workers)) if workers else ""))
+        self._samples.append((env.t, x, y, yaw, q, carried, carry_mode, step, env.worker_xy_list()))
+
+    @property
+    def rows(self) -> list[str]:
+        """The header and one text row per sample (the trajectory table's lines)."""
+        done = self._text
+        if done is None or done[0] != len(self._samples):
+            robot_format, worker_format = self._robot_format, self._worker_format
+            rows = [",".join(self.header)]
+            for t, x, y, yaw, q, carried, carry_mode, step, xy in self._samples:
+                robot = _fixed(robot_format % (t, x, y, yaw, *q))
+                tail = "".join([",", carried, ",", carry_mode, ",", "" if step is None else str(step)])
+                workers = tuple(v for wx, wy in xy for v in (wx, wy))  # in env.workers' order
+                rows.append(robot + tail + (_fixed(worker_format % workers) if workers else ""))
+            done = (len(self._samples), rows)
+            self._text = done
+        return done[1]
 
     def event(self, kind: str, *, step: int | None, element: str, action: str,
               details: dict[str, Any]) -> None:

@@ -44,6 +44,7 @@ from kbplanner.simulation.social_force import Obstacle
 from kbplanner.world.footprint import Rect
 
 FIXED_THRESHOLD_M = 1.0
+Pose = tuple[float, float, float]
 
 
 class ContactMonitor:
@@ -63,37 +64,44 @@ class ContactMonitor:
         self.inside: dict[str, float] = {}
         self.count = 0
         self._prev_pose = env.base_pose()
-        self._prev_xy = env.worker_xy()
-        self._robot_speed = 0.0
+        self._prev_xy = env.worker_xy_list()
+        # this period's robot move: the poses before and after, and the footprint (its speed is worked
+        # out when a collision event needs it)
+        self._move: tuple[Pose, Pose, Sequence[Rect]] | None = None
+
+    @property
+    def _robot_speed(self) -> float:
+        """The robot's speed in this period: translation plus yaw rate times the footprint's reach."""
+        if self._move is None:
+            return 0.0
+        prev, pose, rects = self._move
+        reach = reach_m(rects)
+        dyaw = math.atan2(math.sin(pose[2] - prev[2]), math.cos(pose[2] - prev[2]))
+        return (math.hypot(pose[0] - prev[0], pose[1] - prev[1]) + abs(dyaw) * reach) * self.env.control_hz
 
     def after_robot(self) -> None:
         """Check after the robot's move in this period."""
         pose = self.env.base_pose()
-        hz = self.env.control_hz
         obs = self.hazard()
-        reach = reach_m(obs.rects)
-        dyaw = math.atan2(math.sin(pose[2] - self._prev_pose[2]), math.cos(pose[2] - self._prev_pose[2]))
-        self._robot_speed = (
-            math.hypot(pose[0] - self._prev_pose[0], pose[1] - self._prev_pose[1]) + abs(dyaw) * reach
-        ) * hz
+        self._move = (self._prev_pose, pose, obs.rects)
         self._prev_pose = pose
         self._check(obs, "robot moved into the worker")
 
     def after_workers(self) -> None:
         """Check after the workers' move in this period."""
         self._check(self.hazard(), "worker walked into the robot")
-        self._prev_xy = self.env.worker_xy()
+        self._prev_xy = self.env.worker_xy_list()
 
     def _check(self, obs: Obstacle, cause: str) -> None:
         env = self.env
         if not env.workers or not env.workers_on_robot_floor:
             return  # nobody, or everybody on another floor: no overlap is possible
-        xy = env.worker_xy()
         if not self.inside:  # nobody to see out: done when everyone is certainly clear of the footprint
             far = WORKER_RADIUS_M + reach_m(obs.rects) + 1e-6
             rx, ry = obs.pose[0], obs.pose[1]
-            if all(math.hypot(x - rx, y - ry) > far for x, y in xy.tolist()):
+            if all(math.hypot(x - rx, y - ry) > far for x, y in env.worker_xy_list()):
                 return
+        xy = env.worker_xy()
         d, _, _ = rects_distance(xy[:, 0], xy[:, 1], obs.pose, obs.rects)
         for k, w in enumerate(env.workers):
             overlap = float(d[k]) < WORKER_RADIUS_M
@@ -101,7 +109,7 @@ class ContactMonitor:
                 self.inside[w.slug] = env.t
                 self.count += 1
                 wv = (
-                    float(np.hypot(*(xy[k] - self._prev_xy[k]))) * env.control_hz
+                    float(np.hypot(*(xy[k] - np.array(self._prev_xy[k], dtype=np.float64)))) * env.control_hz
                     if len(self._prev_xy) > k
                     else 0.0
                 )

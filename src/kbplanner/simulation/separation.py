@@ -242,12 +242,12 @@ def _rect_constants(rects: Sequence[Rect]) -> _RectConstants:
     return out
 
 
-def points_rects_distance(
+def points_rects_offsets(
     xs: Sequence[float], ys: Sequence[float], pose: tuple[float, float, float], rects: Sequence[Rect]
-) -> list[tuple[float, float, float]]:
-    """:func:`_point_rects_distance` of a few points at once: the same operations per point and
-    rectangle, with one ``np.hypot`` call for all norms (numpy's hypot gives the same number for an
-    element of an array as for two floats), so the results are bit-identical."""
+) -> tuple[list[float], list[float]]:
+    """The first half of :func:`points_rects_distance`: per point and rectangle (point-major), the
+    offset (x, y, rectangle frame) of the point from the rectangle, whose norms the caller takes with
+    ``np.hypot`` and hands to :func:`points_rects_nearest`."""
     c, s = math.cos(pose[2]), math.sin(pose[2])
     x0, y0 = pose[0], pose[1]
     consts = _rect_constants(rects)
@@ -261,11 +261,21 @@ def points_rects_distance(
             ux, uy = cr * qx + sr * qy, -sr * qx + cr * qy
             exs.append(((ux > 0) - (ux < 0)) * max(abs(ux) - hl, 0.0))
             eys.append(((uy > 0) - (uy < 0)) * max(abs(uy) - hw, 0.0))
-    trig = [(k[2], k[3]) for k in consts]
-    norms = _hypot(np.array(exs, dtype=np.float64), np.array(eys, dtype=np.float64)).tolist()
+    return exs, eys
+
+
+def points_rects_nearest(
+    norms: Sequence[float], exs: Sequence[float], eys: Sequence[float], n: int,
+    pose: tuple[float, float, float], rects: Sequence[Rect]
+) -> list[tuple[float, float, float]]:
+    """The second half of :func:`points_rects_distance`: per point of ``n``, the distance to the nearest
+    rectangle and the unit direction (site frame) away from it, from :func:`points_rects_offsets`'
+    offsets and their norms."""
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    trig = [(k[2], k[3]) for k in _rect_constants(rects)]
     out = []
     k = 0
-    for _ in range(len(xs)):
+    for _ in range(n):
         best, bx, by = math.inf, 0.0, 0.0
         for cr, sr in trig:
             d = norms[k]
@@ -279,6 +289,17 @@ def points_rects_distance(
         else:
             out.append((best, (c * bx - s * by) / best, (s * bx + c * by) / best))
     return out
+
+
+def points_rects_distance(
+    xs: Sequence[float], ys: Sequence[float], pose: tuple[float, float, float], rects: Sequence[Rect]
+) -> list[tuple[float, float, float]]:
+    """:func:`_point_rects_distance` of a few points at once: the same operations per point and
+    rectangle, with one ``np.hypot`` call for all norms (numpy's hypot gives the same number for an
+    element of an array as for two floats), so the results are bit-identical."""
+    exs, eys = points_rects_offsets(xs, ys, pose, rects)
+    norms = _hypot(np.array(exs, dtype=np.float64), np.array(eys, dtype=np.float64)).tolist()
+    return points_rects_nearest(norms, exs, eys, len(xs), pose, rects)
 
 
 def distance_at_poses(

@@ -133,17 +133,19 @@ class SeparationMonitor:
         if not env.workers or not env.workers_on_robot_floor:
             return []  # nobody, or everybody on another floor (out of the robot's hazard scope)
         pose = env.base_pose()
-        xy = env.worker_xy()
         # everyone certainly beyond (centre distance less the footprint's reach): no distance query
         far = horizon_m + 0.25 + reach_m(rects) + 1e-6
-        if all(math.hypot(x - pose[0], y - pose[1]) > far for x, y in xy.tolist()):
+        px, py = pose[0], pose[1]
+        if all(math.hypot(x - px, y - py) > far for x, y in env.worker_xy_list()):
             self._tracks.clear()
             return []
+        xy = env.worker_xy()
         true_d, _, _ = rects_distance(xy[:, 0], xy[:, 1], pose, rects)
         if float(np.min(true_d)) - 0.25 > horizon_m:
             self._tracks.clear()
             return []  # nobody could be seen within the horizon: the scan would change nothing
         ignore = [env.held.body] if env.held is not None else []
+        env.sync()  # the workers' and the held element's bodies where they are now
         # only the rays that can reach a person (their hits are those of a whole scan)
         s = scan(env.robot, self.lidar, ignore=ignore, near=xy, near_radius_m=WORKER_RADIUS_M + 0.25)
         assert s.points is not None

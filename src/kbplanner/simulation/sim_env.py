@@ -28,6 +28,10 @@ physics is not stepped except by :meth:`SimEnv.settle` where it matters.
   the robot moves kinematically, :meth:`SimEnv.step` also puts the element where the constraint
   holds it (tool frame times the inverse grasp). :meth:`SimEnv.detach` removes the constraint and
   :meth:`SimEnv.fix` makes the element static where it is (it is fixed to the structure).
+- Bodies placed when looked at (:mod:`kbplanner.simulation.sim_bodies`): the worker capsules and the
+  held element are put where they are (the crowd's positions, the grasp on the tool) only before
+  something looks at them - a lidar scan or a ray test (:meth:`SimEnv.sync`), a key frame, a task
+  body's frame, a physics step -; nothing else in the loop reads them from PyBullet.
 - The navigation grid: the storey's occupancy grid plus every element installed so far.
 
 Example:
@@ -45,19 +49,25 @@ import logging
 import math
 import os
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from kbplanner.core.errors import KbplannerError
-from kbplanner.core.iris import slug
 from kbplanner.planning.base_poses import element_polygon, mark_polygon
 from kbplanner.planning.carry import Matrix
 from kbplanner.robot.robot_model import RobotModel
 from kbplanner.simulation.crowd import Crowd
 from kbplanner.simulation.floors import FLOOR_GAP_M, robot_floor_z
 from kbplanner.simulation.held_pose import matrix_of, quat_of
+from kbplanner.simulation.sim_bodies import (
+    WORKER_HEIGHT_M,
+    Held,
+    HeldPlacer,
+    SimRobot,
+    WorkerBodies,
+    WorkerBody,
+    place_body,
+)
 from kbplanner.simulation.sim_world import SimWorld, element_frame, load_world
 from kbplanner.simulation.social_force import Obstacle
 from kbplanner.simulation.workers import WORKER_RADIUS_M, WorkerMotion, WorkerSpec
@@ -66,34 +76,8 @@ from kbplanner.world.world_types import World, WorldElement
 
 log = logging.getLogger(__name__)
 
-WORKER_HEIGHT_M = 1.7
-_RGBA_WORKER = (0.1, 0.6, 0.2, 1.0)
-
-
-@dataclass
-class Held:
-    """The element in the gripper: its body, the constraint and the tool frame in its frame."""
-
-    element: WorldElement
-    body: int
-    constraint: int
-    tool_in_element: Matrix
-    element_in_tool: Matrix | None = None  # inv(tool_in_element), computed once
-    com_in_element: Matrix | None = None  # the body's centre of mass frame in the element's, once
-
-    def __post_init__(self) -> None:
-        if self.element_in_tool is None:
-            self.element_in_tool = np.asarray(np.linalg.inv(self.tool_in_element), dtype=np.float64)
-
-
-@dataclass(frozen=True)
-class WorkerBody:
-    """A worker's capsule body and the column slug used in the trajectories (``motion``: scripted)."""
-
-    motion: WorkerMotion | None
-    body: int
-    slug: str
-    label: str
+__all__ = ["FLOOR_GAP_M", "WORKER_HEIGHT_M", "WORKER_RADIUS_M", "Held", "SimEnv", "WorkerBody",
+           "angle_between"]
 
 
 class SimEnv:
@@ -132,10 +116,10 @@ class SimEnv:
         self.sim: SimWorld | None = None
         self._robot: RobotModel | None = None
         self.workers: tuple[WorkerBody, ...] = ()
-        self._worker_placed: list[tuple[float, float, float] | None] = []  # where each body was put last
-        self._worker_orn: dict[int, Any] = {}  # the quaternion of each body's last heading
+        self._bodies: WorkerBodies | None = None  # the workers' capsules
+        self._placer = HeldPlacer(-1)  # where the held element goes (placed when looked at)
         self._on_floor: tuple[World, str | None, float, bool] | None = None  # workers_on_robot_floor
-        self._followed: tuple[Held, Any, Any] | None = None  # follow(): what, the tool, the body's pose
+        self._workers_due = False  # the workers moved since their bodies were last placed
         self._xy: tuple[np.ndarray | None, int, np.ndarray] | None = None  # worker_xy(): of what, tick, xy
         self.tick = 0
         self.held: Held | None = None
@@ -159,7 +143,10 @@ class SimEnv:
         if mode == p.GUI:
             p.configureDebugVisualizer(p.COV_ENABLE_GUI, 0, physicsClientId=self.client)
         self.sim = load_world(self.world, self.client, visuals=self.visuals or mode == p.GUI)
-        self._robot = RobotModel.load(self.robot_name, client=self.client)
+        robot = SimRobot.load(self.robot_name, client=self.client)
+        assert isinstance(robot, SimRobot)
+        robot.before_move = self._robot_moves
+        self._robot = robot
         self._robot.floor_z = self.robot_floor_z
         self._robot.kinematic = True  # only settle() steps physics here (and tells the robot)
         start = self.world.robot_start
@@ -167,26 +154,35 @@ class SimEnv:
                                   start.yaw if start else 0.0)
         self.crowd = Crowd(self.reactive, self.walk_grid, seed=self.seed, control_hz=self.control_hz) \
             if self.reactive else None
-        self.workers = self._make_workers()
-        self._worker_placed = [None] * len(self.workers)
-        self._worker_orn = {}
+        self._bodies = WorkerBodies(self.client, [(None, s) for s in self.reactive] +
+                                    [(m, m.spec) for m in self.worker_motions])
+        self.workers = self._bodies.bodies
         self.tick = 0
         self.held = None
-        self._followed = None
+        self._placer = HeldPlacer(self.client)
         self.installed = []
         self.grid = self.base_grid
         self._xy = None
         self._move_workers()
 
     def step(self) -> float:
-        """Advance the clock by one control period; move workers and the held element. Returns t (s)."""
+        """Advance the clock by one control period; move workers and the held element (their bodies
+        are placed when looked at, :meth:`sync`). Returns t (s)."""
         self.tick += 1
         if self.crowd is not None:
             hazard = self.hazard if self.workers_on_robot_floor else None
             self.crowd.step(hazard() if hazard is not None else None)
-        self._move_workers()
+        if self.workers:
+            self._workers_due = True
         self.follow()
         return self.t
+
+    def sync(self) -> None:
+        """Place the worker bodies and the held element where they are now, before PyBullet is asked
+        about them (a scan, a ray test, an image, a physics step, a body's pose)."""
+        if self._workers_due:
+            self._move_workers()
+        self._place_held()
 
     def close(self) -> None:
         """Disconnect (idempotent)."""
@@ -270,6 +266,7 @@ class SimEnv:
 
     def element_frame(self, iri: str) -> Matrix:
         """Where a task element's own frame is now (site)."""
+        self._place_held()
         return np.asarray(element_frame(self.world_bodies, self.element(iri)), dtype=np.float64)
 
     def set_element_frame(self, iri: str, frame: Matrix) -> None:
@@ -281,10 +278,7 @@ class SimEnv:
 
     def _place(self, body: int, com: Matrix) -> None:
         """Put a body's centre of mass frame at ``com`` (site), kinematically."""
-        import pybullet as p
-
-        p.resetBasePositionAndOrientation(body, com[:3, 3].tolist(), quat_of(com),
-                                          physicsClientId=self.client)
+        place_body(self.client, body, com)
 
     def worker_poses(self) -> list[tuple[float, float, float]]:
         """(x, y, heading) of every worker now, in :attr:`workers` order."""
@@ -295,6 +289,12 @@ class SimEnv:
     def worker_positions(self) -> list[tuple[str, float, float]]:
         """(slug, x, y) of every worker now."""
         return [(w.slug, x, y) for w, (x, y, _) in zip(self.workers, self.worker_poses(), strict=True)]
+
+    def worker_xy_list(self) -> list[tuple[float, float]]:
+        """(x, y) of every worker now, as floats (the numbers of :meth:`worker_xy`)."""
+        if self.crowd is not None and not self.worker_motions:
+            return self.crowd.xy()
+        return [(x, y) for x, y, _ in self.worker_poses()]
 
     def worker_xy(self) -> np.ndarray:
         """(n, 2) positions of every worker now (read only; the same array until a worker moves)."""
@@ -340,28 +340,19 @@ class SimEnv:
         return self.held
 
     def follow(self) -> None:
-        """Put the held element where the grasp holds it (after a kinematic robot motion).
+        """The held element follows the tool (after a kinematic robot motion): placed where the grasp
+        holds it now when something looks at it (:meth:`sync`), even if the robot has moved since
+        (:class:`~kbplanner.simulation.sim_bodies.HeldPlacer`)."""
+        if self.held is not None:
+            self._placer.follow()
 
-        Skipped when neither the tool nor the element has moved since the last time (the same
-        pose would be set again): the tool's pose and the element body's are compared as PyBullet
-        reports them, which is cheaper than the frames."""
-        import pybullet as p
+    def _robot_moves(self) -> None:
+        """The robot is about to move: the held element still to be placed keeps the robot's pose."""
+        self._placer.robot_moves(self.held, self.robot)
 
-        held = self.held
-        if held is None:
-            return
-        assert held.element_in_tool is not None
-        body = held.body
-        tool = self.robot.tool_pose()
-        if self._followed is not None and self._followed[0] is held and self._followed[1] == tool and \
-                self._followed[2] == p.getBasePositionAndOrientation(body, physicsClientId=self.client):
-            return
-        pos, orn = tool
-        if held.com_in_element is None:
-            assert held.element.local_bounds is not None
-            held.com_in_element = _translation(held.element.local_bounds.center)
-        self._place(body, matrix_of(pos, orn) @ held.element_in_tool @ held.com_in_element)
-        self._followed = (held, tool, p.getBasePositionAndOrientation(body, physicsClientId=self.client))
+    def _place_held(self) -> None:
+        """Put the held element where the grasp held it when :meth:`follow` was last asked."""
+        self._placer.place(self.held, self.robot)
 
     def detach(self) -> WorldElement:
         """Release: remove the constraint (collisions with the robot stay filtered until fixed)."""
@@ -369,6 +360,7 @@ class SimEnv:
 
         if self.held is None:
             raise KbplannerError("the gripper holds nothing", element="SimEnv.detach", fix="grasp first")
+        self._place_held()
         held = self.held
         p.removeConstraint(held.constraint, physicsClientId=self.client)
         self.held = None
@@ -405,6 +397,7 @@ class SimEnv:
         """Step physics for ``seconds`` (the clock does not move); largest displacement (m) of a task body."""
         import pybullet as p
 
+        self.sync()
         bodies = self.world_bodies.task_bodies
         before = {i: np.array(p.getBasePositionAndOrientation(b, physicsClientId=self.client)[0])
                   for i, b in bodies.items()}
@@ -419,49 +412,11 @@ class SimEnv:
         return moved
 
     # ---- workers ---------------------------------------------------------------------------------
-    def _make_workers(self) -> tuple[WorkerBody, ...]:
-        import pybullet as p
-
-        out = []
-        used: set[str] = set()
-        cyl = WORKER_HEIGHT_M - 2 * WORKER_RADIUS_M
-        shape = p.createCollisionShape(p.GEOM_CAPSULE, radius=WORKER_RADIUS_M, height=cyl,
-                                       physicsClientId=self.client)
-        visual = p.createVisualShape(p.GEOM_CAPSULE, radius=WORKER_RADIUS_M, length=cyl,
-                                     rgbaColor=_RGBA_WORKER,
-                                     physicsClientId=self.client)
-        specs = [(None, s) for s in self.reactive] + [(m, m.spec) for m in self.worker_motions]
-        for m, spec in specs:
-            name = slug(spec.label) or "worker"
-            base, n = name, 2
-            while name in used:
-                name = f"{base}-{n}"
-                n += 1
-            used.add(name)
-            body = p.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=shape, baseVisualShapeIndex=visual,
-                                     basePosition=[0.0, 0.0, -20.0], physicsClientId=self.client)
-            out.append(WorkerBody(m, int(body), name, spec.label))
-        return tuple(out)
-
     def _move_workers(self) -> None:
-        import pybullet as p
-
-        z = self.world.ground_z + WORKER_HEIGHT_M / 2
-        placed = self._worker_placed
-        for k, (w, pose) in enumerate(zip(self.workers, self.worker_poses(), strict=True)):
-            last = placed[k]
-            if last == pose:  # standing where the body already is (kinematic, mass 0)
-                continue
-            x, y, heading = pose
-            if last is not None and last[2] == heading and math.copysign(1.0, last[2]) == \
-                    math.copysign(1.0, heading) and k in self._worker_orn:
-                orn = self._worker_orn[k]  # the same heading (bit for bit): the same quaternion
-            else:
-                orn = p.getQuaternionFromEuler([0.0, 0.0, heading])
-                self._worker_orn[k] = orn
-            p.resetBasePositionAndOrientation(w.body, [x, y, z], orn,
-                                              physicsClientId=self.client)
-            placed[k] = pose
+        """Put the worker capsules where the workers are now."""
+        self._workers_due = False
+        if self._bodies is not None:
+            self._bodies.place(self.worker_poses(), self.world.ground_z + WORKER_HEIGHT_M / 2)
 
 
 def _translation(v: Sequence[float]) -> Matrix:

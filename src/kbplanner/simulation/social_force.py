@@ -49,7 +49,13 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from kbplanner.simulation.separation import WORKER_RADIUS_M, points_rects_distance, rects_distance
+from kbplanner.simulation.separation import (
+    WORKER_RADIUS_M,
+    _rect_constants,
+    points_rects_nearest,
+    points_rects_offsets,
+    rects_distance,
+)
 from kbplanner.world.footprint import Rect
 
 FloatArray = npt.NDArray[np.float64]
@@ -171,34 +177,187 @@ def _accelerations_few(pos: FloatArray, vel: FloatArray, desired: FloatArray, k:
     return acc if all(on) else np.where(active[:, None], acc, 0.0)
 
 
+_Frame = tuple[float, float, float, float, list[tuple[float, float, float, float, float, float]]]
+_FRAME: list[tuple[object, object, _Frame]] = []
+
+
+def _frame(seen: Obstacle) -> _Frame:
+    """The robot's x, y, cos and sin of its yaw and its rectangles' constants
+    (:func:`~kbplanner.simulation.separation.points_rects_offsets`' numbers), kept while the workers see
+    the same pose and footprint objects."""
+    if _FRAME and _FRAME[0][0] is seen.pose and _FRAME[0][1] is seen.rects:
+        return _FRAME[0][2]
+    pose = seen.pose
+    frame = (pose[0], pose[1], math.cos(pose[2]), math.sin(pose[2]), list(_rect_constants(seen.rects)))
+    _FRAME[:] = [(seen.pose, seen.rects, frame)]
+    return frame
+
+
 def accelerations_of(xs: list[float], ys: list[float], vxs: list[float], vys: list[float],
                      des: Sequence[Sequence[float]], k: dict[str, FloatArray], seen: Obstacle | None,
                      on: list[bool]) -> tuple[list[float], list[float]]:
     """:func:`accelerations` on plain floats (positions, velocities, desired velocities as lists; ``k``
     the crowd's :func:`constants_of`): the x and y accelerations, inactive workers' too (the caller
-    zeroes them). The same operations in the same order, element by element, with numpy's ``hypot``,
-    ``exp`` and row sums where the array code takes them (Python's ``math.hypot`` and ``math.exp`` may
-    differ in the last bit; numpy's give the same number for an element wherever it is in an array,
-    so one call serves all the centre distances and speeds, one all the exponentials, one all the row
-    sums), so the results are bit-identical; a few dozen microseconds less per step than some fifty
-    numpy calls on tiny arrays."""
+    zeroes them). The same operations in the same order, element by element, with numpy's ``hypot``
+    and ``exp`` where the array code takes them (Python's ``math.hypot`` and ``math.exp`` may differ in
+    the last bit; numpy's give the same number for an element wherever it is in an array, so one call
+    serves the footprint offsets' norms, all the centre distances and the speeds, one all the
+    exponentials), and the row sums added up in order from 0.0 (numpy's sum of a row of fewer than
+    eight numbers), so the results are bit-identical.
+
+    (Written out for fewer than eight workers - the footprint distances of
+    :func:`~kbplanner.simulation.separation.points_rects_distance` inline, the robot's frame kept while
+    it stands -, :func:`_accelerations_of_any` otherwise.)"""
+    n = len(xs)
+    if n >= 8:
+        return _accelerations_of_any(xs, ys, vxs, vys, des, k, seen, on)
+    c = _lists(k)
+    tau = c["tau"]
+    ax = [(des[i][0] - vxs[i]) / tau[i] for i in range(n)]
+    ay = [(des[i][1] - vys[i]) / tau[i] for i in range(n)]
+    exs: list[float] = []
+    eys: list[float] = []
+    if seen is not None:  # the offsets of each worker from each rectangle (rectangle frame)
+        x0, y0, cy, sy, consts = _frame(seen)
+        for i in range(n):
+            dx, dy = xs[i] - x0, ys[i] - y0
+            lx, ly = cy * dx + sy * dy, -sy * dx + cy * dy
+            for rcx, rcy, cr, sr, hl, hw in consts:
+                qx, qy = lx - rcx, ly - rcy
+                ux, uy = cr * qx + sr * qy, -sr * qx + cr * qy
+                # ((u > 0) - (u < 0)) * max(abs(u) - half, 0.0), zeros signed as that product signs them
+                e = abs(ux) - hl
+                exs.append((e if ux > 0 else -e) if e > 0 else (-0.0 if ux < 0 else 0.0))
+                e = abs(uy) - hw
+                eys.append((e if uy > 0 else -e) if e > 0 else (-0.0 if uy < 0 else 0.0))
+    m0 = len(exs)
+    if n > 1:
+        h = _hypot(np.array(exs + [xi - xj for xi in xs for xj in xs] + vxs, dtype=np.float64),
+                   np.array(eys + [yi - yj for yi in ys for yj in ys] + vys, dtype=np.float64)).tolist()
+    elif m0:
+        h = _hypot(np.array(exs, dtype=np.float64), np.array(eys, dtype=np.float64)).tolist()
+    else:
+        h = []
+    inf = math.inf
+    expo: list[float] = []
+    if n > 1:
+        s_p, neg_s_p, neg_b_p = c["s_p"], c["neg_s_p"], c["neg_b_p"]
+        two_r = 2 * WORKER_RADIUS_M
+        for i in range(n):
+            si, ni, bi = s_p[i], neg_s_p[i], neg_b_p[i]
+            base = m0 + i * n
+            for j in range(n):
+                # the diagonal: inf (fill_diagonal), max(inf, ..) / -b = -inf
+                expo.append(max((h[base + j] if j != i else inf) - two_r - si, ni) / bi)
+    near: list[tuple[float, float, float]] = []
+    if seen is not None:  # the nearest rectangle of each worker: distance, direction away from it
+        k0 = 0
+        for _ in range(n):
+            best, bx, by = inf, 0.0, 0.0
+            for _rcx, _rcy, cr, sr, _hl, _hw in consts:
+                d = h[k0]
+                if d < best:
+                    ex, ey = exs[k0], eys[k0]
+                    best = d
+                    bx, by = cr * ex - sr * ey, sr * ex + cr * ey
+                k0 += 1
+            if not best > 0:
+                near.append((best, 0.0, 0.0))
+            else:
+                near.append((best, (cy * bx - sy * by) / best, (sy * bx + cy * by) / best))
+        s_c, neg_s_c, neg_b_r = c["s_c"], c["neg_s_c"], c["neg_b_r"]
+        expo += [max(near[i][0] - WORKER_RADIUS_M - s_c[i], neg_s_c[i]) / neg_b_r[i] for i in range(n)]
+    e_all = np.exp(np.array(expo, dtype=np.float64)).tolist() if expo else []
+    if n > 1:
+        lam, oml, a_over_b_p = c["lam"], c["one_minus_lam"], c["a_over_b_p"]
+        sums_x: list[float] = []
+        sums_y: list[float] = []
+        for i in range(n):
+            xi, yi, vx, vy = xs[i], ys[i], vxs[i], vys[i]
+            spi = h[m0 + n * n + i]
+            moving, m = spi > 1e-9, max(spi, 1e-9)
+            li, oi, ai = lam[i], oml[i], a_over_b_p[i]
+            base = i * n
+            tx = ty = 0.0  # numpy's row sum: from 0.0, one after the other
+            for j in range(n):
+                if j == i:  # oneself: at an infinite distance, no force (0.0 * 0.0, as the former code)
+                    tx += 0.0
+                    ty += 0.0
+                    continue
+                dij = h[m0 + base + j]
+                norm = dij if dij > 0 else 1.0
+                nx, ny = (xi - xs[j]) / norm, (yi - ys[j]) / norm
+                mag = ai * e_all[base + j] if dij < inf and on[j] else 0.0  # (a distance is never -inf)
+                cos_phi = -(nx * vx + ny * vy) / m if moving else 1.0
+                mw = mag * (li + oi * (1 + cos_phi) / 2)
+                tx += mw * nx
+                ty += mw * ny
+            sums_x.append(tx)
+            sums_y.append(ty)
+        ax = [ax[i] + sums_x[i] for i in range(n)]
+        ay = [ay[i] + sums_y[i] for i in range(n)]
+    if seen is not None:
+        px, py = seen.pose[0], seen.pose[1]
+        a_over_b_r = c["a_over_b_r"]
+        off = n * n if n > 1 else 0
+        for i in range(n):
+            _, ux, uy = near[i]
+            if ux == 0 and uy == 0:  # inside the footprint: away from the robot's centre
+                cx, cy_ = xs[i] - px, ys[i] - py
+                cn = max(float(_hypot(cx, cy_)), 1e-9)
+                ux, uy = cx / cn, cy_ / cn
+            mag = a_over_b_r[i] * e_all[off + i]
+            if -(ux * vxs[i] + uy * vys[i]) > 0:
+                ax[i] += mag * (_COS_R * ux - _SIN_R * uy)
+                ay[i] += mag * (_SIN_R * ux + _COS_R * uy)
+            else:
+                ax[i] += mag * ux
+                ay[i] += mag * uy
+    return ax, ay
+
+
+def _accelerations_of_any(xs: list[float], ys: list[float], vxs: list[float], vys: list[float],
+                     des: Sequence[Sequence[float]], k: dict[str, FloatArray], seen: Obstacle | None,
+                     on: list[bool]) -> tuple[list[float], list[float]]:
+    """:func:`accelerations_of` for any number of workers (numpy's row sums from eight on).
+
+    :func:`accelerations` on plain floats (positions, velocities, desired velocities as lists; ``k``
+    the crowd's :func:`constants_of`): the x and y accelerations, inactive workers' too (the caller
+    zeroes them). The same operations in the same order, element by element, with numpy's ``hypot``
+    and ``exp`` where the array code takes them (Python's ``math.hypot`` and ``math.exp`` may differ in
+    the last bit; numpy's give the same number for an element wherever it is in an array, so one call
+    serves the footprint offsets' norms, all the centre distances and the speeds, one all the
+    exponentials), and the row sums added up in order from 0.0 (numpy's sum of a row of fewer than
+    eight numbers), so the results are bit-identical; a few dozen microseconds less per step than some
+    fifty numpy calls on tiny arrays."""
     n = len(xs)
     c = _lists(k)
     tau, lam, oml = c["tau"], c["lam"], c["one_minus_lam"]
     ax = [(des[i][0] - vxs[i]) / tau[i] for i in range(n)]
     ay = [(des[i][1] - vys[i]) / tau[i] for i in range(n)]
-    near = points_rects_distance(xs, ys, seen.pose, seen.rects) if seen is not None else None
-    expo: list[float] = []
+    # one hypot call: the offsets from the footprint's rectangles, the centre distances (n x n, row i:
+    # from worker i to each j) and the speeds
+    if seen is not None:
+        exs, eys = points_rects_offsets(xs, ys, seen.pose, seen.rects)
+    else:
+        exs, eys = [], []
+    m0 = len(exs)
     if n > 1:
-        # centre distances (n x n, row i: from worker i to each j) and speeds, in one hypot call
-        h = _hypot(np.array([xi - xj for xi in xs for xj in xs] + vxs, dtype=np.float64),
-                   np.array([yi - yj for yi in ys for yj in ys] + vys, dtype=np.float64)).tolist()
-        inf = math.inf
+        h = _hypot(np.array(exs + [xi - xj for xi in xs for xj in xs] + vxs, dtype=np.float64),
+                   np.array(eys + [yi - yj for yi in ys for yj in ys] + vys, dtype=np.float64)).tolist()
+    elif m0:
+        h = _hypot(np.array(exs, dtype=np.float64), np.array(eys, dtype=np.float64)).tolist()
+    else:
+        h = []
+    near = points_rects_nearest(h, exs, eys, n, seen.pose, seen.rects) if seen is not None else None
+    expo: list[float] = []
+    inf = math.inf
+    if n > 1:
         for i in range(n):
-            h[i * n + i] = inf  # fill_diagonal
+            h[m0 + i * n + i] = inf  # fill_diagonal
         s_p, neg_s_p, neg_b_p = c["s_p"], c["neg_s_p"], c["neg_b_p"]
         two_r = 2 * WORKER_RADIUS_M
-        expo = [max(h[i * n + j] - two_r - s_p[i], neg_s_p[i]) / neg_b_p[i]
+        expo = [max(h[m0 + i * n + j] - two_r - s_p[i], neg_s_p[i]) / neg_b_p[i]
                 for i in range(n) for j in range(n)]
     if near is not None:
         s_c, neg_s_c, neg_b_r = c["s_c"], c["neg_s_c"], c["neg_b_r"]
@@ -210,7 +369,7 @@ def accelerations_of(xs: list[float], ys: list[float], vxs: list[float], vys: li
         fy: list[list[float]] = []
         for i in range(n):
             xi, yi, vx, vy = xs[i], ys[i], vxs[i], vys[i]
-            spi = h[n * n + i]
+            spi = h[m0 + n * n + i]
             moving, m = spi > 1e-9, max(spi, 1e-9)
             li, oi, ai = lam[i], oml[i], a_over_b_p[i]
             base = i * n
@@ -220,7 +379,7 @@ def accelerations_of(xs: list[float], ys: list[float], vxs: list[float], vys: li
                     rx.append(0.0)
                     ry.append(0.0)
                     continue
-                dij = h[base + j]
+                dij = h[m0 + base + j]
                 norm = dij if dij > 0 else 1.0
                 nx, ny = (xi - xs[j]) / norm, (yi - ys[j]) / norm
                 mag = ai * e[base + j] if dij < inf and on[j] else 0.0  # (a distance is never -inf)
@@ -230,7 +389,15 @@ def accelerations_of(xs: list[float], ys: list[float], vxs: list[float], vys: li
                 ry.append(mw * ny)
             rows.append(rx)
             fy.append(ry)
-        sums = np.array(rows + fy, dtype=np.float64).sum(axis=1).tolist()  # row by row, as before
+        if n < 8:  # numpy's row sum: from 0.0, one after the other
+            sums = []
+            for r in rows + fy:
+                t = 0.0
+                for v in r:
+                    t += v
+                sums.append(t)
+        else:
+            sums = np.array(rows + fy, dtype=np.float64).sum(axis=1).tolist()  # row by row, as before
         ax = [ax[i] + sums[i] for i in range(n)]
         ay = [ay[i] + sums[n + i] for i in range(n)]
     if seen is not None:

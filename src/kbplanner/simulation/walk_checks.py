@@ -133,6 +133,12 @@ def legs_clear_of(legs: Sequence[FloatArray], robot: Obstacle | None, clear_m: f
 LEAVES_SOON_SAMPLES = 12  # clear_legs first looks this far along each leg for a step off the walking map
 
 
+@functools.lru_cache(maxsize=512)
+def _first_steps(n: int) -> tuple[float, ...]:
+    """The fractions of :func:`unit_steps` ``(n)`` after 0.0, the first :data:`LEAVES_SOON_SAMPLES`."""
+    return tuple(unit_steps(n)[1 : LEAVES_SOON_SAMPLES + 1].tolist())
+
+
 def _leaves_soon(p: FloatArray, q: FloatArray, walk: Callable[[float, float], bool]) -> bool:
     """Whether the leg p -> q, sampled as :func:`clear_legs` samples it (the same count, fractions and
     points), steps out of the walkable cells within its first :data:`LEAVES_SOON_SAMPLES` samples:
@@ -141,7 +147,7 @@ def _leaves_soon(p: FloatArray, q: FloatArray, walk: Callable[[float, float], bo
     dx, dy = float(q[0]) - px, float(q[1]) - py
     n = max(int(float(_hypot(dx, dy)) / 0.1) + 1, 2)
     was = walk(px, py)  # the first sample: fraction 0.0
-    for f in unit_steps(n)[1 : LEAVES_SOON_SAMPLES + 1].tolist():
+    for f in _first_steps(n):
         now = walk(px + f * dx, py + f * dy)
         if was and not now:
             return True

@@ -5,9 +5,9 @@ space of the grid built (one FFT per yaw bin) and, where the boxes around the po
 free cells labelled whole. :class:`PartJoin` gives the same answer, when it can, from a part of the
 grid: the rectangle of cells around some poses grown by ``margin_cells`` (clipped to the grid).
 
-- Its free maps are the grid's exactly: the space is built on the part grown by the footprint's reach
-  (:func:`~kbplanner.world.cspace_cache.kernel_reach`; where that leaves the grid, the grid's edge is
-  the part's, and cells off both count as occupied), then cut to the part.
+- Its free maps are the grid's exactly (:func:`part_free`: the occupied cells under each yaw bin's
+  kernel counted by FFT on the part grown by the kernels' reach, cells off the grid occupied; only the
+  part's own cells are computed).
 - Its components are labelled on the part alone (cells round it count as blocked), with the
   connectivity and the yaw ring of the whole: two cells joined in the part are joined on the grid (a
   subset of the free cells), and a component with no cell on the part's rim (its cells next to the
@@ -38,8 +38,8 @@ import math
 
 import numpy as np
 import numpy.typing as npt
+from scipy import fft as sp_fft
 
-from kbplanner.world.cspace_cache import configuration_space, kernel_reach
 from kbplanner.world.footprint import ConfigurationSpace, Footprint
 from kbplanner.world.occupancy import OccupancyGrid
 
@@ -76,18 +76,10 @@ class PartJoin:
         self.rim: frozenset[int] = frozenset()  # components with a cell on the rim
         if self.y0 >= self.y1 or self.x0 >= self.x1:
             return  # every point off the grid
-        res = grid.resolution
-        h = kernel_reach(footprint, res, n_bins, 0.0)
-        gy0, gy1 = max(0, self.y0 - h), min(ny, self.y1 + h)
-        gx0, gx1 = max(0, self.x0 - h), min(nx, self.x1 + h)
-        grown = OccupancyGrid(grid.occupied[gy0:gy1, gx0:gx1].copy(),
-                              origin=(grid.origin[0] + gx0 * res, grid.origin[1] + gy0 * res), resolution=res,
-                              band=grid.band)
-        cs = configuration_space(grown, footprint, n_bins)
         sy, sx = self.y1 - self.y0, self.x1 - self.x0
         box = np.zeros((n_bins, sy + 2, sx + 2), dtype=bool)  # a blocked cell all round
-        box[:, 1:-1, 1:-1] = cs.free[:, self.y0 - gy0:self.y1 - gy0, self.x0 - gx0:self.x1 - gx0]
-        sub = ConfigurationSpace(grid=grown, footprint=footprint, free=box)
+        box[:, 1:-1, 1:-1] = part_free(grid, footprint, region, n_bins)
+        sub = ConfigurationSpace(grid=grid, footprint=footprint, free=box)
         labels, roots = sub._labels_and_roots(diagonal)
         self.labels, self.roots = labels[:, 1:-1, 1:-1], roots
         rim = np.zeros((sy, sx), dtype=bool)  # the part's cells next to grid cells outside it
@@ -128,3 +120,49 @@ class PartJoin:
         if ca not in self.rim or cb not in self.rim:
             return False  # one of them is the same component on the grid
         return None
+
+
+def part_free(grid: OccupancyGrid, footprint: Footprint, region: tuple[int, int, int, int],
+              n_bins: int = 72) -> npt.NDArray[np.bool_]:
+    """The free maps of ``footprint`` on the cells ``region`` (y0, y1, x0, x1) of ``grid``: (n_bins, y1 -
+    y0, x1 - x0), what :meth:`~kbplanner.world.footprint.ConfigurationSpace.build` on the whole grid gives
+    there (cells off the grid occupied; the same kernels, a cell free where fewer than 0.5 occupied cells
+    lie under its bin's kernel, counted by FFT in float32: integers far from 0.5).
+
+    The correlation runs on the region grown by the kernels' reach only, the real cells around it: a
+    build on a grid around the region (:func:`~kbplanner.world.cspace_cache.configuration_space`) pads
+    that grid by the reach again and computes its free maps in the band the region is grown by, which
+    the part throws away (about 30 % more transform work on B4's parts, and a copy kept).
+    """
+    y0, y1, x0, x1 = region
+    sy, sx = y1 - y0, x1 - x0
+    res = grid.resolution
+    width = 2 * math.pi / n_bins
+    kernels = [footprint.kernel(res, k * width - width / 2, k * width + width / 2) for k in range(n_bins)]
+    h = max(k.shape[0] for k in kernels) // 2
+    ny, nx = grid.shape
+    occ = np.ones((sy + 2 * h, sx + 2 * h), dtype=np.float32)
+    gy0, gy1, gx0, gx1 = max(0, y0 - h), min(ny, y1 + h), max(0, x0 - h), min(nx, x1 + h)
+    occ[gy0 - (y0 - h):gy1 - (y0 - h), gx0 - (x0 - h):gx1 - (x0 - h)] = grid.occupied[gy0:gy1, gx0:gx1]
+    # A circular correlation at least as long as the grown region keeps every wrapped-around term out
+    # of the cells kept: rows and columns 2h .. 2h + size - 1 of the convolution with the flipped kernel.
+    shape = (sp_fft.next_fast_len(sy + 2 * h, real=True), sp_fft.next_fast_len(sx + 2 * h, real=True))
+    occ_f = sp_fft.rfft2(occ, shape)
+    size = 2 * h + 1
+    free = np.empty((n_bins, sy, sx), dtype=bool)
+    seen: dict[tuple[tuple[int, ...], bytes], int] = {}  # a kernel met before: the same free map
+    for k, kern in enumerate(kernels):
+        j = seen.setdefault((kern.shape, kern.tobytes()), k)
+        if j != k:
+            free[k] = free[j]
+            continue
+        hk = kern.shape[0] // 2
+        full = np.zeros((size, size), dtype=np.float32)
+        full[h - hk:h + hk + 1, h - hk:h + hk + 1] = kern
+        # the two passes of each 2-D transform by hand: only the kernel's rows along x, and back only
+        # the rows kept
+        kern_f = sp_fft.fft(sp_fft.rfft(full[::-1, ::-1], n=shape[1], axis=1), n=shape[0], axis=0)
+        rows = sp_fft.ifft(occ_f * kern_f, axis=0)[2 * h:2 * h + sy]
+        hits = sp_fft.irfft(rows, n=shape[1], axis=1)[:, 2 * h:2 * h + sx]
+        free[k] = hits < 0.5
+    return free

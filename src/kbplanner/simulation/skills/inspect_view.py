@@ -79,6 +79,7 @@ class InspectSkill(Skill):
 
         env = self.c.env
         d = math.dist(self.eye, self.target)
+        env.sync()  # the workers' and the held element's bodies where they are now
         hits = pb.rayTest(self.eye, self.target, physicsClientId=env.client)
         own = env.world_bodies.element_bodies.get(self.step.element)
         for body, _link, frac, _pos, _n in hits:

@@ -33,9 +33,11 @@ storey's occupancy grid with the elements installed so far) and the step's effec
 
 from __future__ import annotations
 
+import itertools
 import logging
 import math
 import zlib
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 
 import shapely
@@ -47,7 +49,7 @@ from kbplanner.planning.plan_model import Pose2
 from kbplanner.planning.pose_frames import as_pose6_list
 from kbplanner.robot.lidar import LidarSpec, lidar_spec
 from kbplanner.simulation.base_trajectory import time_parameterize
-from kbplanner.simulation.carry_paths import plan_with_carry_modes
+from kbplanner.simulation.carry_paths import cell_alternatives, cells_first, plan_with_carry_modes
 from kbplanner.simulation.grid_yardstick import grid_shortest_path_length
 from kbplanner.simulation.nav_path import NavSettings
 from kbplanner.simulation.navigation import plan_path
@@ -56,6 +58,7 @@ from kbplanner.simulation.separation import reach_m
 from kbplanner.simulation.separation_monitor import SeparationMonitor
 from kbplanner.simulation.skills.base import JointPath, Skill, Status
 from kbplanner.simulation.skills.load_turn import best_turn_pose, turn_poses
+from kbplanner.simulation.skills.load_turn_once import one_turn
 from kbplanner.simulation.skills.make_way import ask_way
 from kbplanner.simulation.skills.nav_grid import nearest_free_pose, window
 from kbplanner.simulation.skills.nav_queue import Drive, Route, Turn, route_of
@@ -207,7 +210,10 @@ class NavigationSkill(Skill):
         """A leg planned on ``sub`` with its configuration space, or why there is none."""
         if narrow is None:
             cs = configuration_space(sub, fp, settings.n_yaw_bins, settings.margin_m)  # kept per process
-            path = plan_path(cs, start, goal, settings=settings)  # as plan_path(sub, ..., fp) builds it
+            # a carry leg in one mode through a narrow passage takes the cell route, as NV-2's legs do
+            routed = cells_first(cs, start, goal, settings) if self.geo is not None else None
+            # (plan_path(cs, ...) as plan_path(sub, ..., fp) builds it)
+            path = routed or plan_path(cs, start, goal, settings=settings)
             self.details["planning_time_s"] += path.planning_time_s
             if not path.ok:
                 return path.reason
@@ -244,7 +250,26 @@ class NavigationSkill(Skill):
                 seconds = self._drive_s(route)
             if route.length_m <= DETOUR_RATIO * best:
                 break
+        if route.length_m > DETOUR_RATIO * best and space is not None:
+            route = self._cells_instead(route, space, start, goal, settings, seconds)
         return route, space
+
+    def _cells_instead(self, route: Route, space: ConfigurationSpace, start: Pose2D, goal: Pose2D,
+                       settings: NavSettings, seconds: float) -> Route:
+        """A one-mode leg still round the long way: the quickest to drive of it and the cell routes on its
+        space (:func:`~kbplanner.simulation.carry_paths.cell_alternatives`)."""
+        modes = {(m, id(sp)) for _, m, sp in route.pieces}
+        if len(modes) != 1 or route.pieces[0][2] is not space:
+            return route
+        mode = route.pieces[0][1]
+        for alt in cell_alternatives(space, start, goal, settings):
+            self.details["planning_time_s"] += alt.planning_time_s
+            narrow = alt.length_m if mode == NARROW else 0.0
+            other = Route([(list(alt.poses), mode, space)], alt.length_m, narrow)
+            if self._drive_s(other) < seconds - 1e-9:
+                route, seconds = other, self._drive_s(other)
+                self.details["planner"] = alt.planner
+        return route
 
     def _timed(self, leg: Route | str, why: list[str]) -> tuple[Route, float] | None:
         """A planned leg and how long driving it takes (None, the reason kept in ``why``, if it failed)."""
@@ -332,6 +357,7 @@ class NavigationSkill(Skill):
         def fits(x: float, y: float, yaw: float) -> bool:
             return all(checker.free(geo.footprint(m), x, y, yaw) for m in (NORMAL, NARROW))
 
+        once = self._turn_once(grid, start, free_start, free_goal, fits, why)
         turns: list[tuple[Pose2D, Route | None]] = []  # where the load turns, near start and goal
         for i, (near, modes) in enumerate(((start, free_start), (self.goal, free_goal))):
             if len(modes) == 2:
@@ -347,18 +373,44 @@ class NavigationSkill(Skill):
             got = best_turn_pose(turn_poses(fits, near), near, far, self.max_speed, leg)
             if got is None:
                 reason = "; ".join([first, *why[:1]])
-                return f"no path to the base pose: no room to turn the held element ({reason})"
+                return once or f"no path to the base pose: no room to turn the held element ({reason})"
             turns.append(got)
         (v1, leg_a), (v2, leg_c) = turns
         mid: Route | None = None
         if math.hypot(v1[0] - v2[0], v1[1] - v2[1]) >= 1e-6 or abs(v1[2] - v2[2]) >= 1e-6:
             found = self._leg(grid, v1, v2, geo.footprint(NORMAL), geo.footprint(NARROW))
             if isinstance(found, str):
-                return f"no path to the base pose ({first}; turning the load on the way: {found})"
+                return once or f"no path to the base pose ({first}; turning the load on the way: {found})"
             mid = found
         legs = [r for r in (leg_a, mid, leg_c) if r is not None]
-        return Route([p for leg in legs for p in leg.pieces], sum(leg.length_m for leg in legs),
+        route = Route([p for leg in legs for p in leg.pieces], sum(leg.length_m for leg in legs),
                       sum(leg.narrow_length_m for leg in legs))
+        return once if once is not None and self._turns_s(once) < self._turns_s(route) - 1e-9 else route
+
+    def _turn_once(self, grid: OccupancyGrid, start: Pose2D, free_start: list[str], free_goal: list[str],
+                   fits: Callable[[float, float, float], bool], why: list[str]) -> Route | None:
+        """Where the load fits only one way at the start and only the other at the goal: the quickest
+        route that turns it once on the way (:mod:`~kbplanner.simulation.skills.load_turn_once`)."""
+        if self.geo is None or len(free_start) != 1 or len(free_goal) != 1 or free_start == free_goal:
+            return None
+        fa, fb = self.geo.footprint(free_start[0]), self.geo.footprint(free_goal[0])
+        got = one_turn(fits, start, self.goal,
+                       lambda v: self._timed(self._leg(grid, start, v, fa, None), why),
+                       lambda v: self._timed(self._leg(grid, v, self.goal, fb, None), why))
+        if got is None:
+            return None
+        _, a, b, _ = got
+        return Route([*a.pieces, *b.pieces], a.length_m + b.length_m, a.narrow_length_m + b.narrow_length_m)
+
+    def _turns_s(self, route: Route) -> float:
+        """How long a route takes: its drive (:meth:`_drive_s`) and the load's turns between its pieces."""
+        assert self.geo is not None
+        arm = self.c.env.robot.spec.arm
+        turn = JointPath(self.geo.normal.joints, [("", self.geo.narrow.joints)],
+                         self.c.settings.joint_speed_rps, self.c.env.control_hz,
+                         arm.velocity_rps if arm is not None else None).duration_s
+        modes = [m for _, m, _ in route.pieces]
+        return self._drive_s(route) + turn * sum(1 for a, b in itertools.pairwise(modes) if a != b)
 
     def _enqueue(self, route: Route, *, first: bool) -> None:
         """Queue drives (and carry turns) for a planned route; ``first``: the step's first plan."""
@@ -421,8 +473,9 @@ class NavigationSkill(Skill):
             if f < 0:
                 return self.fail(f"blocked by a worker for {self.blocked_s:.0f} s")
             if f > 0:
+                full = f == 1.0  # (then the pose is ``nxt``: the same progress)
                 head.s = min(head.s + f, last)
-                x, y, yaw = head.at(head.s)
+                x, y, yaw = nxt if full else head.at(head.s)
                 env.set_base_pose(x, y, yaw)
                 self.driven_m += math.hypot(x - here[0], y - here[1])
             return Status.RUNNING
@@ -437,9 +490,10 @@ class NavigationSkill(Skill):
             return self.fail(f"ended {err:.3f} m from the base pose")
         return Status.SUCCESS
 
-    def _rects(self) -> list[Rect]:
+    def _rects(self) -> Sequence[Rect]:
+        """The hazard footprint's rectangles now (the very list, not a copy: nobody changes it)."""
         env = self.c.env
-        return list(env.hazard().rects if env.hazard is not None else env.robot.spec.footprint().rects)
+        return env.hazard().rects if env.hazard is not None else env.robot.spec.footprint().rects
 
     def _end_slow(self) -> None:
         if self.slow_since is not None:
@@ -460,8 +514,8 @@ class NavigationSkill(Skill):
         sweep = rate * reach_m(rects)
         return self._monitor(env.base_pose(), env.base_pose(), sweep_mps=sweep, rects=rects, replan=False)
 
-    def _monitor(self, here: Pose2D, nxt: Pose2D, *, sweep_mps: float = 0.0, rects: list[Rect] | None = None,
-                 replan: bool = True) -> float:
+    def _monitor(self, here: Pose2D, nxt: Pose2D, *, sweep_mps: float = 0.0,
+                 rects: Sequence[Rect] | None = None, replan: bool = True) -> float:
         """Speed and separation monitoring for one period: the fraction of the step to drive (-1: give up);
         ``replan`` False: stopped for ``replan_after_s``, only ask the person to make way."""
         env = self.c.env
