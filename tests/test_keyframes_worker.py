@@ -99,12 +99,23 @@ def test_with_the_gui_key_frames_are_rendered_in_the_process(env: SimEnv,
 
 
 @linux_only
-def test_a_worker_nobody_waits_for_is_reaped_when_dropped() -> None:
+def test_a_worker_nobody_waits_for_is_reaped_when_dropped(monkeypatch: pytest.MonkeyPatch) -> None:
+    forked: list[int] = []
+    fork = os.fork
+
+    def recorded_fork() -> int:
+        pid = fork()
+        if pid:
+            forked.append(pid)
+        return pid
+
+    monkeypatch.setattr(os, "fork", recorded_fork)
     later = keyframes._in_worker(lambda: b"\x89PNG" + bytes(200_000))
-    assert isinstance(later, LaterBytes)
+    assert isinstance(later, LaterBytes) and len(forked) == 1
     del later
-    with pytest.raises(ChildProcessError):  # no child left to wait for: it was reaped
-        os.waitpid(-1, os.WNOHANG)
+    # this worker is no child any more: it was reaped (other tests of this process may have children)
+    with pytest.raises(ChildProcessError):
+        os.waitpid(forked[0], os.WNOHANG)
 
 
 def test_later_bytes_wait_once_and_copy_as_their_content() -> None:
