@@ -68,13 +68,16 @@ def table(result: dict[str, Any]) -> str:
                      f"| {s['identical']} of {s['seeds']} |")
     end = result.get("load_average_end", [0.0])
     load = f"load average {result['load_average_start'][0]:.1f} -> {end[0]:.1f}"
-    lines += ["", f"(`bench_plan_cost.py --before {result['before']} --seeds {result['seeds']}`; {load})"]
+    after = f" --after {result['after']}" if result.get("after") else ""
+    how = f"bench_plan_cost.py --before {result['before']}{after} --seeds {result['seeds']}"
+    lines += ["", f"(`{how}`; {load})"]
     return "\n".join(lines) + "\n"
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--before", default="main", help="git ref of the baseline (default main)")
+    ap.add_argument("--after", help="git ref of the tree measured (default: this working tree's sources)")
     ap.add_argument("--seeds", default="1-20", help="seeds, e.g. 1-20 or 1-5,7")
     ap.add_argument("--scenario", action="append", help="scenario(s) (default: both storage scenarios)")
     ap.add_argument("--out", type=Path, default=RESULTS_DIR / "plan_cost.json")
@@ -84,13 +87,17 @@ def main(argv: list[str] | None = None) -> int:
         print(table(json.loads(a.print_file.read_text())), end="")
         return 0
     scenarios = a.scenario or list(SCENARIOS)
-    result: dict[str, Any] = {"before": a.before, "seeds": a.seeds, "machine": machine_info(),
+    result: dict[str, Any] = {"before": a.before, "after": a.after, "seeds": a.seeds,
+                              "machine": machine_info(),
                               "load_average_start": list(os.getloadavg()), "runs": {s: [] for s in scenarios}}
     here = Path(__file__).resolve().parents[1] / "src"
     with tempfile.TemporaryDirectory(prefix="bench_plan_cost_") as tmp_name:
         tmp = Path(tmp_name)
         (tmp / "before").mkdir()
         before = _export(a.before, tmp / "before")
+        if a.after:
+            (tmp / "after").mkdir()
+            here = _export(a.after, tmp / "after")
         for sc in scenarios:
             for label, src in (("before", before), ("after", here)):
                 _prime(src, sc, _seeds(a.seeds)[0], False, tmp / f"{sc}-{label}-prime.log")
