@@ -262,7 +262,13 @@ class NavigationSkill(Skill):
         """A leg whose yardstick on its space is at least ``DETOUR_MIN_M`` and whose path is over
         ``DETOUR_RATIO`` x that (the planner went round the long way) is planned again with up to
         ``DETOUR_RETRIES`` other seeds (derived from the step's); the quickest to drive is kept. With
-        ``ExecSettings.detour_retry_cell_paths`` False, not a leg that ended on the cell path."""
+        ``ExecSettings.detour_retry_cell_paths`` False, not a leg that ended on the cell path.
+
+        A path within ``DETOUR_RATIO`` x the straight distance is within that of the yardstick (a line
+        from start to goal, never shorter than the straight one): it is kept without the search."""
+        straight = math.hypot(goal[0] - start[0], goal[1] - start[1])
+        if route.length_m <= DETOUR_RATIO * straight * (1.0 - 1e-9):
+            return route, space
         best = grid_shortest_path_length(space, start, goal) if space is not None else math.inf
         if not (DETOUR_MIN_M <= best < math.inf) or route.length_m <= DETOUR_RATIO * best:
             return route, space
