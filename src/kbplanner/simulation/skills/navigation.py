@@ -116,7 +116,8 @@ class NavigationSkill(Skill):
         self.driven_m = 0.0
         # legs planned in this route search (None outside one) and the timed pieces of routes, by id
         self._legs: dict[tuple[Pose2D, Pose2D, Footprint, Footprint | None], LegMemo] | None = None
-        self._timings: dict[int, tuple[list[Pose2D], ConfigurationSpace | None, Trajectory]] = {}
+        self._timings: dict[int, tuple[list[Pose2D], tuple[Pose2D, ...], ConfigurationSpace | None,
+                                       Trajectory]] = {}
         self.details.update({"planning_time_s": 0.0, "path_length_m": 0.0, "stops": 0, "stop_time_s": 0.0,
                              "slowdowns": 0, "slow_time_s": 0.0, "time_lost_s": 0.0,
                              "replans": 0, "carry_modes": [], "narrow_length_m": 0.0, "planner": ""})
@@ -317,14 +318,14 @@ class NavigationSkill(Skill):
 
     def _trajectory(self, piece: list[Pose2D], space: ConfigurationSpace | None) -> Trajectory:
         """A route piece timed (:func:`time_parameterize`), once: legs timed to be compared and the
-        route driven are timed by the same call (kept by the piece's identity, the piece with it)."""
+        route driven are timed by the same call (kept by the piece's identity and its poses)."""
         got = self._timings.get(id(piece))
-        if got is not None and got[0] is piece and got[1] is space:
-            return got[2]
+        if got is not None and got[0] is piece and got[2] is space and got[1] == tuple(piece):
+            return got[3]
         base = self.c.env.robot.spec.base
         traj = time_parameterize(piece, self.max_speed, base.max_yaw_rate_rps, base.max_accel_mps2,
                                  base.max_yaw_accel_rps2, self.c.env.control_hz, space)
-        self._timings[id(piece)] = (piece, space, traj)
+        self._timings[id(piece)] = (piece, tuple(piece), space, traj)
         return traj
 
     def _plan(self, start: Pose2D, obstacle: shapely.Geometry | None) -> Route | str:
