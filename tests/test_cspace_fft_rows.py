@@ -1,6 +1,6 @@
 """B5 configuration space build (world layer): the free maps computed with the row-restricted transforms
-(``footprint._hits``) are the former full ``rfft2``/``irfft2`` correlation's, cell for cell, and the exact
-"no occupied cell under the kernel" (a brute-force dilation) on random maps, footprints and margins."""
+(``cspace_fft.hits_many``) are the former full ``rfft2``/``irfft2`` correlation's, cell for cell, and the
+exact "no occupied cell under the kernel" (a brute-force dilation) on random maps, footprints and margins."""
 
 from __future__ import annotations
 

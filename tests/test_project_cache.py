@@ -270,3 +270,31 @@ def test_a_graphs_pickle_without_this_users_seal_is_never_unpickled(case: tuple[
         assert "project from cache" in said and not witness.exists()
     mark, _, data = (entry / project_cache.GRAPHS).read_bytes().partition(b"\n")
     assert sealed(data, mark.decode())
+
+
+def test_a_cold_load_keeps_its_graphs_for_the_next_process_which_answers_the_same_rows(
+        case: tuple[Path, Path]) -> None:
+    """``kbplanner run --tasks all`` writes the cold load's graphs into the entry before its spawned
+    processes load the scenario (ProjectData.keep_graphs): they unpickle them, with the same triples,
+    literals and rows as the graphs parsed from the entry's N-Triples."""
+    from kbplanner.core.graph_memo import memo
+    from kbplanner.core.named_queries import catalogue, run_named
+
+    proj, _ = case
+    cold, said = _load(proj)
+    assert "project from cache" not in said and cold.cache_entry is not None
+    assert project_cache.unedited(cold.model, cold.kb) and memo(cold.model) is not None
+    assert not (cold.cache_entry / project_cache.GRAPHS).is_file()
+    cold.keep_graphs()
+    assert (cold.cache_entry / project_cache.GRAPHS).is_file()
+    assert cold._kept_stamp == project_cache.graphs_stamp(cold.model, cold.kb)
+    warm, said = _load(proj)  # unpickles what the cold load kept
+    assert "project from cache" in said and warm._kept_stamp == cold._kept_stamp
+    assert set(warm.model) == set(cold.model) and _literals(warm.model) == _literals(cold.model)
+    assert isomorphic(warm.kb, cold.kb) and isomorphic(warm.graph, cold.graph)
+    for name in catalogue():  # every named query, no value bound: the same rows
+        got, want = run_named(warm.graph, name), run_named(cold.graph, name)
+        assert sorted(map(repr, got.rows)) == sorted(map(repr, want.rows)), name
+    cold.keep_graphs()  # kept already: nothing written again
+    cold.model.add((URIRef("urn:x:a"), URIRef("urn:x:b"), Literal("c")))
+    assert memo(cold.model) is None  # edited: queried again

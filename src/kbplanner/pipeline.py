@@ -279,6 +279,7 @@ def _tasks_ahead(project_dir: Path, stage: Path, names: list[str], clock: _Clock
     for name in names:
         with clock.stage("load", name):
             projects[name] = Project.load(project_dir, scenario=name)
+            projects[name].keep_graphs()  # a cold load: the spawned processes unpickle its graphs
     pool.load()  # from the project cache now
     parts = [ScenarioPart(n, stage / "scenarios" / n / "tasks", stage / "scenarios" / n / "simulation",
                           projects[n], None) for n in names]

@@ -29,10 +29,19 @@ from rdflib import Graph, URIRef
 from rdflib.term import Identifier
 
 from kbplanner.core.errors import KnowledgeBaseError
+from kbplanner.core.graph_memo import memo
 from kbplanner.core.named_queries import evaluates_text
 from kbplanner.core.sparql_cache import prepared_text
 from kbplanner.core.vocab import KBP
-from kbplanner.knowledge.binding_paths import read_path, sparql_path
+from kbplanner.knowledge.binding_paths import (
+    AlternativePath,
+    InversePath,
+    PredicatePath,
+    SequencePath,
+    ShaclPath,
+    read_path,
+    sparql_path,
+)
 from kbplanner.knowledge.knowledge_base import curie, source_of
 from kbplanner.knowledge.task_specs import TaskSpecification
 
@@ -47,12 +56,28 @@ class MaterialFlow:
     spec_id: str
     handles_material: bool
     query: str  # constant SPARQL text ("" when no material is handled)
+    every_focus: bool = False  # the path has no repetition: the query without ?focus bound gives each one's
 
     def storages(self, model: Graph, element: Identifier) -> list[URIRef]:
-        """The storages the path reaches from ``element`` (sorted; empty when the model lacks them)."""
+        """The storages the path reaches from ``element`` (sorted; empty when the model lacks them).
+
+        On a loaded model known unedited (:func:`kbplanner.core.graph_memo.memo`), the query runs once
+        without ``?focus`` bound and each element's storages are looked up in its rows (a whole-building
+        run asks for every element of every task): the same storages."""
         if not self.query:
             return []
-        prepared = None if evaluates_text(model) else prepared_text(self.query)  # parsed once, kept
+        evaluated = evaluates_text(model)
+        kept = memo(model) if self.every_focus and not evaluated else None
+        if kept is not None:
+            key = ("material_flow.storages", self.query)
+            if key not in kept:
+                found: dict[Identifier, set[URIRef]] = {}
+                for r in model.query(prepared_text(self.query) or self.query):
+                    if isinstance(r[1], URIRef):  # type: ignore[index]
+                        found.setdefault(r[0], set()).add(r[1])  # type: ignore[index, arg-type]
+                kept[key] = {k: tuple(sorted(v, key=str)) for k, v in found.items()}
+            return list(kept[key].get(element, ()))
+        prepared = None if evaluated else prepared_text(self.query)  # parsed once, kept
         rows = model.query(prepared or self.query, initBindings={"focus": element})
         return sorted({r[1] for r in rows if isinstance(r[1], URIRef)}, key=str)  # type: ignore[index]
 
@@ -74,4 +99,20 @@ def material_flow(kb: Graph, spec: TaskSpecification) -> MaterialFlow:
             fix="add kbp:materialStoragePath with a SHACL path from the element to its kbp:MaterialStorage, "
                 "e.g. kbp:materialStoragePath kbp:storedIn")
     path = read_path(kb, node, owner=spec.iri)
-    return MaterialFlow(spec.spec_id, True, _QUERY_HEAD + sparql_path(path) + _QUERY_TAIL)
+    return MaterialFlow(spec.spec_id, True, _QUERY_HEAD + sparql_path(path) + _QUERY_TAIL,
+                        every_focus=without_repetition(path))
+
+
+def without_repetition(path: ShaclPath) -> bool:
+    """Whether ``path`` has no ``*``, ``+`` or ``?``: then the value query without ``?focus`` bound gives,
+    for each focus, exactly the rows of the query with it bound (a zero-length path would also reach
+    focus nodes that are in no triple)."""
+    if isinstance(path, PredicatePath):
+        return True
+    if isinstance(path, InversePath):
+        return without_repetition(path.path)
+    if isinstance(path, SequencePath):
+        return all(without_repetition(p) for p in path.steps)
+    if isinstance(path, AlternativePath):
+        return all(without_repetition(p) for p in path.options)
+    return False

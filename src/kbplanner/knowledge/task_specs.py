@@ -19,6 +19,7 @@ from rdflib import Graph, Literal, URIRef
 from rdflib.term import Node
 
 from kbplanner.core.errors import KnowledgeBaseError
+from kbplanner.core.graph_memo import memo
 from kbplanner.core.vocab import KBP
 from kbplanner.knowledge.binding_check import check_binding
 from kbplanner.knowledge.binding_paths import ShaclPath, path_words
@@ -171,6 +172,16 @@ def robotized_tasks(model: Graph, task_id: str | None = None) -> list[RobotizedT
         >>> robotized_tasks(Graph())
         []
     """
+    kept = memo(model)  # a loaded model, unedited: the same tasks for every task of a whole-building run
+    if kept is not None:
+        key = ("robotized_tasks", task_id)
+        if key not in kept:
+            kept[key] = tuple(_robotized_tasks(model, task_id))
+        return list(kept[key])
+    return _robotized_tasks(model, task_id)
+
+
+def _robotized_tasks(model: Graph, task_id: str | None) -> list[RobotizedTask]:
     bindings = {"taskId": Literal(task_id)} if task_id is not None else {}
     out: list[RobotizedTask] = []
     for row in select(model, "robotized_tasks", **bindings):

@@ -36,6 +36,8 @@ from rdflib.plugins.sparql.sparql import Query
 from rdflib.term import BNode, Identifier, Node, _is_valid_uri
 
 from kbplanner.core.errors import KnowledgeBaseError
+from kbplanner.core.graph_memo import memo
+from kbplanner.core.named_queries import evaluates_text
 from kbplanner.core.sparql_cache import prepare_text
 from kbplanner.core.vocab import KBP
 from kbplanner.knowledge.binding_paths import (
@@ -47,6 +49,7 @@ from kbplanner.knowledge.binding_paths import (
     walk,
 )
 from kbplanner.knowledge.knowledge_base import curie, select
+from kbplanner.knowledge.material_flow import without_repetition
 from kbplanner.knowledge.task_specs import Binding
 
 log = logging.getLogger(__name__)
@@ -201,6 +204,28 @@ def _convert(graph: Graph, binding: Binding, node: Node) -> tuple[JsonValue, str
     return _plain(node), None
 
 
+def _order(node: Node) -> tuple[bool, str]:
+    return not isinstance(node, URIRef | Literal), str(node)
+
+
+def _values(graph: Graph, binding: Binding, focus: Identifier) -> list[Node]:
+    """The values ``binding``'s path reaches from ``focus``, sorted. On a loaded model known unedited
+    (:func:`kbplanner.core.graph_memo.memo`) and a path without repetition, the query runs once without
+    ``?focus`` bound and each focus is looked up in its rows (the same values)."""
+    kept = memo(graph) if without_repetition(binding.path) and not evaluates_text(graph) else None
+    if kept is None:
+        result = graph.query(prepared_query(binding), initBindings={"focus": focus})
+        return sorted({row[1] for row in result if row[1] is not None}, key=_order)  # type: ignore[index]
+    key = ("skill_inputs.values", value_query(binding))
+    if key not in kept:
+        found: dict[Node, set[Node]] = {}
+        for row in graph.query(prepared_query(binding)):
+            if row[1] is not None:  # type: ignore[index]
+                found.setdefault(row[0], set()).add(row[1])  # type: ignore[index]
+        kept[key] = {k: tuple(sorted(v, key=_order)) for k, v in found.items()}
+    return list(kept[key].get(focus, ()))
+
+
 def resolve_input(graph: Graph, binding: Binding, focus: Identifier, *, describe: str = "") -> InputValue:
     """B2: the value of ``binding``'s input, starting at ``focus`` (an element or the task).
 
@@ -208,9 +233,7 @@ def resolve_input(graph: Graph, binding: Binding, focus: Identifier, *, describe
     Several values: the first in sorted order is used and a note says so.
     """
     name = binding.input.name
-    result = graph.query(prepared_query(binding), initBindings={"focus": focus})
-    values = sorted({row[1] for row in result if row[1] is not None},  # type: ignore[index]
-                    key=lambda n: (not isinstance(n, URIRef | Literal), str(n)))
+    values = _values(graph, binding, focus)
     who = describe or curie(graph, focus)
     if not values:
         return InputValue(name, None, missing=(

@@ -43,7 +43,6 @@ from __future__ import annotations
 
 import functools
 import hashlib
-import math
 from collections import OrderedDict
 from dataclasses import dataclass
 
@@ -51,6 +50,7 @@ import numpy as np
 import numpy.typing as npt
 
 from kbplanner.world import cspace_store
+from kbplanner.world.cspace_fft import block_off_grid, kernel_set
 from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect, kernel_half_size
 from kbplanner.world.occupancy import OccupancyGrid
 
@@ -190,7 +190,9 @@ def _cropped(key: _Key, grid: OccupancyGrid, footprint: Footprint) -> Configurat
     if best is None:
         return None
     _, _, e, ix, iy, box = best
-    free = e.space.free[:, iy:iy + sy, ix:ix + sx] & _inside(footprint, res, n_bins, margin, (sy, sx))
+    free = e.space.free[:, iy:iy + sy, ix:ix + sx].copy()
+    # cells whose swept footprint leaves the window blocked (a build on the window counts off it occupied)
+    block_off_grid(free, kernel_set(footprint.rects, float(res), int(n_bins), float(margin)).bin_extents())
     if box is not None:
         y0, y1, x0, x1 = box
         wy0, wy1, wx0, wx1 = max(0, y0 - reach), min(sy, y1 + reach), max(0, x0 - reach), min(sx, x1 + reach)
@@ -213,29 +215,6 @@ def kernel_reach(footprint: Footprint, res: float, n_bins: int, margin_m: float)
 @functools.lru_cache(maxsize=1024)
 def _kernel_reach(rects: tuple[Rect, ...], res: float, margin_m: float) -> int:
     return kernel_half_size(rects, res, margin_m)
-
-
-def _inside(footprint: Footprint, res: float, n_bins: int, margin_m: float,
-            shape: tuple[int, int]) -> npt.NDArray[np.bool_]:
-    """Per yaw bin, the cells of a ``shape`` grid whose swept footprint (the bin's kernel, as
-    :meth:`ConfigurationSpace.build` uses it) lies wholly on the grid: (n_bins, ny, nx)."""
-    ny, nx = shape
-    width = 2 * math.pi / n_bins
-    out = np.zeros((n_bins, ny, nx), dtype=bool)
-    for k in range(n_bins):
-        kern = footprint.kernel(res, k * width - width / 2, k * width + width / 2, margin_m)
-        h = kern.shape[0] // 2
-        rows, cols = np.nonzero(kern)
-        if not len(rows):
-            out[k] = True
-            continue
-        dy0, dy1 = int(rows.min()) - h, int(rows.max()) - h
-        dx0, dx1 = int(cols.min()) - h, int(cols.max()) - h
-        y0, y1 = max(0, -dy0), min(ny, ny - dy1)
-        x0, x1 = max(0, -dx0), min(nx, nx - dx1)
-        if y0 < y1 and x0 < x1:
-            out[k, y0:y1, x0:x1] = True
-    return out
 
 
 def clear() -> None:

@@ -60,7 +60,7 @@ SUBDIR = "cspace"
 #: Bytes of kept files at most (the newest are kept); a case-study run writes about 5 MB.
 BUDGET_BYTES = 256 * 1024 * 1024
 TRIM_EVERY = 16  # writes between two looks at the folder's size
-_CODE = ("footprint.py", "cspace_cache.py", "occupancy.py", "cspace_store.py")
+_CODE = ("footprint.py", "cspace_fft.py", "cspace_cache.py", "occupancy.py", "cspace_store.py")
 
 _folder: list[Path] = []
 _code_memo: list[bytes] = []

@@ -19,7 +19,6 @@ Example:
 
 from __future__ import annotations
 
-import functools
 import logging
 import math
 from collections.abc import Sequence
@@ -29,15 +28,15 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 import shapely
-from scipy import fft as sp_fft
 
 from kbplanner.core.errors import KbplannerError
+from kbplanner.world.cspace_fft import free_maps, rasterised_kernel
+from kbplanner.world.cspace_fft import kernel_half_size as kernel_half_size
 from kbplanner.world.occupancy import OccupancyGrid
 
 log = logging.getLogger(__name__)
 
 BoolArray = npt.NDArray[np.bool_]
-_SUB_ANGLE_RAD = math.radians(0.5)  # sweep step when covering a yaw bin
 #: Half-size (cells) of the box around a pose in which :meth:`ConfigurationSpace.joined` looks for
 #: cells free in every yaw bin (1.5 m at 5 cm cells).
 JOIN_BOX_CELLS = 30
@@ -108,46 +107,8 @@ class Footprint:
         ``margin_m``, is swept over the yaw interval and Minkowski-summed with a square of half-side
         one cell (half a cell for the robot's position, half a cell for the obstacle cell).
         """
-        return _kernel(self.rects, float(resolution), float(yaw_lo), float(yaw_hi), float(margin_m)).copy()
-
-
-def kernel_half_size(rects: tuple[Rect, ...], resolution: float, margin_m: float) -> int:
-    """Half the side (cells) of every kernel of a footprint, whatever its yaw interval: the kernel of
-    :meth:`Footprint.kernel` has shape (2h+1, 2h+1)."""
-    return math.ceil((Footprint(rects).radius_m + resolution + margin_m) / resolution) + 1
-
-
-@functools.lru_cache(maxsize=4096)
-def _kernel(rects: tuple[Rect, ...], resolution: float, yaw_lo: float, yaw_hi: float,
-            margin_m: float) -> BoolArray:
-    """:meth:`Footprint.kernel`, memoised: a navigation rebuilds configuration spaces for the same
-    footprints (robot, robot + load in each carry mode) on many windows of the map, and rasterising the
-    swept footprint is the costly part of a build."""
-    grow = resolution + margin_m
-    n_sub = max(2, math.ceil((yaw_hi - yaw_lo) / _SUB_ANGLE_RAD) + 1)
-    h = kernel_half_size(rects, resolution, margin_m)
-    offs = np.arange(-h, h + 1) * resolution
-    xx, yy = np.meshgrid(offs, offs)
-    out = np.zeros(xx.shape, dtype=bool)
-    eps = 1e-9
-    # A rectangle grown by an axis-aligned square (Minkowski sum of two centrally symmetric convex
-    # polygons) is exactly the intersection of four slabs: along the rectangle's two axes and along
-    # x and y, each as wide as the two shapes' support functions added.
-    for yaw in np.linspace(yaw_lo, yaw_hi, n_sub):
-        c, s = math.cos(float(yaw)), math.sin(float(yaw))
-        for r in rects:
-            cx, cy = c * r.cx - s * r.cy, s * r.cx + c * r.cy
-            a = float(yaw) + r.yaw
-            ux, uy = math.cos(a), math.sin(a)
-            hl, hw = r.length / 2, r.width / 2
-            dx, dy = xx - cx, yy - cy
-            inside = np.abs(dx * ux + dy * uy) <= hl + grow * (abs(ux) + abs(uy)) + eps
-            inside &= np.abs(-dx * uy + dy * ux) <= hw + grow * (abs(uy) + abs(ux)) + eps
-            inside &= np.abs(dx) <= hl * abs(ux) + hw * abs(uy) + grow + eps
-            inside &= np.abs(dy) <= hl * abs(uy) + hw * abs(ux) + grow + eps
-            out |= inside
-    out.setflags(write=False)
-    return out
+        return rasterised_kernel(self.rects, float(resolution), float(yaw_lo), float(yaw_hi),
+                                 float(margin_m)).copy()
 
 
 @dataclass(frozen=True, eq=False)
@@ -199,27 +160,8 @@ class ConfigurationSpace:
         if n_yaw_bins < 4:
             raise KbplannerError(f"n_yaw_bins must be at least 4, got {n_yaw_bins}", element="n_yaw_bins",
                                  fix="use e.g. 72 (5 degree bins)")
-        res = grid.resolution
-        width = 2 * math.pi / n_yaw_bins
-        kernels = [footprint.kernel(res, k * width - width / 2, k * width + width / 2, margin_m)
-                   for k in range(n_yaw_bins)]
-        h = max(k.shape[0] for k in kernels) // 2
-        padded = np.pad(grid.occupied, h, constant_values=True).astype(np.float32)
-        free = np.empty((n_yaw_bins, *grid.shape), dtype=bool)
-        # Correlation by FFT with the grid's transform computed once for all bins (the kernels are
-        # padded to one size); hits < 0.5 means no occupied cell under the swept footprint. The
-        # transform is circular: a length of at least the padded grid's keeps every wrapped-around
-        # term out of the cells kept (rows/columns size-1 .. size-1+n-1, size = 2h + 1: see _hits).
-        shape = tuple(sp_fft.next_fast_len(n, real=True) for n in padded.shape)
-        grid_f = sp_fft.rfft2(padded, shape)
-        ny, nx = grid.shape
-        seen: dict[tuple[tuple[int, ...], bytes], int] = {}  # a kernel met before: the same free map
-        for k, kern in enumerate(kernels):
-            j = seen.setdefault((kern.shape, kern.tobytes()), k)
-            if j != k:  # e.g. a centrally symmetric footprint half a turn later
-                free[k] = free[j]
-                continue
-            free[k] = _hits(grid_f, kern, h, shape, ny, nx) < 0.5
+        free = free_maps(grid.occupied, footprint.rects, float(grid.resolution), int(n_yaw_bins),
+                         float(margin_m))
         log.debug("configuration space %s: %d bins, %.1f %% free at yaw 0", footprint.name, n_yaw_bins,
                   100.0 * free[0].mean())
         return cls(grid=grid, footprint=footprint, free=free, margin_m=margin_m)
@@ -415,21 +357,3 @@ class ConfigurationSpace:
     def free_any_yaw(self) -> BoolArray:
         """Cells where at least one yaw bin is free (where the robot's centre can be at all)."""
         return np.asarray(self.free.any(axis=0))
-
-
-def _hits(grid_f: npt.NDArray[np.complex64], kern: BoolArray, h: int, shape: tuple[int, ...], ny: int,
-          nx: int) -> npt.NDArray[np.float32]:
-    """How many occupied cells the kernel covers at each of the grid's cells (rows ``size - 1 ..`` and
-    columns ``size - 1 ..`` of the circular correlation of the padded grid, ``size = 2h + 1``): what
-    ``irfft2(grid_f * rfft2(flipped kernel in a size x size square, shape), shape)`` gives there, with the
-    two passes of each 2-D transform done by hand so that only rows that hold something are
-    transformed along x: the kernel's ``size`` rows (the others are zero) and, back, the ``ny`` rows
-    kept. Counts of cells; the rounding (float32) stays far below the 0.5 they are compared with."""
-    size = 2 * h + 1
-    hk = kern.shape[0] // 2
-    full = np.zeros((size, size), dtype=np.float32)
-    full[h - hk : h + hk + 1, h - hk : h + hk + 1] = kern
-    kern_f = sp_fft.fft(sp_fft.rfft(full[::-1, ::-1], n=shape[1], axis=1), n=shape[0], axis=0)
-    rows = sp_fft.ifft(grid_f * kern_f, axis=0)[size - 1 : size - 1 + ny]
-    out: npt.NDArray[np.float32] = sp_fft.irfft(rows, n=shape[1], axis=1)[:, size - 1 : size - 1 + nx]
-    return out

@@ -1,0 +1,247 @@
+"""Configuration space build (B3 fit checks, B4 carry legs, B5 navigation): footprint kernels and the
+FFT correlation that turns an occupancy grid into one free map per yaw bin.
+
+:meth:`kbplanner.world.footprint.ConfigurationSpace.build` calls :func:`free_maps`; the kernels
+(:func:`rasterised_kernel`: the footprint swept over a yaw bin, grown by half a cell each side and
+a margin) and their distinct set per footprint (:func:`kernel_set`) are kept for the process. The
+free maps are exact: a cell of bin ``k`` is free when no occupied cell and no cell off the grid lies
+under bin ``k``'s kernel (the FFT's sums of cells are rounded far below the 0.5 they are compared with;
+tests/test_cspace_unpadded.py compares with a binary dilation and with the build before session 11).
+
+Example:
+    >>> from kbplanner.world.footprint import Rect
+    >>> occ = np.zeros((20, 30), dtype=bool); occ[:, 20] = True
+    >>> free = free_maps(occ, (Rect(0, 0, 0.5, 0.3),), 0.05, 8, 0.0)
+    >>> free.shape, bool(free[0, 10, 10]), bool(free[0, 10, 19])
+    ((8, 20, 30), True, False)
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+import numpy.typing as npt
+from scipy import fft as sp_fft
+
+BoolArray = npt.NDArray[np.bool_]
+
+
+class Rect(Protocol):
+    """What is read of a :class:`kbplanner.world.footprint.Rect` here."""
+
+    @property
+    def cx(self) -> float: ...
+    @property
+    def cy(self) -> float: ...
+    @property
+    def length(self) -> float: ...
+    @property
+    def width(self) -> float: ...
+    @property
+    def yaw(self) -> float: ...
+    def corners(self, yaw: float = 0.0) -> npt.NDArray[np.float64]: ...
+
+_SUB_ANGLE_RAD = math.radians(0.5)  # sweep step when covering a yaw bin
+
+
+def kernel_half_size(rects: tuple[Rect, ...], resolution: float, margin_m: float) -> int:
+    """Half the side (cells) of every kernel of a footprint, whatever its yaw interval: the kernel of
+    :meth:`Footprint.kernel` has shape (2h+1, 2h+1)."""
+    radius = float(max(np.hypot(*r.corners().T).max() for r in rects))  # Footprint.radius_m
+    return math.ceil((radius + resolution + margin_m) / resolution) + 1
+
+
+@functools.lru_cache(maxsize=4096)
+def rasterised_kernel(rects: tuple[Rect, ...], resolution: float, yaw_lo: float, yaw_hi: float,
+                      margin_m: float) -> BoolArray:
+    """:meth:`Footprint.kernel` (read-only), memoised: a navigation rebuilds configuration spaces for
+    the same footprints (robot, robot + load in each carry mode) on many windows of the map."""
+    grow = resolution + margin_m
+    n_sub = max(2, math.ceil((yaw_hi - yaw_lo) / _SUB_ANGLE_RAD) + 1)
+    h = kernel_half_size(rects, resolution, margin_m)
+    offs = np.arange(-h, h + 1) * resolution
+    eps = 1e-9
+    # A rectangle grown by an axis-aligned square (Minkowski sum of two centrally symmetric convex
+    # polygons) is exactly the intersection of four slabs: along the rectangle's two axes and along
+    # x and y, each as wide as the two shapes' support functions added. Every sub-angle of a rectangle
+    # at once, on the box of cells its x and y slabs leave: the scalars as one float each (Python
+    # floats, math.cos/sin), the cells' offsets along x and y as vectors broadcast against each other -
+    # each cell's value is the very float ``xx - cx`` etc. of a meshgrid gives
+    # (tests/test_footprint_kernel.py compares with the loop over a meshgrid).
+    cxs, cys, uxs, uys, t1, t2, t3, t4 = ([] for _ in range(8))
+    for yaw in np.linspace(yaw_lo, yaw_hi, n_sub):
+        c, s = math.cos(float(yaw)), math.sin(float(yaw))
+        for r in rects:
+            a = float(yaw) + r.yaw
+            ux, uy = math.cos(a), math.sin(a)
+            hl, hw = r.length / 2, r.width / 2
+            cxs.append(c * r.cx - s * r.cy)
+            cys.append(s * r.cx + c * r.cy)
+            uxs.append(ux)
+            uys.append(uy)
+            t1.append(hl + grow * (abs(ux) + abs(uy)) + eps)
+            t2.append(hw + grow * (abs(uy) + abs(ux)) + eps)
+            t3.append(hl * abs(ux) + hw * abs(uy) + grow + eps)
+            t4.append(hl * abs(uy) + hw * abs(ux) + grow + eps)
+    out = np.zeros((2 * h + 1, 2 * h + 1), dtype=bool)
+    n_rects = len(rects)
+    for i in range(n_rects):  # each rectangle over its sub-angles, on the box its x and y slabs leave
+        cx, cy = np.array(cxs[i::n_rects])[:, None], np.array(cys[i::n_rects])[:, None]
+        uxa, uya = np.array(uxs[i::n_rects])[:, None, None], np.array(uys[i::n_rects])[:, None, None]
+        in_x = np.abs(offs[None, :] - cx) <= np.array(t3[i::n_rects])[:, None]  # (sub-angle, column)
+        in_y = np.abs(offs[None, :] - cy) <= np.array(t4[i::n_rects])[:, None]  # (sub-angle, row)
+        cols, rows = np.nonzero(in_x.any(axis=0))[0], np.nonzero(in_y.any(axis=0))[0]
+        if not len(cols) or not len(rows):
+            continue
+        x0, x1, y0, y1 = int(cols[0]), int(cols[-1]) + 1, int(rows[0]), int(rows[-1]) + 1
+        dx = (offs[None, x0:x1] - cx)[:, None, :]  # (sub-angle, 1, column): the floats of xx - cx
+        dy = (offs[None, y0:y1] - cy)[:, :, None]  # (sub-angle, row, 1)
+        inside = np.abs(dx * uxa + dy * uya) <= np.array(t1[i::n_rects])[:, None, None]
+        inside &= np.abs(-dx * uya + dy * uxa) <= np.array(t2[i::n_rects])[:, None, None]
+        inside &= in_x[:, None, x0:x1]
+        inside &= in_y[:, y0:y1, None]
+        out[y0:y1, x0:x1] |= inside.any(axis=0)
+    out.setflags(write=False)
+    return out
+
+
+#: Complex cells (frequency rows x columns x bins) transformed at once by a build (512 kB: in the caches)
+_BATCH_CELLS = 64 * 1024
+
+
+@dataclass(frozen=True)
+class KernelSet:
+    """The kernels of every yaw bin of a footprint, as :func:`free_maps` correlates them:
+    ``flipped[j]`` the j-th distinct kernel turned half a turn (all ``2h+1`` square), ``index[k]``
+    bin ``k``'s distinct kernel, ``first[j]`` the first bin of kernel ``j``."""
+
+    h: int
+    flipped: BoolArray
+    index: npt.NDArray[np.intp]
+    #: per distinct kernel, the offsets (dy0, dy1, dx0, dx1) of its first and last rows and columns
+    #: that hold a cell, from the robot's cell ((0, -1, 0, -1) for an empty kernel: nothing to block)
+    extents: tuple[tuple[int, int, int, int], ...]
+    first: tuple[int, ...]
+
+    def bin_extents(self) -> tuple[tuple[int, int, int, int], ...]:
+        """:attr:`extents` of every yaw bin's kernel."""
+        return tuple(self.extents[j] for j in self.index)
+
+
+@functools.lru_cache(maxsize=64)
+def kernel_set(rects: tuple[Rect, ...], resolution: float, n_bins: int, margin_m: float) -> KernelSet:
+    width = 2 * math.pi / n_bins
+    kernels = [rasterised_kernel(rects, resolution, k * width - width / 2, k * width + width / 2, margin_m)
+               for k in range(n_bins)]
+    h = max(k.shape[0] for k in kernels) // 2
+    size = 2 * h + 1
+    seen: dict[tuple[tuple[int, ...], bytes], int] = {}
+    index = np.empty(n_bins, dtype=np.intp)
+    flipped: list[BoolArray] = []
+    first: list[int] = []
+    extents: list[tuple[int, int, int, int]] = []
+    for k, kern in enumerate(kernels):
+        j = seen.setdefault((kern.shape, kern.tobytes()), len(flipped))
+        index[k] = j
+        if j == len(flipped):
+            hk = kern.shape[0] // 2
+            full = np.zeros((size, size), dtype=bool)
+            first.append(k)
+            full[h - hk : h + hk + 1, h - hk : h + hk + 1] = kern
+            flipped.append(np.ascontiguousarray(full[::-1, ::-1]))
+            rows, cols = np.nonzero(kern)
+            extents.append((int(rows.min()) - hk, int(rows.max()) - hk, int(cols.min()) - hk,
+                            int(cols.max()) - hk) if len(rows) else (0, -1, 0, -1))
+    stack = np.stack(flipped)
+    stack.setflags(write=False)
+    index.setflags(write=False)
+    return KernelSet(h=h, flipped=stack, index=index, extents=tuple(extents), first=tuple(first))
+
+
+def free_maps(occupied: BoolArray, rects: tuple[Rect, ...], resolution: float, n_yaw_bins: int,
+              margin_m: float) -> BoolArray:
+    """``free[bin, iy, ix]``: whether the footprint of ``rects`` at cell (ix, iy), any yaw of the bin
+    (bin ``k`` covers [k*w - w/2, k*w + w/2], w = 2*pi / n_yaw_bins), any position in the cell, is
+    clear of every occupied cell of ``occupied`` and of the cells off it."""
+    kset = kernel_set(rects, resolution, n_yaw_bins, margin_m)
+    h = kset.h
+    ny, nx = occupied.shape
+    free = np.empty((n_yaw_bins, ny, nx), dtype=bool)
+    # Correlation by FFT of the grid (its transform computed once for all bins, the kernels all of one
+    # size) with each bin's kernel: hits < 0.5 means no occupied cell of the grid under the swept
+    # footprint. Cells off the grid count as occupied: a cell is also blocked where the kernel's extent
+    # (its first and last rows and columns that hold a cell) leaves the grid - the very cells that a
+    # correlation of the grid padded with h occupied cells all round blocks for them (the build before
+    # session 11; tests/test_cspace_unpadded.py). The transform is circular: a length of at least n + h
+    # keeps every wrapped-around term out of the cells kept (see hits_many).
+    if ny and nx:
+        shape = (sp_fft.next_fast_len(ny + h, real=True), sp_fft.next_fast_len(nx + h, real=True))
+        rows_f = sp_fft.rfft(occupied.astype(np.float32), n=shape[1], axis=1)
+        grid_f = sp_fft.fft(rows_f, n=shape[0], axis=0, overwrite_x=True)
+        # one free map per distinct kernel (e.g. a centrally symmetric footprint half a turn later has
+        # the same), written in its first bin and copied to the others; the transforms a few at a time
+        n_distinct = len(kset.flipped)
+        step = max(1, min(n_distinct, _BATCH_CELLS // (shape[0] * (shape[1] // 2 + 1))))
+        work = np.empty((step, shape[0], shape[1] // 2 + 1), dtype=np.complex64)  # reused: no new pages
+        for i in range(0, n_distinct, step):
+            hits = hits_many(grid_f, kset.flipped[i : i + step], h, shape, ny, nx, work)
+            for j in range(i, min(i + step, n_distinct)):
+                k = kset.first[j]
+                np.less(hits[j - i], 0.5, out=free[k])
+                block_off_grid(free[k : k + 1], kset.extents[j : j + 1])
+        for k, j in enumerate(kset.index):
+            if kset.first[j] != k:
+                free[k] = free[kset.first[j]]
+    return free
+
+
+def block_off_grid(free: BoolArray, extents: Sequence[tuple[int, int, int, int]]) -> None:
+    """Block, in place, the cells of each map ``free[j]`` whose kernel (``extents[j]``, as
+    :class:`KernelSet` keeps them) reaches off the grid: what cells off the grid counted as occupied
+    give."""
+    ny, nx = free.shape[1:]
+    for j, (dy0, dy1, dx0, dx1) in enumerate(extents):
+        y0, y1, x0, x1 = max(0, -dy0), min(ny, ny - dy1), max(0, -dx0), min(nx, nx - dx1)
+        if y0 >= y1 or x0 >= x1:
+            free[j] = False
+            continue
+        free[j, :y0] = False
+        free[j, y1:] = False
+        free[j, :, :x0] = False
+        free[j, :, x1:] = False
+
+
+def hits_many(grid_f: npt.NDArray[np.complex64], flipped: BoolArray, h: int,
+              shape: tuple[int, ...], ny: int, nx: int,
+              work: npt.NDArray[np.complex64] | None = None) -> npt.NDArray[np.float32]:
+    """How many occupied cells of the grid each of several kernels covers at each of its cells:
+    ``flipped`` (n, size, size) as :class:`KernelSet` keeps them, ``grid_f`` the grid's transform
+    (unpadded, ``shape``). Rows and columns ``h ..`` of the circular convolution with the flipped kernel
+    in the top-left ``size x size`` corner, each transform along one axis of the stack, the two passes of
+    each 2-D transform done by hand so that only rows that hold something are transformed along x: the
+    kernel's ``size`` rows (the others are zero) and, back, the ``ny`` rows kept. ``work``: an array of
+    at least (n, shape[0], shape[1] // 2 + 1) to transform in (a fresh one costs its pages each time).
+    Counts of cells; the rounding (float32) stays far below the 0.5 they are compared with
+    (tests/test_cspace_unpadded.py).
+
+    Where a transform is shorter than the kernel (a grid of at most ``h`` rows or columns), the kernel's
+    rows or columns past it are left out: they are offsets of ``n`` cells or more to the left or below
+    the robot's cell, off the grid from every cell, whose cells :func:`block_off_grid` blocks anyway."""
+    n = len(flipped)
+    m, nh = shape[0], shape[1] // 2 + 1
+    if work is None or work.shape[0] < n or work.shape[1:] != (m, nh):
+        work = np.empty((n, m, nh), dtype=np.complex64)
+    spec = work[:n]
+    rows_f = sp_fft.rfft(flipped.astype(np.float32), n=shape[1], axis=2)[:, :m]
+    spec[:, : rows_f.shape[1]] = rows_f
+    spec[:, rows_f.shape[1] :] = 0
+    spec = sp_fft.fft(spec, axis=1, overwrite_x=True)
+    spec *= grid_f
+    rows = sp_fft.ifft(spec, axis=1, overwrite_x=True)[:, h : h + ny]
+    out: npt.NDArray[np.float32] = sp_fft.irfft(rows, n=shape[1], axis=2, overwrite_x=True)
+    return out[:, :, h : h + nx]
