@@ -50,3 +50,21 @@ def test_kept_cells_and_lengths_are_those_of_a_search_from_scratch() -> None:
         assert got == grid_yardstick._shortest_length(fresh, start, goal)
         assert got == grid_shortest_path_length(g, start, goal, FP)
     assert cs.nbytes() > int(cs.free.nbytes) + sum(int(a.nbytes + b.nbytes) for a, b in cs.memo.values())
+
+
+def test_the_yardstick_is_never_shorter_than_the_straight_line() -> None:
+    """The navigation skill keeps a leg within 1.25 x the straight distance without searching its
+    yardstick (skills/navigation.py ``_shorter``): exact only while the yardstick, a line from start to
+    goal, is never shorter than the straight distance."""
+    cspace_cache.clear()
+    cs = configuration_space(_grid(), FP)
+    rng = np.random.default_rng(3)
+    found = 0
+    for _ in range(60):
+        start = (float(rng.uniform(0.4, 4.6)), float(rng.uniform(0.4, 3.6)))
+        goal = (float(rng.uniform(0.4, 4.6)), float(rng.uniform(0.4, 3.6)))
+        length = grid_shortest_path_length(cs, start, goal)
+        if np.isfinite(length):
+            found += 1
+            assert length >= np.hypot(goal[0] - start[0], goal[1] - start[1]) * (1.0 - 1e-9)
+    assert found > 20

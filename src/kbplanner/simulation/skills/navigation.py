@@ -48,7 +48,7 @@ from kbplanner.planning.manipulation import KIND_NAVIGATION, KIND_NAVIGATION_WIT
 from kbplanner.planning.plan_model import Pose2
 from kbplanner.planning.pose_frames import as_pose6_list
 from kbplanner.robot.lidar import LidarSpec, lidar_spec
-from kbplanner.simulation.base_trajectory import time_parameterize
+from kbplanner.simulation.base_trajectory import Trajectory, time_parameterize
 from kbplanner.simulation.carry_paths import cell_alternatives, cells_first, plan_with_carry_modes
 from kbplanner.simulation.grid_yardstick import grid_shortest_path_length
 from kbplanner.simulation.nav_path import NavSettings
@@ -58,7 +58,7 @@ from kbplanner.simulation.separation import reach_m
 from kbplanner.simulation.separation_monitor import SeparationMonitor
 from kbplanner.simulation.skills.base import JointPath, Skill, Status
 from kbplanner.simulation.skills.load_turn import best_turn_pose, turn_poses
-from kbplanner.simulation.skills.load_turn_once import one_turn
+from kbplanner.simulation.skills.load_turn_once import leg_time_bound, one_turn
 from kbplanner.simulation.skills.make_way import ask_way
 from kbplanner.simulation.skills.nav_grid import nearest_free_pose, window
 from kbplanner.simulation.skills.nav_queue import Drive, Route, Turn, route_of
@@ -72,6 +72,7 @@ log = logging.getLogger(__name__)
 DETOUR_RATIO = 1.25  # a leg longer than this x the grid yardstick is planned again ...
 DETOUR_MIN_M = 2.0  # ... when the yardstick is at least this long (short hops are mostly turning)
 DETOUR_RETRIES = 2  # with this many other seeds
+LegMemo = tuple[Route | str, ConfigurationSpace | None, str | None]  # a leg, its space, its planner
 
 Pose2D = tuple[float, float, float]
 
@@ -113,6 +114,10 @@ class NavigationSkill(Skill):
         self.stops = 0
         self.slowdowns = 0
         self.driven_m = 0.0
+        # legs planned in this route search (None outside one) and the timed pieces of routes, by id
+        self._legs: dict[tuple[Pose2D, Pose2D, Footprint, Footprint | None], LegMemo] | None = None
+        self._timings: dict[int, tuple[list[Pose2D], tuple[Pose2D, ...], ConfigurationSpace | None,
+                                       Trajectory]] = {}
         self.details.update({"planning_time_s": 0.0, "path_length_m": 0.0, "stops": 0, "stop_time_s": 0.0,
                              "slowdowns": 0, "slow_time_s": 0.0, "time_lost_s": 0.0,
                              "replans": 0, "carry_modes": [], "narrow_length_m": 0.0, "planner": ""})
@@ -186,7 +191,30 @@ class NavigationSkill(Skill):
 
     def _leg(self, grid: OccupancyGrid, start: Pose2D, goal: Pose2D, fp: Footprint,
              narrow: Footprint | None) -> Route | str:
-        """One planned leg, in growing windows: a plain path (``narrow`` None) or a carry-mode path."""
+        """One planned leg, in growing windows: a plain path (``narrow`` None) or a carry-mode path.
+
+        In a route search (:meth:`_plan_from`, on one grid) a leg asked again - the former route's turn
+        legs are the one-turn search's - is not planned again: the same route (or reason) is returned,
+        its configuration space kept again and its planner named, as planning it again would."""
+        if self._legs is None:
+            return self._leg_planned(grid, start, goal, fp, narrow)[0]
+        key = (start, goal, fp, narrow)
+        if key not in self._legs:
+            before = self.details["planner"]
+            found, space = self._leg_planned(grid, start, goal, fp, narrow)
+            self._legs[key] = (found, space, self.details["planner"] if self.details["planner"] != before
+                               or not isinstance(found, str) else None)
+            return found
+        found, space, planner = self._legs[key]
+        if space is not None and self.spaces is not None:
+            self.spaces.append(space)
+        if planner is not None:
+            self.details["planner"] = planner
+        return found
+
+    def _leg_planned(self, grid: OccupancyGrid, start: Pose2D, goal: Pose2D, fp: Footprint,
+                     narrow: Footprint | None) -> tuple[Route | str, ConfigurationSpace | None]:
+        """:meth:`_leg` planned, with the configuration space kept for the yardstick (None: none)."""
         s = self.c.settings
         settings = self._settings()
         reasons: list[str] = []
@@ -201,8 +229,8 @@ class NavigationSkill(Skill):
             route, space = self._shorter(sub, start, goal, fp, narrow, settings, *found)
             if space is not None and self.spaces is not None:
                 self.spaces.append(space)
-            return route
-        return "; ".join(reasons)
+            return route, space
+        return "; ".join(reasons), None
 
     def _leg_in(self, sub: OccupancyGrid, start: Pose2D, goal: Pose2D, fp: Footprint,
                 narrow: Footprint | None, settings: NavSettings
@@ -235,7 +263,13 @@ class NavigationSkill(Skill):
         """A leg whose yardstick on its space is at least ``DETOUR_MIN_M`` and whose path is over
         ``DETOUR_RATIO`` x that (the planner went round the long way) is planned again with up to
         ``DETOUR_RETRIES`` other seeds (derived from the step's); the quickest to drive is kept. With
-        ``ExecSettings.detour_retry_cell_paths`` False, not a leg that ended on the cell path."""
+        ``ExecSettings.detour_retry_cell_paths`` False, not a leg that ended on the cell path.
+
+        A path within ``DETOUR_RATIO`` x the straight distance is within that of the yardstick (a line
+        from start to goal, never shorter than the straight one): it is kept without the search."""
+        straight = math.hypot(goal[0] - start[0], goal[1] - start[1])
+        if route.length_m <= DETOUR_RATIO * straight * (1.0 - 1e-9):
+            return route, space
         best = grid_shortest_path_length(space, start, goal) if space is not None else math.inf
         if not (DETOUR_MIN_M <= best < math.inf) or route.length_m <= DETOUR_RATIO * best:
             return route, space
@@ -280,10 +314,19 @@ class NavigationSkill(Skill):
 
     def _drive_s(self, route: Route) -> float:
         """How long driving a route takes (its timed pieces; the load's turns between them left out)."""
+        return sum(self._trajectory(p, space).duration_s for p, _, space in route.pieces if len(p) >= 2)
+
+    def _trajectory(self, piece: list[Pose2D], space: ConfigurationSpace | None) -> Trajectory:
+        """A route piece timed (:func:`time_parameterize`), once: legs timed to be compared and the
+        route driven are timed by the same call (kept by the piece's identity and its poses)."""
+        got = self._timings.get(id(piece))
+        if got is not None and got[0] is piece and got[2] is space and got[1] == tuple(piece):
+            return got[3]
         base = self.c.env.robot.spec.base
-        return sum(time_parameterize(p, self.max_speed, base.max_yaw_rate_rps, base.max_accel_mps2,
-                                     base.max_yaw_accel_rps2, self.c.env.control_hz, space).duration_s
-                   for p, _, space in route.pieces if len(p) >= 2)
+        traj = time_parameterize(piece, self.max_speed, base.max_yaw_rate_rps, base.max_accel_mps2,
+                                 base.max_yaw_accel_rps2, self.c.env.control_hz, space)
+        self._timings[id(piece)] = (piece, tuple(piece), space, traj)
+        return traj
 
     def _plan(self, start: Pose2D, obstacle: shapely.Geometry | None) -> Route | str:
         """The route to the goal; NV-2 turns the load at a pose near start or goal when it must.
@@ -338,6 +381,15 @@ class NavigationSkill(Skill):
 
     def _plan_from(self, grid: OccupancyGrid, start: Pose2D, normal: Footprint,
                    narrow: Footprint | None) -> Route | str:
+        """The route from ``start`` to the goal on ``grid``; a leg asked twice is planned once."""
+        self._legs = {}
+        try:
+            return self._route_from(grid, start, normal, narrow)
+        finally:
+            self._legs = None
+
+    def _route_from(self, grid: OccupancyGrid, start: Pose2D, normal: Footprint,
+                    narrow: Footprint | None) -> Route | str:
         first = self._leg(grid, start, self.goal, normal, narrow)
         if not isinstance(first, str):
             return first
@@ -394,9 +446,12 @@ class NavigationSkill(Skill):
         if self.geo is None or len(free_start) != 1 or len(free_goal) != 1 or free_start == free_goal:
             return None
         fa, fb = self.geo.footprint(free_start[0]), self.geo.footprint(free_goal[0])
+        base = self.c.env.robot.spec.base
         got = one_turn(fits, start, self.goal,
                        lambda v: self._timed(self._leg(grid, start, v, fa, None), why),
-                       lambda v: self._timed(self._leg(grid, v, self.goal, fb, None), why))
+                       lambda v: self._timed(self._leg(grid, v, self.goal, fb, None), why),
+                       lambda a, b: leg_time_bound(a, b, self.max_speed, base.max_accel_mps2,
+                                                   base.max_yaw_rate_rps))
         if got is None:
             return None
         _, a, b, _ = got
@@ -414,8 +469,6 @@ class NavigationSkill(Skill):
 
     def _enqueue(self, route: Route, *, first: bool) -> None:
         """Queue drives (and carry turns) for a planned route; ``first``: the step's first plan."""
-        env = self.c.env
-        base = env.robot.spec.base
         self.details["path_length_m"] += route.length_m
         self.details["narrow_length_m"] += route.narrow_length_m
         mode = self.c.carry_mode
@@ -429,8 +482,7 @@ class NavigationSkill(Skill):
                 self.queue.append(Turn(self._joint_path([(f"carry {pmode}", q)]), event, pmode))
                 mode = pmode
             if len(piece) >= 2:
-                traj = time_parameterize(piece, self.max_speed, base.max_yaw_rate_rps, base.max_accel_mps2,
-                                         base.max_yaw_accel_rps2, rate_hz=env.control_hz, space=space)
+                traj = self._trajectory(piece, space)
                 if len(traj.poses) >= 2:
                     self.queue.append(Drive(list(traj.poses), pmode))
             first = False
