@@ -62,6 +62,7 @@ from kbplanner.simulation.skills.load_turn_once import leg_time_bound, one_turn
 from kbplanner.simulation.skills.make_way import ask_way
 from kbplanner.simulation.skills.nav_grid import nearest_free_pose, window
 from kbplanner.simulation.skills.nav_queue import Drive, Route, Turn, route_of
+from kbplanner.simulation.spin_merge import turn_while_driving
 from kbplanner.simulation.workers import WORKER_RADIUS_M
 from kbplanner.world.cspace_cache import configuration_space
 from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect
@@ -291,7 +292,9 @@ class NavigationSkill(Skill):
     def _cells_instead(self, route: Route, space: ConfigurationSpace, start: Pose2D, goal: Pose2D,
                        settings: NavSettings, seconds: float) -> Route:
         """A one-mode leg still round the long way: the quickest to drive of it and the cell routes on its
-        space (:func:`~kbplanner.simulation.carry_paths.cell_alternatives`)."""
+        space (:func:`~kbplanner.simulation.carry_paths.cell_alternatives`), each also with its turns on
+        the spot taken into its drives where they fit, never reversing
+        (:func:`~kbplanner.simulation.spin_merge.turn_while_driving`)."""
         modes = {(m, id(sp)) for _, m, sp in route.pieces}
         if len(modes) != 1 or route.pieces[0][2] is not space:
             return route
@@ -299,10 +302,13 @@ class NavigationSkill(Skill):
         for alt in cell_alternatives(space, start, goal, settings):
             self.details["planning_time_s"] += alt.planning_time_s
             narrow = alt.length_m if mode == NARROW else 0.0
-            other = Route([(list(alt.poses), mode, space)], alt.length_m, narrow)
-            if self._drive_s(other) < seconds - 1e-9:
-                route, seconds = other, self._drive_s(other)
-                self.details["planner"] = alt.planner
+            poses = list(alt.poses)
+            turning = turn_while_driving(space, poses)
+            for way in (poses, turning) if turning != poses else (poses,):
+                other = Route([(way, mode, space)], alt.length_m, narrow)
+                if self._drive_s(other) < seconds - 1e-9:
+                    route, seconds = other, self._drive_s(other)
+                    self.details["planner"] = alt.planner
         return route
 
     def _timed(self, leg: Route | str, why: list[str]) -> tuple[Route, float] | None:
