@@ -316,7 +316,23 @@ class NavigationSkill(Skill):
         if isinstance(leg, str):
             why.append(leg)
             return None
+        leg = self._turning(leg)
         return leg, self._drive_s(leg)
+
+    def _turning(self, route: Route) -> Route:
+        """``route`` with each piece's turns on the spot taken into its drives where they fit, never
+        reversing (:func:`~kbplanner.simulation.spin_merge.turn_while_driving`), where that is quicker."""
+        pieces = []
+        for poses, mode, space in route.pieces:
+            if space is not None and len(poses) >= 3:
+                turning = turn_while_driving(space, poses)
+                if turning != poses and (self._trajectory(turning, space).duration_s
+                                         < self._trajectory(poses, space).duration_s - 1e-9):
+                    poses = turning
+            pieces.append((poses, mode, space))
+        if all(a[0] is b[0] for a, b in zip(pieces, route.pieces, strict=True)):
+            return route
+        return Route(pieces, route.length_m, route.narrow_length_m)
 
     def _drive_s(self, route: Route) -> float:
         """How long driving a route takes (its timed pieces; the load's turns between them left out)."""
