@@ -164,8 +164,9 @@ def _over_seeds(rows: list[dict[str, Any]], label: str, key: str) -> str:
 def _summary(rows: list[dict[str, Any]]) -> list[str]:
     """Per scenario, over the seeds: the figures' median / max, collisions, worst separation."""
     text = ["| scenario | seeds | frame time / lower bound, median / max | driven / shortest, median / max | "
-            "runs with driven / shortest max > 1.3 | collisions | worst min separation |",
-            "| --- | --- | --- | --- | --- | --- | --- |"]
+            "runs with driven / shortest max > 1.3 | collisions | worst min separation | simulated, sum | "
+            "runs simulated longer / shorter | runs with a smaller min separation |",
+            "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for s in dict.fromkeys(r["scenario"] for r in rows):
         mine = [r for r in rows if r["scenario"] == s]
         parts = []
@@ -176,9 +177,16 @@ def _summary(rows: list[dict[str, Any]]) -> list[str]:
         coll = [sum(int(r[lab]["collisions"]) for r in mine) for lab in ("before", "after")]
         seps = [min((r[lab]["min_separation_m"] for r in mine if r[lab]["min_separation_m"] is not None),
                     default=None) for lab in ("before", "after")]
+        sums = [sum(float(r[lab]["sim_time_s"]) for r in mine) for lab in ("before", "after")]
+        dt = [float(r["after"]["sim_time_s"]) - float(r["before"]["sim_time_s"]) for r in mine]
+        longer, shorter = sum(1 for d in dt if d > 1e-9), sum(1 for d in dt if d < -1e-9)
+        pairs = [(r["before"]["min_separation_m"], r["after"]["min_separation_m"]) for r in mine]
+        closer = sum(1 for b, a in pairs if None not in (b, a) and float(a) < float(b) - 1e-9)
         text.append(f"| {s} | {len(mine)} | {parts[0]} | {parts[1]} | "
                     f"{high[0]} -> {high[1]} of {len(mine)} | "
-                    f"{coll[0]} -> {coll[1]} | {seps[0]} -> {seps[1]} m |")
+                    f"{coll[0]} -> {coll[1]} | {seps[0]} -> {seps[1]} m | "
+                    f"{sums[0]:,.1f} -> {sums[1]:,.1f} s | "
+                    f"{longer} / {shorter} of {len(mine)} | {closer} of {len(mine)} |")
     return text
 
 
