@@ -119,6 +119,7 @@ class SimEnv:
         self._bodies: WorkerBodies | None = None  # the workers' capsules
         self._placer = HeldPlacer(-1)  # where the held element goes (placed when looked at)
         self._on_floor: tuple[World, str | None, float, bool] | None = None  # workers_on_robot_floor
+        self._nearest: tuple[list[tuple[float, float]], float, float, float] | None = None  # nearest_centre_m
         self._workers_due = False  # the workers moved since their bodies were last placed
         self._xy: tuple[np.ndarray | None, int, np.ndarray] | None = None  # worker_xy(): of what, tick, xy
         self.tick = 0
@@ -295,6 +296,25 @@ class SimEnv:
         if self.crowd is not None and not self.worker_motions:
             return self.crowd.xy()
         return [(x, y) for x, y, _ in self.worker_poses()]
+
+    def nearest_centre_m(self, x: float, y: float) -> float:
+        """The smallest centre distance (``math.hypot``) of a worker from (x, y); inf with no worker, NaN
+        when a distance is not a number (so ``nearest_centre_m(x, y) > r`` is ``all(d > r)``).
+        (The robot's checks of one period ask it of the same positions and base centre: worked out once
+        while the crowd's positions - the very list - and the point stay.)"""
+        xy = self.worker_xy_list()
+        last = self._nearest
+        if last is not None and last[0] is xy and last[1] == x and last[2] == y:
+            return last[3]
+        d = math.inf
+        for wx, wy in xy:
+            h = math.hypot(wx - x, wy - y)
+            if not h >= d:  # nearer, or not a number (then "all farther than ..." is false: kept)
+                d = h
+                if h != h:
+                    break
+        self._nearest = (xy, x, y, d)
+        return d
 
     def worker_xy(self) -> np.ndarray:
         """(n, 2) positions of every worker now (read only; the same array until a worker moves)."""
