@@ -163,7 +163,7 @@ class SimEnv:
         self._placer = HeldPlacer(self.client)
         self.installed = []
         self.grid = self.base_grid
-        self._xy = None
+        self._xy = self._nearest = None
         self._move_workers()
 
     def step(self) -> float:
