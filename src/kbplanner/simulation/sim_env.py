@@ -223,7 +223,8 @@ class SimEnv:
 
     def base_pose(self) -> tuple[float, float, float]:
         """(x, y, yaw) of the robot base."""
-        return self.robot.base_pose()
+        robot = self._robot
+        return robot.base_pose() if robot is not None else self.robot.base_pose()
 
     @property
     def robot_floor_z(self) -> float:
@@ -236,9 +237,8 @@ class SimEnv:
         scope); else they are on another floor: no yielding, monitoring or contact with the robot.
         (Asked several times per period: kept while the world, its task storey and ground stay.)"""
         w = self.world
-        key = (w, w.task_storey, w.ground_z)
         last = self._on_floor
-        if last is None or last[0] is not w or last[1] != key[1] or last[2] != key[2]:
+        if last is None or last[0] is not w or last[1] != w.task_storey or last[2] != w.ground_z:
             last = (w, w.task_storey, w.ground_z,
                     abs(self.robot_floor_z - float(w.ground_z)) <= FLOOR_GAP_M)
             self._on_floor = last
