@@ -1,7 +1,8 @@
 """B5 per-period loop speed-ups of session 12 (period12) that claim identical results, each against the
 full computation: the robot's far checks on one shared nearest centre distance against "every worker
 farther than r", the crowd's kept (x, y) list, the step's reused speeds against numpy's hypot of the
-velocities it leaves (capped, pushed by the robot, standing)."""
+velocities it leaves (capped, pushed by the robot, standing), the workers' walking graph built straight
+into compressed rows against the sparse matrix of its edge lists."""
 
 from __future__ import annotations
 
@@ -14,8 +15,9 @@ from kbplanner.planning.manipulation import robot_name
 from kbplanner.simulation.crowd import Crowd
 from kbplanner.simulation.sim_env import SimEnv
 from kbplanner.simulation.social_force import Obstacle
-from kbplanner.simulation.workers import RouteStop, WorkerSpec
+from kbplanner.simulation.workers import RouteStop, WorkerSpec, _Router
 from kbplanner.world.footprint import Rect
+from kbplanner.world.occupancy import OccupancyGrid
 from sim_project_factory import load_sim_case
 
 
@@ -96,3 +98,55 @@ def test_the_steps_speeds_are_numpys_hypot_of_the_velocities_it_leaves() -> None
         capped += sum(math.isclose(math.hypot(a, b), m) for a, b, m in zip(vx, vy, crowd._vmax_list,
                                                                               strict=True))
     assert capped > 0  # the cap was met (its speeds worked out again)
+
+
+def _former_graph(free: np.ndarray):  # type: ignore[no-untyped-def]
+    """The walking graph as session 11 built it: the sparse matrix of (row, column, weight) lists."""
+    from scipy import sparse
+
+    ny, nx = free.shape
+    index = np.full(free.shape, -1, dtype=np.int64)
+    index[free] = np.arange(int(free.sum()))
+    rows, cols, weights = [], [], []
+    for dx, dy in ((1, 0), (0, 1), (1, 1), (1, -1)):
+        ys0, ys1 = max(0, -dy), ny - max(0, dy)
+        xs0, xs1 = max(0, -dx), nx - max(0, dx)
+        a = index[ys0:ys1, xs0:xs1]
+        b = index[ys0 + dy:ys1 + dy, xs0 + dx:xs1 + dx]
+        both = (a >= 0) & (b >= 0)
+        rows.append(a[both])
+        cols.append(b[both])
+        weights.append(np.full(int(both.sum()), math.hypot(dx, dy)))
+    n = int(free.sum())
+    graph = sparse.csr_matrix((np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))),
+                              shape=(n, n))
+    return graph, index
+
+
+@pytest.mark.parametrize("fill", [0.0, 0.05, 0.3, 0.7])
+def test_the_walking_graph_is_the_former_sparse_matrix_array_for_array(fill: float) -> None:
+    """Random walking maps (edges, one-cell strips, a map with one free cell): the compressed rows, the
+    columns (their order too), the weights' bits, the dtypes and the node numbers are the former ones,
+    and the same shortest walks come out."""
+    from scipy.sparse import csgraph
+
+    rng = np.random.default_rng(int(fill * 100))
+    for shape in ((1, 9), (9, 1), (7, 11), (40, 33)):
+        occupied = rng.random(shape) < fill
+        occupied[0, 0] = False
+        router = _Router(OccupancyGrid(occupied, origin=(0.0, 0.0), resolution=0.1), 1e-9)
+        assert router.free is not None
+        graph, index = router._graph()
+        g0, i0 = _former_graph(router.free)
+        assert np.array_equal(index, i0) and index.dtype == i0.dtype
+        assert graph.has_canonical_format and g0.has_canonical_format
+        for a, b in ((graph.indptr, g0.indptr), (graph.indices, g0.indices), (graph.data, g0.data)):
+            assert a.dtype == b.dtype and a.tobytes() == b.tobytes()
+        free = np.argwhere(router.free)
+        for _ in range(5):
+            (sy, sx), (ty, tx) = free[rng.integers(len(free), size=2)]
+            cells = router._dijkstra((int(sx), int(sy)), (int(tx), int(ty)))
+            assert cells[0] == (sx, sy) and cells[-1] == (tx, ty)
+            src = int(index[sy, sx])
+            _, pred0 = csgraph.dijkstra(g0, directed=False, indices=src, return_predecessors=True)
+            assert np.array_equal(router._pred[src], pred0)  # the same search, ties and all
