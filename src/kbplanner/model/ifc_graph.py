@@ -102,6 +102,7 @@ class GraphBuilder:
         self.seen_ids: set[str] = set()
         self.boundaries = sem.space_boundary_index(ifc_file)
         self.implicit_storeys: dict[int, URIRef] = {}  # building entity id -> its implicit storey
+        self.volumes: dict[str, tuple[float, str] | None] = {}  # mesh volumes computed ahead, by GlobalId
 
     # --- helpers -----------------------------------------------------------------------------
 
@@ -315,7 +316,8 @@ class GraphBuilder:
         """meshFile, bounds and volume of a product with a mesh; returns the volume (m3)."""
         self.g.add((node, KBP.meshFile, Literal(f"{MESH_DIR}/{product.GlobalId}.glb")))
         self.add_bounds(node, mesh.bounds)
-        found = geo.mesh_volume(mesh)
+        guid = str(product.GlobalId)
+        found = self.volumes[guid] if guid in self.volumes else geo.mesh_volume(mesh)
         if found is None:
             found = sem.quantity_volume(psets, self.units.volume_m3)
         if found is None:

@@ -362,7 +362,10 @@ def import_cached(manifest: Manifest) -> tuple[Graph, Path]:
         return graph, out
     from kbplanner.model import ifc_import  # ifcopenshell, trimesh: only when the IFC is imported
 
-    result: ImportResult = ifc_import.import_ifc(manifest.ifc, out, base=manifest.base)
+    # A second core computes the meshes' volumes while this one triangulates (the same volumes).
+    volume_processes = 1 if (os.cpu_count() or 1) >= 2 else 0
+    result: ImportResult = ifc_import.import_ifc(manifest.ifc, out, base=manifest.base,
+                                                 volume_processes=volume_processes)
     load_memo.keep_import(ttl, result.graph)
     return result.graph, out
 
