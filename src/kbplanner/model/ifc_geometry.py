@@ -38,13 +38,35 @@ log = logging.getLogger(__name__)
 
 ProgressCallback = Callable[[int, int], None]
 
-def placement_matrix(product: Any, length_scale: float) -> np.ndarray | None:
-    """The product's absolute placement (IFC world frame) with the translation in metres."""
+def placement_matrix(product: Any, length_scale: float,
+                     memo: dict[int, np.ndarray] | None = None) -> np.ndarray | None:
+    """The product's absolute placement (IFC world frame) with the translation in metres.
+
+    ``memo`` (one per open file) keeps the absolute placement of each IfcLocalPlacement read, so the
+    storey's, building's and site's placements under every element are read once; the product is
+    ifcopenshell's ``get_local_placement`` to the bit (the same products in the same order)."""
     placement = getattr(product, "ObjectPlacement", None)
     if placement is None:
         return None
-    m = np.array(ifcopenshell.util.placement.get_local_placement(placement), dtype=float)
+    local = (ifcopenshell.util.placement.get_local_placement(placement) if memo is None
+             else _local_placement(placement, memo))
+    m = np.array(local, dtype=float)
     m[:3, 3] *= length_scale
+    return m
+
+
+def _local_placement(placement: Any, memo: dict[int, np.ndarray]) -> np.ndarray:
+    """``ifcopenshell.util.placement.get_local_placement`` with each placement's result kept in ``memo``."""
+    key = int(placement.id())
+    kept = memo.get(key) if key else None
+    if kept is not None:
+        return kept
+    rel_to = placement.PlacementRelTo
+    parent = np.eye(4) if rel_to is None else _local_placement(rel_to, memo)
+    axes = ifcopenshell.util.placement.get_axis2placement(placement.RelativePlacement)
+    m: np.ndarray = np.dot(parent, axes)
+    if key:
+        memo[key] = m
     return m
 
 

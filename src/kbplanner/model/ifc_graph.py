@@ -103,6 +103,7 @@ class GraphBuilder:
         self.boundaries = sem.space_boundary_index(ifc_file)
         self.implicit_storeys: dict[int, URIRef] = {}  # building entity id -> its implicit storey
         self.volumes: dict[str, tuple[float, str] | None] = {}  # mesh volumes computed ahead, by GlobalId
+        self.placements: dict[int, np.ndarray] = {}  # absolute placement by IfcLocalPlacement id
 
     # --- helpers -----------------------------------------------------------------------------
 
@@ -174,7 +175,7 @@ class GraphBuilder:
     def site_frame(self, product: Any) -> np.ndarray | None:
         """The product's placement in the site frame; None (with a note) when it cannot be read."""
         try:
-            m = geo.placement_matrix(product, self.units.length_m)
+            m = geo.placement_matrix(product, self.units.length_m, self.placements)
         except Exception as exc:  # e.g. an IfcGridPlacement or a broken placement chain
             text = (f"placement not imported ({type(exc).__name__}: {exc}); the element has no pose, "
                     "its bounds come from its geometry")
