@@ -62,6 +62,7 @@ CERTAIN_PASSAGE_CHECKS = 100_000  # OMPL's budget where free cells certainly joi
 # motion checks without a path (all but the hardest queries end sooner; labelling a space to answer it costs
 # about as much as 10,000-20,000 checks): a path found proves them joined.
 WALLED_OFF_AFTER_CHECKS = 50_000
+WALLED_OFF = "no path: the goal is walled off from the start for this footprint"
 
 
 def _connected(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D) -> bool:
@@ -100,6 +101,14 @@ class _WalledOff:
         if self.answer is None:
             self.answer = not (self.face_joined() or _connected(self.cs, self.start, self.goal))
         return self.answer
+
+
+def is_walled_off(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D) -> bool:
+    """Whether start and goal (both free) are walled off from each other in ``cs`` (what a failed
+    :func:`plan_path` asks, :class:`_WalledOff`). Where it holds in a space, it holds in every space of the
+    same footprint whose free cells are among these - a window of its map (cells off a window count as
+    occupied) - and :func:`plan_path` there, told so, fails at once with the reason planning gives."""
+    return _WalledOff(cs, start, goal)()
 
 
 def _validity_checker(cs: ConfigurationSpace) -> Callable[[ob.State], bool]:
@@ -194,6 +203,8 @@ def plan_path(
     goal: Pose2D,
     footprint: Footprint | None = None,
     settings: NavSettings | None = None,
+    *,
+    known_walled_off: bool = False,
 ) -> NavPath:
     """Plan a collision-free SE(2) path for ``footprint`` from ``start`` to ``goal``.
 
@@ -203,6 +214,10 @@ def plan_path(
         start, goal: (x, y, yaw) in the site frame, metres and radians.
         footprint: required with a grid; ignored with a configuration space.
         settings: planner, time budget, seed, ...
+        known_walled_off: start and goal are known to be walled off from each other (:func:`is_walled_off`
+            of a space whose free cells include these, e.g. the whole map's where this is a window): once
+            start and goal are found free, the plan fails at once with the reason planning gives (no path
+            can be found, and a failed search asks that question: the same result, without planning).
 
     Returns:
         A :class:`NavPath`; when no path is found its status is ``"failed"`` and ``reason`` says why
@@ -224,6 +239,8 @@ def plan_path(
             return failed_path(f"no path: {label} ({pose[0]:.2f}, {pose[1]:.2f}) is off the map", name, fp)
         if not cs.is_free(*pose):
             return failed_path(f"no path: {label} in collision", name, fp)
+    if known_walled_off:
+        return failed_path(WALLED_OFF, name, fp)
     walled_off = _WalledOff(cs, start, goal)
     t0 = time.perf_counter()
     certain: list[bool] = []
@@ -241,7 +258,7 @@ def plan_path(
     finally:
         ou.setLogLevel(level)
     if not result.ok and walled_off():
-        return failed_path("no path: the goal is walled off from the start for this footprint", name, fp)
+        return failed_path(WALLED_OFF, name, fp)
     if result.ok or not (certain and certain[-1]):
         return result
     cells = cell_route(cs, start, goal, settings, t0, result.reason)
@@ -291,7 +308,7 @@ def _solve(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSet
     if (walled_off is not None and not ss.haveExactSolutionPath()
             and validator.calls >= WALLED_OFF_AFTER_CHECKS and walled_off()):
         del ss, planner
-        return failed_path("no path: the goal is walled off from the start for this footprint", name, fp)
+        return failed_path(WALLED_OFF, name, fp)
     if cells_certain is not None and not ss.haveExactSolutionPath() and time.perf_counter() <= deadline:
         if cells_certain():
             budget = first  # the caller takes the cell path
