@@ -35,6 +35,7 @@ import math
 import time
 from collections.abc import Callable
 
+import numpy as np
 from ompl import base as ob
 from ompl import geometric as og
 from ompl import util as ou
@@ -90,17 +91,48 @@ class _WalledOff:
         self.cs, self.start, self.goal = cs, start, goal
         self.answer: bool | None = None
         self.face: bool | None = None
+        self.plane: bool | None = None
 
     def face_joined(self) -> bool:
-        """:func:`face_connected` of start and goal, computed once."""
+        """:func:`face_connected` of start and goal, computed once (False at once where they are
+        :func:`apart_in_plane`)."""
         if self.face is None:
-            self.face = face_connected(self.cs, self.start, self.goal)
+            self.face = not self.apart() and face_connected(self.cs, self.start, self.goal)
         return self.face
+
+    def apart(self) -> bool:
+        """:func:`apart_in_plane` of start and goal, computed once."""
+        if self.plane is None:
+            self.plane = apart_in_plane(self.cs, self.start, self.goal)
+        return self.plane
 
     def __call__(self) -> bool:
         if self.answer is None:
-            self.answer = not (self.face_joined() or _connected(self.cs, self.start, self.goal))
+            self.answer = self.apart() or not (self.face_joined()
+                                               or _connected(self.cs, self.start, self.goal))
         return self.answer
+
+
+def apart_in_plane(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D) -> bool:
+    """Whether start and goal are certainly walled off, told from the plane: the cells free in some yaw
+    bin, 8-connected (labelled once per space), do not join their cells. A chain of free (x, y, yaw bin)
+    cells, 26-connected, lies on such cells, each next to the one before (or the same): where the plane
+    does not join them, neither do :func:`_connected` nor :func:`face_connected` - the same answer as
+    labelling the space, at a small part of its cost (a worker standing in a passage walls it off for
+    every heading)."""
+    ends = [cs._cell(*start), cs._cell(*goal)]
+    if ends[0] is None or ends[1] is None:
+        return True
+    key = ("any yaw", True)
+    plane = cs.open_memo.get(key)
+    if plane is None:
+        from scipy import ndimage  # imported here: the module is imported by commands that never plan
+
+        ring = np.ones((3, 3), dtype=bool)
+        plane = ndimage.label(cs.free.any(axis=0), structure=ring)[0].astype(np.int32)
+        cs.open_memo[key] = plane
+    a, b = plane[ends[0][1:]], plane[ends[1][1:]]
+    return bool(a == 0 or a != b)
 
 
 def is_walled_off(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D) -> bool:

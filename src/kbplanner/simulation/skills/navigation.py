@@ -233,14 +233,22 @@ class NavigationSkill(Skill):
                     break  # a bigger window does not help
                 if walled is None and margin is not None and WALLED_OFF in found:
                     walled = frozenset(f for f in (fp, narrow) if f is not None
-                                       and is_walled_off(configuration_space(grid, f, settings.n_yaw_bins,
-                                                                             settings.margin_m), start, goal))
+                                       and self._walled_whole(sub, grid, start, goal, f, settings))
                 continue
             route, space = self._shorter(sub, start, goal, fp, narrow, settings, *found)
             if space is not None and self.spaces is not None:
                 self.spaces.append(space)
             return route, space
         return "; ".join(reasons), None
+
+    def _walled_whole(self, sub: OccupancyGrid, grid: OccupancyGrid, start: Pose2D, goal: Pose2D,
+                      fp: Footprint, settings: NavSettings) -> bool:
+        """Whether start and goal are walled off for ``fp`` on the whole ``grid`` (False at once where they
+        are not in the window ``sub``: then the window's answer was another footprint's)."""
+        bins, margin = settings.n_yaw_bins, settings.margin_m
+        if not is_walled_off(configuration_space(sub, fp, bins, margin), start, goal):
+            return False
+        return is_walled_off(configuration_space(grid, fp, bins, margin), start, goal)
 
     def _leg_in(self, sub: OccupancyGrid, start: Pose2D, goal: Pose2D, fp: Footprint,
                 narrow: Footprint | None, settings: NavSettings, walled: frozenset[Footprint] = frozenset()
