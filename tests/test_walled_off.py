@@ -41,7 +41,8 @@ def test_a_goal_known_walled_off_fails_with_the_reason_planning_gives() -> None:
     assert plan_path(grid, (4.1, 0.5, 0.0), GOAL, WIDE, settings, known_walled_off=True).reason == (
         "no path: start in collision")
     both = plan_with_carry_modes(grid, START, GOAL, WIDE, NARROW, settings)
-    told = plan_with_carry_modes(grid, START, GOAL, WIDE, NARROW, settings, walled_off=frozenset({WIDE, NARROW}))
+    both_walled = frozenset({WIDE, NARROW})
+    told = plan_with_carry_modes(grid, START, GOAL, WIDE, NARROW, settings, walled_off=both_walled)
     assert not both.ok and both.reason == told.reason and both.path.poses == told.path.poses == ()
 
 
