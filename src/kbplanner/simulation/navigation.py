@@ -10,8 +10,10 @@ a time budget) is seeded through ``ou.RNG.setSeed``, so the same seed gives the 
 is shortcut-simplified and re-checked densely. Where free cells certainly join start and goal but
 RRTConnect finds nothing within its first budget, the cell path is taken
 (:mod:`kbplanner.simulation.cell_path`). Whether the goal is walled off is asked only of a search that
-has made :data:`WALLED_OFF_AFTER_CHECKS` motion checks without a path, or has failed (a path found proves
-it is not): the answer is that of asking before planning, mostly without labelling the space.
+has made :data:`PLANE_AFTER_CHECKS` motion checks without a path (of the plane: cells free in some yaw
+bin, :func:`apart_in_plane`), :data:`WALLED_OFF_AFTER_CHECKS` (of the labelled space), or has failed (a
+path found proves it is not): the answer is that of asking before planning, mostly without labelling
+the space. A goal walled off on the whole map is so in its windows (``known_walled_off``).
 
 The rest of navigation: settings and path types (:mod:`kbplanner.simulation.nav_path`), the doorway
 behaviour of the paper (:mod:`kbplanner.simulation.carry_paths`), timed samples
@@ -63,6 +65,9 @@ CERTAIN_PASSAGE_CHECKS = 100_000  # OMPL's budget where free cells certainly joi
 # motion checks without a path (all but the hardest queries end sooner; labelling a space to answer it costs
 # about as much as 10,000-20,000 checks): a path found proves them joined.
 WALLED_OFF_AFTER_CHECKS = 50_000
+# Whether the plane (cells free in some yaw bin, labelled in 2D: a few milliseconds) walls them off is asked
+# sooner, once the planner has used this many checks without a path (:func:`apart_in_plane`).
+PLANE_AFTER_CHECKS = 2_000
 WALLED_OFF = "no path: the goal is walled off from the start for this footprint"
 
 
@@ -195,10 +200,19 @@ def _nothing() -> None:
     return None
 
 
+def _asked_walled_off(walled_off: _WalledOff | None, calls: int) -> bool:
+    """Whether a search without a path that has made ``calls`` motion checks stops as walled off: from
+    PLANE_AFTER_CHECKS checks on where the plane says so, from WALLED_OFF_AFTER_CHECKS on where the
+    labels do (the same answer: :func:`apart_in_plane` is certain)."""
+    if walled_off is None or calls < PLANE_AFTER_CHECKS:
+        return False
+    return walled_off.apart() or (calls >= WALLED_OFF_AFTER_CHECKS and walled_off())
+
+
 def _run(ss: og.SimpleSetup, validator: _OmplMotionValidator, limit: int, deadline: float,
-         walled_off: Callable[[], bool] | None) -> ob.PlannerStatus:
-    """``ss.solve`` until the validator has made ``limit`` motion checks, the clock passes ``deadline`` or,
-    from WALLED_OFF_AFTER_CHECKS checks on, ``walled_off()`` says so.
+         walled_off: _WalledOff | None) -> ob.PlannerStatus:
+    """``ss.solve`` until the validator has made ``limit`` motion checks, the clock passes ``deadline`` or
+    ``walled_off`` says so (:func:`_asked_walled_off`).
 
     The planner asks its termination condition at every iteration; rather than a Python condition asked
     each time, the clock is OMPL's own condition and the work budget is an alarm of the validator that
@@ -211,15 +225,16 @@ def _run(ss: og.SimpleSetup, validator: _OmplMotionValidator, limit: int, deadli
         calls = validator.calls
         if calls >= limit:
             return True
-        return walled_off is not None and calls >= WALLED_OFF_AFTER_CHECKS and walled_off()
+        return _asked_walled_off(walled_off, calls)
 
     def ring() -> None:
         if holds():
             ptc.terminate()
             validator.alarm = math.inf
-        else:
-            early = walled_off is not None and validator.calls < WALLED_OFF_AFTER_CHECKS
-            validator.alarm = min(limit, WALLED_OFF_AFTER_CHECKS) if early else limit
+        else:  # the next count at which holds() may change
+            calls = validator.calls
+            steps = [PLANE_AFTER_CHECKS, WALLED_OFF_AFTER_CHECKS] if walled_off is not None else []
+            validator.alarm = min([limit, *(c for c in steps if c > calls)])
 
     validator.ring = ring
     ring()
@@ -299,12 +314,13 @@ def plan_path(
 
 def _solve(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSettings, t0: float,
            cells_certain: Callable[[], bool] | None = None,
-           walled_off: Callable[[], bool] | None = None) -> NavPath:
+           walled_off: _WalledOff | None = None) -> NavPath:
     """RRTConnect within the work budget. With ``cells_certain``: after CERTAIN_PASSAGE_CHECKS motion
     checks without a path it is asked whether free cells certainly join start and goal; if so, planning
     stops there (the caller takes the cell path), else the same tree grows on to the full budget. With
-    ``walled_off``: after WALLED_OFF_AFTER_CHECKS motion checks without a path it is asked (once) whether
-    start and goal are walled off; if so, planning stops (the caller reports it)."""
+    ``walled_off``: after PLANE_AFTER_CHECKS motion checks without a path the plane, after
+    WALLED_OFF_AFTER_CHECKS the labels are asked (once each) whether start and goal are walled off; if so,
+    planning stops (the caller reports it)."""
     name = settings.planner
     fp = cs.footprint.name
     grid = cs.grid
@@ -337,8 +353,7 @@ def _solve(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSet
     budget = settings.max_motion_checks
     first = min(budget, CERTAIN_PASSAGE_CHECKS) if cells_certain is not None else budget
     status = _run(ss, validator, first, deadline, walled_off)
-    if (walled_off is not None and not ss.haveExactSolutionPath()
-            and validator.calls >= WALLED_OFF_AFTER_CHECKS and walled_off()):
+    if not ss.haveExactSolutionPath() and _asked_walled_off(walled_off, validator.calls):
         del ss, planner
         return failed_path(WALLED_OFF, name, fp)
     if cells_certain is not None and not ss.haveExactSolutionPath() and time.perf_counter() <= deadline:
