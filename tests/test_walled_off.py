@@ -53,3 +53,10 @@ def test_walled_off_on_the_whole_map_is_walled_off_in_every_window() -> None:
     for margin in (0.5, 1.0, 3.0):
         sub = window(grid, [START[:2], GOAL[:2]], margin)
         assert is_walled_off(ConfigurationSpace.build(sub, NARROW), START, GOAL)
+
+
+def test_a_search_walled_off_in_the_plane_stops_without_labelling_the_space() -> None:
+    cs = ConfigurationSpace.build(two_rooms(0.9, closed_east_room=True), BASE)
+    path = plan_path(cs, START, GOAL, settings=NavSettings(seed=3, time_limit_s=30.0))
+    assert not path.ok and path.reason == WALLED_OFF
+    assert cs.memo == {}  # neither the face- nor the 26-connected labels were needed
