@@ -3,6 +3,8 @@ windows (:func:`kbplanner.simulation.navigation.apart_in_plane`, ``plan_path(kno
 
 from __future__ import annotations
 
+import pytest
+
 from kbplanner.planning.base_poses import window
 from kbplanner.simulation.carry_paths import plan_with_carry_modes
 from kbplanner.simulation.nav_path import NavSettings
@@ -60,3 +62,24 @@ def test_a_search_walled_off_in_the_plane_stops_without_labelling_the_space() ->
     path = plan_path(cs, START, GOAL, settings=NavSettings(seed=3, time_limit_s=30.0))
     assert not path.ok and path.reason == WALLED_OFF
     assert cs.memo == {}  # neither the face- nor the 26-connected labels were needed
+
+
+def test_the_plane_stops_a_walled_off_search_at_its_own_count(monkeypatch: pytest.MonkeyPatch) -> None:
+    from kbplanner.simulation import navigation
+    from kbplanner.simulation.motion_check import ExactMotion
+
+    cs = ConfigurationSpace.build(two_rooms(0.9, closed_east_room=True), BASE)
+    checks = 0
+    fast = ExactMotion.free6
+
+    def counting(self: ExactMotion, *motion: float) -> bool:
+        nonlocal checks
+        checks += 1
+        return fast(self, *motion)
+
+    monkeypatch.setattr(ExactMotion, "free6", counting)
+    monkeypatch.setattr(navigation, "PLANE_AFTER_CHECKS", 300)
+    path = plan_path(cs, START, GOAL, settings=NavSettings(seed=3, time_limit_s=60.0))
+    assert not path.ok and path.reason == WALLED_OFF
+    assert 300 <= checks < 400  # the planner ends the iteration it is in, then stops
+    assert cs.memo == {}

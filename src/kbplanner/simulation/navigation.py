@@ -204,9 +204,11 @@ def _asked_walled_off(walled_off: _WalledOff | None, calls: int) -> bool:
     """Whether a search without a path that has made ``calls`` motion checks stops as walled off: from
     PLANE_AFTER_CHECKS checks on where the plane says so, from WALLED_OFF_AFTER_CHECKS on where the
     labels do (the same answer: :func:`apart_in_plane` is certain)."""
-    if walled_off is None or calls < PLANE_AFTER_CHECKS:
+    if walled_off is None:
         return False
-    return walled_off.apart() or (calls >= WALLED_OFF_AFTER_CHECKS and walled_off())
+    if calls >= PLANE_AFTER_CHECKS and walled_off.apart():
+        return True
+    return calls >= WALLED_OFF_AFTER_CHECKS and walled_off()
 
 
 def _run(ss: og.SimpleSetup, validator: _OmplMotionValidator, limit: int, deadline: float,
