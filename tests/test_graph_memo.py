@@ -70,3 +70,14 @@ def test_a_path_that_may_have_zero_length_is_not_batched() -> None:
     assert without_repetition(AlternativePath((p, q)))
     assert not without_repetition(SequencePath((p, RepeatPath(q, "*"))))
     assert not without_repetition(RepeatPath(p, "+"))
+
+
+def test_a_task_specification_is_read_once_per_unedited_knowledge_base() -> None:
+    plain = load_kb()
+    noted = _noted(plain)
+    first = task_specification(noted, "I-W-F-#1")
+    assert task_specification(noted, "I-W-F-#1") is first  # kept: robot selection, world and B1-B3 alike
+    assert first == task_specification(plain, "I-W-F-#1")  # the same specification as the plain query
+    assert task_specification(plain, "I-W-F-#1") is not task_specification(plain, "I-W-F-#1")
+    noted.add((URIRef("urn:x:a"), KBP.x, Literal(1.0)))
+    assert task_specification(noted, "I-W-F-#1") is not first  # edited: read again

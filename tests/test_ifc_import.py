@@ -472,10 +472,10 @@ def test_an_element_whose_placement_cannot_be_read_is_kept_without_a_pose(
     bad = next(gid for gid, w in b.walls.items() if not w.is_external)
     real = ifc_geometry.placement_matrix
 
-    def failing(product: Any, scale: float) -> Any:
+    def failing(product: Any, scale: float, memo: dict[int, Any] | None = None) -> Any:
         if getattr(product, "GlobalId", None) == bad:
             raise ValueError("malformed placement")
-        return real(product, scale)
+        return real(product, scale, memo)
 
     monkeypatch.setattr(ifc_geometry, "placement_matrix", failing)
     r = import_ifc_graph(b.path, base=BASE)

@@ -189,6 +189,7 @@ def run(args: argparse.Namespace) -> int:
     from kbplanner.planning.task_and_robot import resolve_task
     from kbplanner.project import Project
     from kbplanner.robot.robot_table import load_robot_specs
+    from kbplanner.world import map_store
     from kbplanner.world.build import build_world
     from kbplanner.world.maps import storey_map
 
@@ -203,7 +204,8 @@ def run(args: argparse.Namespace) -> int:
         world = build_world(project, at if at is not None else project.world_date(task), task)
         plan = plan_task(project, task, args.robot, world=world)
         if plan.robot_id:
-            grid = storey_map(world).grid
+            with map_store.kept_in(map_store.folder_for(project.cache_entry)):  # a map made before
+                grid = storey_map(world).grid
             seed = args.seed if args.seed is not None else project.manifest.seed
             plan = _refine(plan, world, grid, seed, project.cache_entry)
     verdicts = element_verdicts(plan)

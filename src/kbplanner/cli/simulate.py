@@ -59,6 +59,7 @@ def run(args: argparse.Namespace) -> int:
     from kbplanner.project import Project
     from kbplanner.simulation.executor import INSTALLED, simulate
     from kbplanner.simulation.skills import ExecSettings
+    from kbplanner.world import map_store
     from kbplanner.world.build import build_world
     from kbplanner.world.cspace_store import folder_for, kept_in
     from kbplanner.world.maps import storey_map
@@ -80,7 +81,8 @@ def run(args: argparse.Namespace) -> int:
         console.print(f"--max-elements {args.max_elements}: simulating {args.max_elements} of "
                       f"{len(plan.elements)} elements; left out: {', '.join(left)}", highlight=False)
         plan.keep_first(args.max_elements)
-    grid = storey_map(world).grid
+    with map_store.kept_in(map_store.folder_for(project.cache_entry)):  # a map an earlier command made
+        grid = storey_map(world).grid
     settings = ExecSettings(keyframes=not args.no_keyframes, monitoring=args.monitoring,
                             reactive_workers=not args.scripted_workers)
     columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())

@@ -57,6 +57,13 @@ def recording_reads() -> Iterator[list[Path]]:
         _READS.reset(token)
 
 
+def note_read(path: Path) -> None:
+    """Record ``path`` as read in the current :func:`recording_reads` block (a graph of it reused)."""
+    reads = _READS.get()
+    if reads is not None:
+        reads.append(Path(path))
+
+
 def parse_turtle(path: Path, into: Graph | None = None, *,
                  _importing: frozenset[Path] = frozenset()) -> Graph:
     """Parse one Turtle file; a syntax error names the file, line and column; a remote import is

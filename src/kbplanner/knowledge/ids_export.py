@@ -39,6 +39,7 @@ from kbplanner.core.outputs import atomic_write_text
 from kbplanner.core.vocab import KBP
 from kbplanner.knowledge.binding_paths import PredicatePath, path_curies, steps_of
 from kbplanner.knowledge.knowledge_base import SH, curie, is_datatype, label
+from kbplanner.knowledge.requirement_rows import class_fill
 from kbplanner.knowledge.requirement_shapes import BindingTarget
 from kbplanner.knowledge.requirements import RequirementsResult
 
@@ -51,21 +52,6 @@ _IFC_TYPE = {
     XSD.boolean: "IFCBOOLEAN", XSD.string: "IFCLABEL",
 }
 REFERENCE_TYPE = "IFCLABEL"
-
-
-_FIELD_ORDER = (KBP.x, KBP.y, KBP.z, KBP.roll, KBP.pitch, KBP.yaw)
-
-
-def class_fields(kb: Graph, cls: URIRef) -> list[tuple[URIRef, URIRef]]:
-    """Datatype properties whose rdfs:domain is ``cls`` (a pose's x..yaw) with their range, in order."""
-    found = []
-    for p in kb.subjects(RDFS.domain, cls):
-        rng = kb.value(p, RDFS.range)
-        if isinstance(p, URIRef) and isinstance(rng, URIRef) and is_datatype(kb, rng):
-            found.append((p, rng))
-    rank = {p: i for i, p in enumerate(_FIELD_ORDER)}
-    return sorted(found, key=lambda pr: (rank.get(pr[0], len(rank)), str(pr[0])))
-
 
 _FACETS = {SH.minInclusive: "minInclusive", SH.minExclusive: "minExclusive",
            SH.maxInclusive: "maxInclusive", SH.maxExclusive: "maxExclusive"}
@@ -236,7 +222,7 @@ def _properties(kb: Graph, bt: BindingTarget, shapes: Graph | None) -> tuple[lis
         if vc is not None and is_datatype(kb, vc):
             return [IdsProperty(property_name(first), ifc_type(vc), (first,), None, b.words,
                                 value_bounds(shapes, first))], ""
-        fields = class_fields(kb, vc) if vc is not None else []
+        fields = class_fill(kb, vc) if vc is not None else []
         if fields:
             return [IdsProperty(property_name(first, f), ifc_type(rng), (first,), f,
                                 f"{label(kb, f)} of the {b.words}", value_bounds(shapes, f))

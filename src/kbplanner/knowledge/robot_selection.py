@@ -30,6 +30,7 @@ from rdflib import RDF, RDFS, Graph, Literal, URIRef
 from rdflib.term import Node
 
 from kbplanner.core.errors import KbplannerError, KnowledgeBaseError
+from kbplanner.core.literals import literal_float as _f
 from kbplanner.core.vocab import BOT, KBP
 from kbplanner.knowledge.jobsite import JobsiteParameters, jobsite_parameters
 from kbplanner.knowledge.knowledge_base import curie, label, select, source_of
@@ -84,15 +85,6 @@ _REQUIRED = (("length", "kbp:footprintLength (m)"), ("width", "kbp:footprintWidt
              ("maxSpeed", "kbp:maxSpeed (m/s)"), ("urdf", "kbp:urdf (file name under sim/robots/)"))
 _ARM_REQUIRED = (("armMass", "kbp:armMass (kg)"), ("payload", "kbp:payload (kg)"), ("reach", "kbp:reach (m)"),
                  ("armModel", "kbp:armModel (e.g. UR5)"))
-
-
-def _f(v: Node | None) -> float | None:
-    if isinstance(v, Literal):
-        try:
-            return float(v.toPython())
-        except (TypeError, ValueError):
-            return None
-    return None
 
 
 def load_robots(kb: Graph) -> list[RobotProfile]:

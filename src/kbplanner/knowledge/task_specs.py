@@ -307,6 +307,17 @@ def task_specification(kb: Graph, spec_id: str, *, task: str | None = None) -> T
         >>> [(a.order, a.skill.skill_id) for a in spec.actions]
         [(1, 'NV-1'), (2, 'MM-G-1'), (3, 'NV-2'), (4, 'MM-R-1')]
     """
+    kept = memo(kb)  # a loaded knowledge base, unedited: robot selection, B1-B3 and the world ask alike
+    if kept is None:
+        return _task_specification(kb, spec_id, task)
+    key = ("task_specification", spec_id)
+    if key not in kept:
+        kept[key] = _task_specification(kb, spec_id, task)  # an error is raised each time, never kept
+    spec: TaskSpecification = kept[key]
+    return spec
+
+
+def _task_specification(kb: Graph, spec_id: str, task: str | None) -> TaskSpecification:
     rows = select(kb, "task_specifications", specId=Literal(spec_id))
     if not rows:
         known = ", ".join(specification_ids(kb)) or "none"

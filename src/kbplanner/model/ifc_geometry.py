@@ -24,6 +24,7 @@ import numpy as np
 import trimesh
 
 # The pose values live in a module without ifcopenshell (the world and the planner import them).
+from kbplanner.model.mesh_volumes import mesh_volume  # noqa: F401  (re-exported: ifc_graph uses it from here)
 from kbplanner.model.poses import (  # noqa: F401  (re-exported: ifc_graph and callers use them from here)
     ANGLE_DIGITS,
     LENGTH_DIGITS,
@@ -37,13 +38,35 @@ log = logging.getLogger(__name__)
 
 ProgressCallback = Callable[[int, int], None]
 
-def placement_matrix(product: Any, length_scale: float) -> np.ndarray | None:
-    """The product's absolute placement (IFC world frame) with the translation in metres."""
+def placement_matrix(product: Any, length_scale: float,
+                     memo: dict[int, np.ndarray] | None = None) -> np.ndarray | None:
+    """The product's absolute placement (IFC world frame) with the translation in metres.
+
+    ``memo`` (one per open file) keeps the absolute placement of each IfcLocalPlacement read, so the
+    storey's, building's and site's placements under every element are read once; the product is
+    ifcopenshell's ``get_local_placement`` to the bit (the same products in the same order)."""
     placement = getattr(product, "ObjectPlacement", None)
     if placement is None:
         return None
-    m = np.array(ifcopenshell.util.placement.get_local_placement(placement), dtype=float)
+    local = (ifcopenshell.util.placement.get_local_placement(placement) if memo is None
+             else _local_placement(placement, memo))
+    m = np.array(local, dtype=float)
     m[:3, 3] *= length_scale
+    return m
+
+
+def _local_placement(placement: Any, memo: dict[int, np.ndarray]) -> np.ndarray:
+    """``ifcopenshell.util.placement.get_local_placement`` with each placement's result kept in ``memo``."""
+    key = int(placement.id())
+    kept = memo.get(key) if key else None
+    if kept is not None:
+        return kept
+    rel_to = placement.PlacementRelTo
+    parent = np.eye(4) if rel_to is None else _local_placement(rel_to, memo)
+    axes = ifcopenshell.util.placement.get_axis2placement(placement.RelativePlacement)
+    m: np.ndarray = np.dot(parent, axes)
+    if key:
+        memo[key] = m
     return m
 
 
@@ -229,13 +252,14 @@ def build_meshes(
     world_to_site: np.ndarray | None = None,
     processes: int = 1,
     progress: ProgressCallback | None = None,
+    on_mesh: Callable[[str, trimesh.Trimesh], None] | None = None,
 ) -> MeshResult:
     """Triangulate ``products`` (their Body representation) with ifcopenshell's geometry iterator.
 
     ``world_to_site`` (4x4, metres) moves the IFC world frame to the site frame (default: identity).
     A product the iterator does not return is retried alone, to get the reason it fails (or a mesh
     from another representation); products without triangles are reported as failures too.
-    ``progress(done, total)`` is called as shapes arrive.
+    ``progress(done, total)`` is called as shapes arrive, ``on_mesh(guid, mesh)`` with each mesh kept.
     """
     total = len(products)
     meshes: dict[str, trimesh.Trimesh] = {}
@@ -254,6 +278,8 @@ def build_meshes(
             mesh = _to_mesh(shape.geometry, to_site)
             if len(mesh.faces) > 0:
                 meshes[guid] = mesh
+                if on_mesh is not None:
+                    on_mesh(guid, mesh)
             else:
                 failures[guid] = "geometry has no triangles"
             done += 1
@@ -275,6 +301,8 @@ def build_meshes(
         mesh = _to_mesh(single.geometry, to_site)
         if len(mesh.faces) > 0:
             meshes[guid] = mesh
+            if on_mesh is not None:
+                on_mesh(guid, mesh)
         else:
             failures[guid] = "no body geometry (no triangles from any representation)"
     if progress is not None:
@@ -282,17 +310,6 @@ def build_meshes(
     for guid in sorted(failures):
         log.warning("skipped geometry of %s: %s", guid, failures[guid])
     return MeshResult(meshes, failures, processes)
-
-
-def mesh_volume(mesh: trimesh.Trimesh) -> tuple[float, str] | None:
-    """Volume (m3) of a closed mesh, or the sum over its pieces when every piece is closed."""
-    with np.errstate(divide="ignore", invalid="ignore"):  # flat pieces have zero volume
-        if mesh.is_watertight:
-            return abs(float(mesh.volume)), "closed mesh"
-        pieces = mesh.split(only_watertight=False)
-        if len(pieces) > 1 and all(p.is_watertight for p in pieces):
-            return sum(abs(float(p.volume)) for p in pieces), f"{len(pieces)} closed mesh pieces"
-    return None
 
 
 def glb_bytes(mesh: trimesh.Trimesh) -> bytes:

@@ -102,6 +102,8 @@ class GraphBuilder:
         self.seen_ids: set[str] = set()
         self.boundaries = sem.space_boundary_index(ifc_file)
         self.implicit_storeys: dict[int, URIRef] = {}  # building entity id -> its implicit storey
+        self.volumes: dict[str, tuple[float, str] | None] = {}  # mesh volumes computed ahead, by GlobalId
+        self.placements: dict[int, np.ndarray] = {}  # absolute placement by IfcLocalPlacement id
 
     # --- helpers -----------------------------------------------------------------------------
 
@@ -173,7 +175,7 @@ class GraphBuilder:
     def site_frame(self, product: Any) -> np.ndarray | None:
         """The product's placement in the site frame; None (with a note) when it cannot be read."""
         try:
-            m = geo.placement_matrix(product, self.units.length_m)
+            m = geo.placement_matrix(product, self.units.length_m, self.placements)
         except Exception as exc:  # e.g. an IfcGridPlacement or a broken placement chain
             text = (f"placement not imported ({type(exc).__name__}: {exc}); the element has no pose, "
                     "its bounds come from its geometry")
@@ -315,7 +317,8 @@ class GraphBuilder:
         """meshFile, bounds and volume of a product with a mesh; returns the volume (m3)."""
         self.g.add((node, KBP.meshFile, Literal(f"{MESH_DIR}/{product.GlobalId}.glb")))
         self.add_bounds(node, mesh.bounds)
-        found = geo.mesh_volume(mesh)
+        guid = str(product.GlobalId)
+        found = self.volumes[guid] if guid in self.volumes else geo.mesh_volume(mesh)
         if found is None:
             found = sem.quantity_volume(psets, self.units.volume_m3)
         if found is None:

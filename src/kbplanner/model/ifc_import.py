@@ -47,6 +47,7 @@ from kbplanner.model.ifc_report import (
     skipped_of,
 )
 from kbplanner.model.import_version import IMPORTER_VERSION
+from kbplanner.model.mesh_volumes import VolumePool
 
 __all__ = [
     "IMPORTER_VERSION", "MESH_DIR", "MODEL_FILE", "SUPPORTED_SCHEMAS", "ImportNote", "ImportResult",
@@ -59,6 +60,8 @@ log = logging.getLogger(__name__)
 ProgressCallback = Callable[[int, int], None]
 
 MODEL_FILE = "model.ttl"
+#: Fewer meshes than this: their volumes are computed here (a spawned process costs about a second).
+MIN_POOLED = 400
 NO_GEOMETRY = ("no geometry: no body representation and no parts with one (in the graph without bounds, "
                "so it is no obstacle on maps)")
 
@@ -98,11 +101,14 @@ def import_ifc_graph(
     base: str,
     progress: ProgressCallback | None = None,
     processes: int = 1,
+    volume_processes: int = 0,
 ) -> ImportResult:
     """Read an IFC file into a graph and meshes, without writing anything.
 
     ``base`` is the project's base IRI (``kbplanner.core.iris.base_iri(name)``); ``progress(done, total)``
-    follows the geometry loop; ``processes`` is the number of geometry worker processes.
+    follows the geometry loop; ``processes`` is the number of geometry worker processes;
+    ``volume_processes`` spawned processes compute the meshes' volumes while the geometry loop runs
+    (:class:`~kbplanner.model.mesh_volumes.VolumePool`; the same volumes as computed here).
 
     Example:
         >>> from kbplanner.core.iris import base_iri
@@ -125,8 +131,10 @@ def import_ifc_graph(
     # Openings keep their RDF but get no mesh: they are voids, already cut from their hosts.
     with_geometry = [p for p in (*elements, *spaces)
                      if p.Representation is not None and not p.is_a("IfcFeatureElementSubtraction")]
-    result = geo.build_meshes(ifc_file, with_geometry, world_to_site=b.site_inv, processes=processes,
-                             progress=progress)
+    with VolumePool(volume_processes if len(with_geometry) >= MIN_POOLED else 0) as pool:
+        result = geo.build_meshes(ifc_file, with_geometry, world_to_site=b.site_inv, processes=processes,
+                                 progress=progress, on_mesh=pool.add)
+        b.volumes = pool.volumes()
     meshes = result.meshes
     by_guid = {str(p.GlobalId): p for p in with_geometry}
     for guid in sorted(result.failures):
@@ -247,6 +255,7 @@ def import_ifc(
     base: str,
     progress: ProgressCallback | None = None,
     processes: int = 1,
+    volume_processes: int = 0,
 ) -> ImportResult:
     """Import an IFC file and write ``out_dir/model.ttl`` and ``out_dir/meshes/<GlobalId>.glb``.
 
@@ -257,7 +266,8 @@ def import_ifc(
         ['meshes', 'model.ttl']
     """
     started = time.perf_counter()
-    result = import_ifc_graph(ifc_path, base=base, progress=progress, processes=processes)
+    result = import_ifc_graph(ifc_path, base=base, progress=progress, processes=processes,
+                              volume_processes=volume_processes)
     write_import(result, out_dir)
     seconds = time.perf_counter() - started
     return ImportResult(

@@ -70,8 +70,18 @@ def serialize(graph: Graph) -> bytes:
         <https://example.org/a> a kbp:Wall .
     """
     by_subject: dict[str, dict[str, list[str]]] = defaultdict(lambda: defaultdict(list))
+    iris: dict[str, str] = {}  # each IRI's text written once (subjects, predicates, classes repeat)
+
+    def write(node: Node) -> str:
+        if type(node) is URIRef:
+            text = iris.get(node)
+            if text is None:
+                text = iris[node] = _iri(node)
+            return text
+        return term(node)
+
     for s, p, o in graph:
-        by_subject[term(s)]["a" if p == RDF.type else term(p)].append(term(o))
+        by_subject[write(s)]["a" if p == RDF.type else write(p)].append(write(o))
     lines = [f"@prefix {prefix}: <{ns}> ." for prefix, ns in PREFIXES]
     for subject in sorted(by_subject):
         predicates = by_subject[subject]

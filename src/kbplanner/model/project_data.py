@@ -25,7 +25,7 @@ from kbplanner.core.errors import ProjectError
 from kbplanner.core.named_queries import QueryResult, run_named
 from kbplanner.core.number_rule import check_numbers
 from kbplanner.core.rdf_io import bind_prefixes, parse_turtle, recording_reads
-from kbplanner.model import project_cache
+from kbplanner.model import load_memo, project_cache
 from kbplanner.model.project_manifest import Manifest, read_manifest
 
 if TYPE_CHECKING:
@@ -323,7 +323,7 @@ def _load_graphs(manifest: Manifest, scenario: str | None, say: ProgressFn,
             model.add(t)
         if manifest.schedule is not None or manifest.schedule_from_ifc:
             say("reading schedule")
-            model += _schedule_graph(manifest, model)
+            model += _schedule_graph(manifest, model, result_graph)
         overlays: list[Path] = [*manifest.site, *manifest.jobsite, *manifest.augmentation]
         if scenario is not None:
             overlays += list(manifest.scenarios[scenario].overlays)
@@ -353,17 +353,32 @@ def import_cached(manifest: Manifest) -> tuple[Graph, Path]:
     out = cache_root(manifest.directory) / key
     ttl = out / "model.ttl"
     if ttl.is_file():
+        kept = load_memo.kept_import(ttl)  # this process imported or parsed it already
+        if kept is not None:
+            return kept, out
         log.info("using cached import %s", out)
-        return parse_turtle(ttl), out
+        graph = parse_turtle(ttl)
+        load_memo.keep_import(ttl, graph)
+        return graph, out
     from kbplanner.model import ifc_import  # ifcopenshell, trimesh: only when the IFC is imported
 
-    result: ImportResult = ifc_import.import_ifc(manifest.ifc, out, base=manifest.base)
+    # A second core computes the meshes' volumes while this one triangulates (the same volumes).
+    volume_processes = 1 if (os.cpu_count() or 1) >= 2 else 0
+    result: ImportResult = ifc_import.import_ifc(manifest.ifc, out, base=manifest.base,
+                                                 volume_processes=volume_processes)
+    load_memo.keep_import(ttl, result.graph)
     return result.graph, out
 
 
-def _schedule_graph(manifest: Manifest, model: Graph) -> Graph:
+def _schedule_graph(manifest: Manifest, model: Graph, import_graph: Graph) -> Graph:
+    """The schedule's graph; ``model`` holds just the triples of ``import_graph`` (what a CSV schedule
+    is resolved against), so a schedule graph this process built against it is taken again."""
     from kbplanner.model import schedule as sched
 
+    if manifest.schedule is not None and not manifest.schedule_from_ifc:
+        kept = load_memo.kept_schedule(import_graph, manifest.schedule, manifest.base)
+        if kept is not None:
+            return kept
     if manifest.schedule_from_ifc:
         s = sched.read_ifc_schedule(manifest.ifc, manifest.base)
         if s is None:
@@ -373,7 +388,10 @@ def _schedule_graph(manifest: Manifest, model: Graph) -> Graph:
     else:
         assert manifest.schedule is not None
         s = sched.read_csv_schedule(manifest.schedule, model)
-    return sched.schedule_to_graph(s, manifest.base)
+    graph = sched.schedule_to_graph(s, manifest.base)
+    if manifest.schedule is not None and not manifest.schedule_from_ifc:
+        load_memo.keep_schedule(import_graph, manifest.schedule, manifest.base, graph)
+    return graph
 
 
 def _load_kb(extra: Sequence[Path]) -> tuple[Graph, list[Path]]:

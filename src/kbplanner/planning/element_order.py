@@ -31,8 +31,8 @@ import math
 from dataclasses import dataclass, field
 
 from rdflib import Graph, Literal, URIRef
-from rdflib.term import Node
 
+from kbplanner.core.literals import literal_float as _float
 from kbplanner.knowledge.knowledge_base import select
 
 log = logging.getLogger(__name__)
@@ -64,15 +64,6 @@ class _Row:
     pickup: tuple[float, float] | None = None
     storage: URIRef | None = None
     stack_index: int | None = None
-
-
-def _float(v: Node | None) -> float | None:
-    if isinstance(v, Literal):
-        try:
-            return float(v.toPython())
-        except (TypeError, ValueError):
-            return None
-    return None
 
 
 def _rows(model: Graph, task: URIRef) -> list[_Row]:

@@ -11,9 +11,10 @@ from __future__ import annotations
 
 import numpy as np
 import trimesh
-from rdflib import Literal, URIRef
+from rdflib import URIRef
 from rdflib.term import Node
 
+from kbplanner.core.literals import literal_float as _f
 from kbplanner.knowledge.knowledge_base import curie, select
 from kbplanner.knowledge.task_specs import RobotizedTask
 from kbplanner.model.poses import Pose
@@ -21,15 +22,6 @@ from kbplanner.model.project_data import ProjectData
 from kbplanner.planning.plan_model import ElementInfo, Pose6
 from kbplanner.world.meshes import load_mesh
 from kbplanner.world.world_types import World, pose_matrix
-
-
-def _f(v: Node | None) -> float | None:
-    if isinstance(v, Literal):
-        try:
-            return float(v.toPython())
-        except (TypeError, ValueError):
-            return None
-    return None
 
 
 def local_size(project: ProjectData, mesh_file: str, installed: Pose6) -> tuple[float, float, float]:

@@ -215,6 +215,7 @@ def plan_with_carry_modes(
     narrow: Footprint,
     settings: NavSettings | None = None,
     margin_m: float = 0.5,
+    walled_off: frozenset[Footprint] = frozenset(),
 ) -> CarryPlan:
     """Plan with the normal carry footprint; where it cannot pass, carry the load narrow.
 
@@ -226,20 +227,24 @@ def plan_with_carry_modes(
     grown by ``margin_m`` on both sides, becomes a :class:`CarrySegment` with a
     ``rotate_to_narrow`` event at its start and a ``rotate_back`` event at its end (new waypoints
     are inserted there). If even the narrow footprint fails, the plan fails with both reasons.
+    A footprint in ``walled_off`` is known to be walled off from the goal (on a map this grid is a
+    window of, :func:`~kbplanner.simulation.navigation.is_walled_off`): it is not planned, and fails with
+    the reason planning gives (``known_walled_off`` of :func:`plan_path`; no cell route joins them either).
     """
     settings = settings or NavSettings()
     cs_normal = configuration_space(grid, normal, settings.n_yaw_bins, settings.margin_m)  # kept per process
-    routed = cells_first(cs_normal, start, goal, settings)
+    routed = None if normal in walled_off else cells_first(cs_normal, start, goal, settings)
     if routed is not None:
         return CarryPlan(path=routed, mode="normal", normal_attempt=routed, space=cs_normal,
                          normal_space=cs_normal)
     checks = min(settings.max_motion_checks, settings.normal_carry_checks)
-    first = plan_path(cs_normal, start, goal, settings=replace(settings, max_motion_checks=checks))
+    first = plan_path(cs_normal, start, goal, settings=replace(settings, max_motion_checks=checks),
+                      known_walled_off=normal in walled_off)
     if first.ok:
         return CarryPlan(path=first, mode="normal", normal_attempt=first, space=cs_normal,
                          normal_space=cs_normal)
     cs_narrow = configuration_space(grid, narrow, settings.n_yaw_bins, settings.margin_m)
-    second = plan_path(cs_narrow, start, goal, settings=settings)
+    second = plan_path(cs_narrow, start, goal, settings=settings, known_walled_off=narrow in walled_off)
     if not second.ok:
         failed = failed_path(f"{second.reason} even with the narrow carry mode ({narrow.name}); "
                          f"normal mode ({normal.name}): {first.reason}",

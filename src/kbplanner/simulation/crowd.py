@@ -122,6 +122,8 @@ class Crowd:
         delays = sorted({max(0, round(a.params.reaction_time_s * control_hz)) for a in self.agents})
         self._delays = delays
         self._positions: list[tuple[float, float, float]] | None = None  # positions(), until the next step
+        self._xy: list[tuple[float, float]] | None = None  # xy(), until the next step
+        self._on = [True] * len(self.agents)  # (nobody is left out of the social force)
         # per-worker constants of every step
         self._params = [a.params for a in self.agents]
         self._v0 = np.array([a.v0 for a in self.agents])
@@ -152,7 +154,7 @@ class Crowd:
     def pos(self, value: FloatArray) -> None:
         arr = np.asarray(value, dtype=np.float64).reshape(-1, 2)
         self._xs, self._ys = arr[:, 0].tolist(), arr[:, 1].tolist()
-        self._pos, self._positions = arr, None
+        self._pos, self._positions, self._xy = arr, None, None
 
     @property
     def vel(self) -> FloatArray:
@@ -217,7 +219,7 @@ class Crowd:
         rows = self._desired_rows()
         n = len(self.agents)
         xs, ys, vxs, vys = self._xs, self._ys, self._vxs, self._vys
-        on = [True] * n
+        on = self._on
         if len(self._delays) == 1 and self._one_delay:  # everyone sees the robot with the same delay
             idx = len(self._history) - 1 - self._delays[0]
             ax, ay = self._accelerations(xs, ys, vxs, vys, rows, self._history[max(idx, 0)], on)
@@ -236,13 +238,18 @@ class Crowd:
         uy = [vys[i] + ay[i] * dt for i in range(n)]
         sp = _hypot(np.array(ux, dtype=np.float64), np.array(uy, dtype=np.float64)).tolist() if n else []
         vmax = self._vmax_list
+        same = True  # every velocity is the one whose speed is sp[i] (then speed = sp: the same hypot)
         for i in range(n):
-            f = vmax[i] / max(sp[i], 1e-12) if sp[i] > vmax[i] else 1.0
-            ux[i], uy[i] = ux[i] * f, uy[i] * f
+            if sp[i] > vmax[i]:
+                f = vmax[i] / max(sp[i], 1e-12)
+                ux[i], uy[i] = ux[i] * f, uy[i] * f
+                same = False
+            # (else times 1.0, as before: the very same number, not worked out)
         near_m = WORKER_RADIUS_M + CONTACT_MARGIN_M + 1e-6  # maybe_within's bound
         reach = reach_m(robot.rects) if robot is not None else 0.0
         rx, ry = (robot.pose[0], robot.pose[1]) if robot is not None else (0.0, 0.0)
         walk = self._walk
+        agents = self.agents
         nxs: list[float] = []
         nys: list[float] = []
         for i in range(n):
@@ -260,7 +267,7 @@ class Crowd:
                     qx, qy, vx, vy = ox, qy, (ox - ox) / dt, (qy - oy) / dt
                 else:
                     qx, qy, vx, vy = ox, oy, 0.0, 0.0
-            a = self.agents[i]
+            a = agents[i]
             dx, dy = rows[i]
             if a.making_way and (dx != 0 or dy != 0) and ((vx == 0 and vy == 0) or a.way_slow_s >= STUCK_S):
                 # pinned (the robot's push against a wall) or held in place by its push for STUCK_S: making
@@ -270,18 +277,23 @@ class Crowd:
                 (qx, qy), (vx, vy) = q.tolist(), v.tolist()
             nxs.append(qx)
             nys.append(qy)
+            if same and (vx != ux[i] or vy != uy[i]):
+                same = False  # (a zero's sign may change: hypot ignores it; arctan2 is taken below)
             ux[i], uy[i] = vx, vy
         # speeds and headings: numpy's hypot and arctan2 on the velocities, as on the former (n, 2) rows
-        vx_arr, vy_arr = np.array(ux, dtype=np.float64), np.array(uy, dtype=np.float64)
-        speed = _hypot(vx_arr, vy_arr).tolist() if n else []
+        # (the speeds are those of the capped velocities when no step changed one: the same hypot)
+        if same:
+            speed = sp
+        else:
+            speed = _hypot(np.array(ux, dtype=np.float64), np.array(uy, dtype=np.float64)).tolist()
         moving = [v > 0.05 for v in speed]
         if any(moving):
-            atan = np.arctan2(vy_arr, vx_arr).tolist()
+            atan = np.arctan2(np.array(uy, dtype=np.float64), np.array(ux, dtype=np.float64)).tolist()
             self._hs = [atan[i] if moving[i] else self._hs[i] for i in range(n)]
             self._heading = None
         self._xs, self._ys, self._vxs, self._vys, self._sp = nxs, nys, ux, uy, speed
         self._pos = self._vel = None
-        self._positions = None
+        self._positions = self._xy = None
         self.t += self.dt
 
     def _accelerations(self, xs: list[float], ys: list[float], vxs: list[float], vys: list[float],
@@ -358,8 +370,11 @@ class Crowd:
         return list(self._positions)
 
     def xy(self) -> list[tuple[float, float]]:
-        """(x, y) of every worker now, as floats."""
-        return list(zip(self._xs, self._ys, strict=True))
+        """(x, y) of every worker now, as floats (the same list until the workers move: read it, do not
+        change it)."""
+        if self._xy is None:
+            self._xy = list(zip(self._xs, self._ys, strict=True))
+        return self._xy
 
     def speeds(self) -> FloatArray:
         """Walking speed (m/s) of every worker now."""

@@ -63,13 +63,14 @@ def desired_rows(crowd: CrowdState) -> list[tuple[float, float]]:
                 continue
         # waiting: back to the stop (or the spot where they make way), at walking pace at most
         ax, ay = a.anchor
-        if float(_hypot(ax - px, ay - py)) <= WAY_ROUTED_M:  # near the anchor: straight there
+        dx, dy = ax - px, ay - py
+        d = float(_hypot(dx, dy))
+        if d <= WAY_ROUTED_M:  # near the anchor: straight there (the very offsets and distance)
             a.way, a.way_slow_s, a.way_best_m = None, 0.0, math.inf
-            tx, ty = ax, ay
         else:
             tx, ty = crowd._way_target(a, np.array([px, py], dtype=np.float64)).tolist()
-        dx, dy = tx - px, ty - py
-        d = float(_hypot(dx, dy))
+            dx, dy = tx - px, ty - py
+            d = float(_hypot(dx, dy))
         if d > 0.05:
             f = min(a.v0, d / a.params.relaxation_time_s)
             rows.append((dx / d * f, dy / d * f))

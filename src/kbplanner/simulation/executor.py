@@ -505,7 +505,8 @@ def simulate(
                   "elements": dict(sorted(run.footprints.items()))}
     nav_params = next((s.parameters for s in plan.steps if s.skill_kind == KIND_NAVIGATION_WITH_OBJECT),
                       next((s.parameters for s in plan.steps if "maxSpeed" in s.parameters), {}))
-    metrics["safety"] = clean(safety_summary(run.rec.trajectories_csv(), footprints, abs(floor_z - ground_z),
+    trajectories = run.rec.trajectories_csv()  # once: the safety summary reads the text written below
+    metrics["safety"] = clean(safety_summary(trajectories, footprints, abs(floor_z - ground_z),
                                              SsmParameters.from_parameters(nav_params), run.rec.events,
                                              metrics["navigation"], settings.monitoring))
     planning = {str(s.step): round(s.details.get("planning_time_s", 0.0), 4)
@@ -540,7 +541,7 @@ def simulate(
     out_dir = Path(out_dir)
     files: list[str] = []
     with run_directory(out_dir) as stage:
-        atomic_write_text(stage / "trajectories.csv", run.rec.trajectories_csv())
+        atomic_write_text(stage / "trajectories.csv", trajectories)
         atomic_write_text(stage / "events.jsonl", run.rec.events_jsonl())
         write_json(stage / "metrics.json", metrics)
         write_json(stage / "timing.json", timing)

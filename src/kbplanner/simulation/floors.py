@@ -46,6 +46,44 @@ def walk_grid(world: World, robot_grid: OccupancyGrid) -> OccupancyGrid:
                     "(%.2f m): the workers walk on the robot's storey map",
                     robot_floor_z(world) - world.ground_z, world.ground_z)
         return robot_grid
+    key = _ground_key(world, ground)
+    if key is not None and _kept and _kept[0][0] == key:
+        return _fresh(_kept[0][1])
     from kbplanner.world.maps import storey_map
 
-    return storey_map(world, ground.iri).grid
+    grid = storey_map(world, ground.iri).grid
+    _kept.clear()
+    if key is not None:
+        _kept.append((key, _fresh(grid)))
+    return grid
+
+
+# The ground storey's map of this process's last upper-storey task: the tasks of one scenario on other
+# storeys (a building's storeys one after another) walk their workers on the same ground floor, whose
+# map only depends on the parts of the world :func:`_ground_key` holds.
+_kept: list[tuple[tuple[object, ...], OccupancyGrid]] = []
+
+#: The map's height band is read from MapSettings; elements this much beyond it are in the key too.
+_KEY_MARGIN_M = 0.5
+
+
+def _ground_key(world: World, ground: StoreyInfo) -> tuple[object, ...] | None:
+    """Everything ``storey_map(world, ground.iri).grid`` reads of ``world`` (a superset: the elements
+    with a mesh near the storey's height band), or None when the map would read more (no site extent:
+    the obstacles then make the extent)."""
+    from kbplanner.world.map_settings import MapSettings
+
+    if world.site_extent is None:
+        return None
+    settings = MapSettings()
+    lo = ground.elevation_m + settings.floor_clearance_m - _KEY_MARGIN_M
+    hi = ground.elevation_m + settings.robot_height_m + _KEY_MARGIN_M
+    near = tuple(e for e in world.static if e.mesh_path is not None
+                 and (e.bounds is None or (e.bounds.zmax >= lo and e.bounds.zmin <= hi)))
+    return (ground, settings, world.storeys, world.ground_z, world.site_extent, world.site_objects, near)
+
+
+def _fresh(grid: OccupancyGrid) -> OccupancyGrid:
+    """A copy of ``grid`` of its own (its array and no derived arrays), so no task edits another's."""
+    return OccupancyGrid(occupied=grid.occupied.copy(), origin=grid.origin, resolution=grid.resolution,
+                         band=grid.band, notes=grid.notes)

@@ -10,8 +10,10 @@ a time budget) is seeded through ``ou.RNG.setSeed``, so the same seed gives the 
 is shortcut-simplified and re-checked densely. Where free cells certainly join start and goal but
 RRTConnect finds nothing within its first budget, the cell path is taken
 (:mod:`kbplanner.simulation.cell_path`). Whether the goal is walled off is asked only of a search that
-has made :data:`WALLED_OFF_AFTER_CHECKS` motion checks without a path, or has failed (a path found proves
-it is not): the answer is that of asking before planning, mostly without labelling the space.
+has made :data:`PLANE_AFTER_CHECKS` motion checks without a path (of the plane: cells free in some yaw
+bin, :func:`apart_in_plane`), :data:`WALLED_OFF_AFTER_CHECKS` (of the labelled space), or has failed (a
+path found proves it is not): the answer is that of asking before planning, mostly without labelling
+the space. A goal walled off on the whole map is so in its windows (``known_walled_off``).
 
 The rest of navigation: settings and path types (:mod:`kbplanner.simulation.nav_path`), the doorway
 behaviour of the paper (:mod:`kbplanner.simulation.carry_paths`), timed samples
@@ -35,6 +37,7 @@ import math
 import time
 from collections.abc import Callable
 
+import numpy as np
 from ompl import base as ob
 from ompl import geometric as og
 from ompl import util as ou
@@ -62,6 +65,10 @@ CERTAIN_PASSAGE_CHECKS = 100_000  # OMPL's budget where free cells certainly joi
 # motion checks without a path (all but the hardest queries end sooner; labelling a space to answer it costs
 # about as much as 10,000-20,000 checks): a path found proves them joined.
 WALLED_OFF_AFTER_CHECKS = 50_000
+# Whether the plane (cells free in some yaw bin, labelled in 2D: a few milliseconds) walls them off is asked
+# sooner, once the planner has used this many checks without a path (:func:`apart_in_plane`).
+PLANE_AFTER_CHECKS = 2_000
+WALLED_OFF = "no path: the goal is walled off from the start for this footprint"
 
 
 def _connected(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D) -> bool:
@@ -89,17 +96,56 @@ class _WalledOff:
         self.cs, self.start, self.goal = cs, start, goal
         self.answer: bool | None = None
         self.face: bool | None = None
+        self.plane: bool | None = None
 
     def face_joined(self) -> bool:
-        """:func:`face_connected` of start and goal, computed once."""
+        """:func:`face_connected` of start and goal, computed once (False at once where they are
+        :func:`apart_in_plane`)."""
         if self.face is None:
-            self.face = face_connected(self.cs, self.start, self.goal)
+            self.face = not self.apart() and face_connected(self.cs, self.start, self.goal)
         return self.face
+
+    def apart(self) -> bool:
+        """:func:`apart_in_plane` of start and goal, computed once."""
+        if self.plane is None:
+            self.plane = apart_in_plane(self.cs, self.start, self.goal)
+        return self.plane
 
     def __call__(self) -> bool:
         if self.answer is None:
-            self.answer = not (self.face_joined() or _connected(self.cs, self.start, self.goal))
+            self.answer = self.apart() or not (self.face_joined()
+                                               or _connected(self.cs, self.start, self.goal))
         return self.answer
+
+
+def apart_in_plane(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D) -> bool:
+    """Whether start and goal are certainly walled off, told from the plane: the cells free in some yaw
+    bin, 8-connected (labelled once per space), do not join their cells. A chain of free (x, y, yaw bin)
+    cells, 26-connected, lies on such cells, each next to the one before (or the same): where the plane
+    does not join them, neither do :func:`_connected` nor :func:`face_connected` - the same answer as
+    labelling the space, at a small part of its cost (a worker standing in a passage walls it off for
+    every heading)."""
+    ends = [cs._cell(*start), cs._cell(*goal)]
+    if ends[0] is None or ends[1] is None:
+        return True
+    key = ("any yaw", True)
+    plane = cs.open_memo.get(key)
+    if plane is None:
+        from scipy import ndimage  # imported here: the module is imported by commands that never plan
+
+        ring = np.ones((3, 3), dtype=bool)
+        plane = ndimage.label(cs.free.any(axis=0), structure=ring)[0].astype(np.int32)
+        cs.open_memo[key] = plane
+    a, b = plane[ends[0][1:]], plane[ends[1][1:]]
+    return bool(a == 0 or a != b)
+
+
+def is_walled_off(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D) -> bool:
+    """Whether start and goal (both free) are walled off from each other in ``cs`` (what a failed
+    :func:`plan_path` asks, :class:`_WalledOff`). Where it holds in a space, it holds in every space of the
+    same footprint whose free cells are among these - a window of its map (cells off a window count as
+    occupied) - and :func:`plan_path` there, told so, fails at once with the reason planning gives."""
+    return _WalledOff(cs, start, goal)()
 
 
 def _validity_checker(cs: ConfigurationSpace) -> Callable[[ob.State], bool]:
@@ -154,10 +200,21 @@ def _nothing() -> None:
     return None
 
 
+def _asked_walled_off(walled_off: _WalledOff | None, calls: int) -> bool:
+    """Whether a search without a path that has made ``calls`` motion checks stops as walled off: from
+    PLANE_AFTER_CHECKS checks on where the plane says so, from WALLED_OFF_AFTER_CHECKS on where the
+    labels do (the same answer: :func:`apart_in_plane` is certain)."""
+    if walled_off is None:
+        return False
+    if calls >= PLANE_AFTER_CHECKS and walled_off.apart():
+        return True
+    return calls >= WALLED_OFF_AFTER_CHECKS and walled_off()
+
+
 def _run(ss: og.SimpleSetup, validator: _OmplMotionValidator, limit: int, deadline: float,
-         walled_off: Callable[[], bool] | None) -> ob.PlannerStatus:
-    """``ss.solve`` until the validator has made ``limit`` motion checks, the clock passes ``deadline`` or,
-    from WALLED_OFF_AFTER_CHECKS checks on, ``walled_off()`` says so.
+         walled_off: _WalledOff | None) -> ob.PlannerStatus:
+    """``ss.solve`` until the validator has made ``limit`` motion checks, the clock passes ``deadline`` or
+    ``walled_off`` says so (:func:`_asked_walled_off`).
 
     The planner asks its termination condition at every iteration; rather than a Python condition asked
     each time, the clock is OMPL's own condition and the work budget is an alarm of the validator that
@@ -170,15 +227,16 @@ def _run(ss: og.SimpleSetup, validator: _OmplMotionValidator, limit: int, deadli
         calls = validator.calls
         if calls >= limit:
             return True
-        return walled_off is not None and calls >= WALLED_OFF_AFTER_CHECKS and walled_off()
+        return _asked_walled_off(walled_off, calls)
 
     def ring() -> None:
         if holds():
             ptc.terminate()
             validator.alarm = math.inf
-        else:
-            early = walled_off is not None and validator.calls < WALLED_OFF_AFTER_CHECKS
-            validator.alarm = min(limit, WALLED_OFF_AFTER_CHECKS) if early else limit
+        else:  # the next count at which holds() may change
+            calls = validator.calls
+            steps = [PLANE_AFTER_CHECKS, WALLED_OFF_AFTER_CHECKS] if walled_off is not None else []
+            validator.alarm = min([limit, *(c for c in steps if c > calls)])
 
     validator.ring = ring
     ring()
@@ -194,6 +252,8 @@ def plan_path(
     goal: Pose2D,
     footprint: Footprint | None = None,
     settings: NavSettings | None = None,
+    *,
+    known_walled_off: bool = False,
 ) -> NavPath:
     """Plan a collision-free SE(2) path for ``footprint`` from ``start`` to ``goal``.
 
@@ -203,6 +263,10 @@ def plan_path(
         start, goal: (x, y, yaw) in the site frame, metres and radians.
         footprint: required with a grid; ignored with a configuration space.
         settings: planner, time budget, seed, ...
+        known_walled_off: start and goal are known to be walled off from each other (:func:`is_walled_off`
+            of a space whose free cells include these, e.g. the whole map's where this is a window): once
+            start and goal are found free, the plan fails at once with the reason planning gives (no path
+            can be found, and a failed search asks that question: the same result, without planning).
 
     Returns:
         A :class:`NavPath`; when no path is found its status is ``"failed"`` and ``reason`` says why
@@ -224,6 +288,8 @@ def plan_path(
             return failed_path(f"no path: {label} ({pose[0]:.2f}, {pose[1]:.2f}) is off the map", name, fp)
         if not cs.is_free(*pose):
             return failed_path(f"no path: {label} in collision", name, fp)
+    if known_walled_off:
+        return failed_path(WALLED_OFF, name, fp)
     walled_off = _WalledOff(cs, start, goal)
     t0 = time.perf_counter()
     certain: list[bool] = []
@@ -241,7 +307,7 @@ def plan_path(
     finally:
         ou.setLogLevel(level)
     if not result.ok and walled_off():
-        return failed_path("no path: the goal is walled off from the start for this footprint", name, fp)
+        return failed_path(WALLED_OFF, name, fp)
     if result.ok or not (certain and certain[-1]):
         return result
     cells = cell_route(cs, start, goal, settings, t0, result.reason)
@@ -250,12 +316,13 @@ def plan_path(
 
 def _solve(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSettings, t0: float,
            cells_certain: Callable[[], bool] | None = None,
-           walled_off: Callable[[], bool] | None = None) -> NavPath:
+           walled_off: _WalledOff | None = None) -> NavPath:
     """RRTConnect within the work budget. With ``cells_certain``: after CERTAIN_PASSAGE_CHECKS motion
     checks without a path it is asked whether free cells certainly join start and goal; if so, planning
     stops there (the caller takes the cell path), else the same tree grows on to the full budget. With
-    ``walled_off``: after WALLED_OFF_AFTER_CHECKS motion checks without a path it is asked (once) whether
-    start and goal are walled off; if so, planning stops (the caller reports it)."""
+    ``walled_off``: after PLANE_AFTER_CHECKS motion checks without a path the plane, after
+    WALLED_OFF_AFTER_CHECKS the labels are asked (once each) whether start and goal are walled off; if so,
+    planning stops (the caller reports it)."""
     name = settings.planner
     fp = cs.footprint.name
     grid = cs.grid
@@ -288,10 +355,9 @@ def _solve(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSet
     budget = settings.max_motion_checks
     first = min(budget, CERTAIN_PASSAGE_CHECKS) if cells_certain is not None else budget
     status = _run(ss, validator, first, deadline, walled_off)
-    if (walled_off is not None and not ss.haveExactSolutionPath()
-            and validator.calls >= WALLED_OFF_AFTER_CHECKS and walled_off()):
+    if not ss.haveExactSolutionPath() and _asked_walled_off(walled_off, validator.calls):
         del ss, planner
-        return failed_path("no path: the goal is walled off from the start for this footprint", name, fp)
+        return failed_path(WALLED_OFF, name, fp)
     if cells_certain is not None and not ss.haveExactSolutionPath() and time.perf_counter() <= deadline:
         if cells_certain():
             budget = first  # the caller takes the cell path

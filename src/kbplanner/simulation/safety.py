@@ -98,8 +98,7 @@ class ContactMonitor:
             return  # nobody, or everybody on another floor: no overlap is possible
         if not self.inside:  # nobody to see out: done when everyone is certainly clear of the footprint
             far = WORKER_RADIUS_M + reach_m(obs.rects) + 1e-6
-            rx, ry = obs.pose[0], obs.pose[1]
-            if all(math.hypot(x - rx, y - ry) > far for x, y in env.worker_xy_list()):
+            if env.nearest_centre_m(obs.pose[0], obs.pose[1]) > far:  # (all of them farther than far)
                 return
         xy = env.worker_xy()
         d, _, _ = rects_distance(xy[:, 0], xy[:, 1], obs.pose, obs.rects)

@@ -135,8 +135,7 @@ class SeparationMonitor:
         pose = env.base_pose()
         # everyone certainly beyond (centre distance less the footprint's reach): no distance query
         far = horizon_m + 0.25 + reach_m(rects) + 1e-6
-        px, py = pose[0], pose[1]
-        if all(math.hypot(x - px, y - py) > far for x, y in env.worker_xy_list()):
+        if env.nearest_centre_m(pose[0], pose[1]) > far:  # (all of them farther than far)
             self._tracks.clear()
             return []
         xy = env.worker_xy()

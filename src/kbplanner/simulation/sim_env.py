@@ -119,6 +119,7 @@ class SimEnv:
         self._bodies: WorkerBodies | None = None  # the workers' capsules
         self._placer = HeldPlacer(-1)  # where the held element goes (placed when looked at)
         self._on_floor: tuple[World, str | None, float, bool] | None = None  # workers_on_robot_floor
+        self._nearest: tuple[list[tuple[float, float]], float, float, float] | None = None  # nearest_centre_m
         self._workers_due = False  # the workers moved since their bodies were last placed
         self._xy: tuple[np.ndarray | None, int, np.ndarray] | None = None  # worker_xy(): of what, tick, xy
         self.tick = 0
@@ -162,7 +163,7 @@ class SimEnv:
         self._placer = HeldPlacer(self.client)
         self.installed = []
         self.grid = self.base_grid
-        self._xy = None
+        self._xy = self._nearest = None
         self._move_workers()
 
     def step(self) -> float:
@@ -222,7 +223,8 @@ class SimEnv:
 
     def base_pose(self) -> tuple[float, float, float]:
         """(x, y, yaw) of the robot base."""
-        return self.robot.base_pose()
+        robot = self._robot
+        return robot.base_pose() if robot is not None else self.robot.base_pose()
 
     @property
     def robot_floor_z(self) -> float:
@@ -235,9 +237,8 @@ class SimEnv:
         scope); else they are on another floor: no yielding, monitoring or contact with the robot.
         (Asked several times per period: kept while the world, its task storey and ground stay.)"""
         w = self.world
-        key = (w, w.task_storey, w.ground_z)
         last = self._on_floor
-        if last is None or last[0] is not w or last[1] != key[1] or last[2] != key[2]:
+        if last is None or last[0] is not w or last[1] != w.task_storey or last[2] != w.ground_z:
             last = (w, w.task_storey, w.ground_z,
                     abs(self.robot_floor_z - float(w.ground_z)) <= FLOOR_GAP_M)
             self._on_floor = last
@@ -295,6 +296,25 @@ class SimEnv:
         if self.crowd is not None and not self.worker_motions:
             return self.crowd.xy()
         return [(x, y) for x, y, _ in self.worker_poses()]
+
+    def nearest_centre_m(self, x: float, y: float) -> float:
+        """The smallest centre distance (``math.hypot``) of a worker from (x, y); inf with no worker, NaN
+        when a distance is not a number (so ``nearest_centre_m(x, y) > r`` is ``all(d > r)``).
+        (The robot's checks of one period ask it of the same positions and base centre: worked out once
+        while the crowd's positions - the very list - and the point stay.)"""
+        xy = self.worker_xy_list()
+        last = self._nearest
+        if last is not None and last[0] is xy and last[1] == x and last[2] == y:
+            return last[3]
+        d = math.inf
+        for wx, wy in xy:
+            h = math.hypot(wx - x, wy - y)
+            if not h >= d:  # nearer, or not a number (then "all farther than ..." is false: kept)
+                d = h
+                if h != h:
+                    break
+        self._nearest = (xy, x, y, d)
+        return d
 
     def worker_xy(self) -> np.ndarray:
         """(n, 2) positions of every worker now (read only; the same array until a worker moves)."""

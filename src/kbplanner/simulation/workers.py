@@ -168,6 +168,7 @@ class _Router:
         self._csgraph: tuple[Any, np.ndarray] | None = None
         self._pred: dict[int, np.ndarray] = {}
         self._nearest: np.ndarray | None = None
+        self._cells = np.zeros(0, dtype=np.int64)  # the free cells' flat numbers (by _graph)
 
     def _nearest_free(self, ix: int, iy: int) -> tuple[int, int]:
         assert self.free is not None
@@ -201,29 +202,31 @@ class _Router:
         return np.vstack([np.array([a]), core, np.array([b])])
 
     def _graph(self) -> tuple[Any, np.ndarray]:
-        """The 8-connected walking graph of the free cells (built once) and the cell -> node index map."""
+        """The 8-connected walking graph of the free cells (built once) and the cell -> node index map.
+
+        (Each node's edges to its neighbours at (dx, dy) = (1, -1), (1, 0), (0, 1), (1, 1), in that order
+        - ascending node numbers -, straight into the compressed rows: the very arrays the sparse
+        matrix of the (row, column, weight) lists gives, sorted and summed, a quarter of its time.)"""
         if self._csgraph is None:
             from scipy import sparse
 
             assert self.free is not None
             free = self.free
             ny, nx = free.shape
-            index = np.full(free.shape, -1, dtype=np.int64)
-            index[free] = np.arange(int(free.sum()))
-            rows, cols, weights = [], [], []
-            for dx, dy in ((1, 0), (0, 1), (1, 1), (1, -1)):
-                ys0, ys1 = max(0, -dy), ny - max(0, dy)
-                xs0, xs1 = max(0, -dx), nx - max(0, dx)
-                a = index[ys0:ys1, xs0:xs1]
-                b = index[ys0 + dy:ys1 + dy, xs0 + dx:xs1 + dx]
-                both = (a >= 0) & (b >= 0)
-                rows.append(a[both])
-                cols.append(b[both])
-                weights.append(np.full(int(both.sum()), math.hypot(dx, dy)))
             n = int(free.sum())
-            graph = sparse.csr_matrix((np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))),
-                                      shape=(n, n))
+            index = np.full(free.shape, -1, dtype=np.int64)
+            index[free] = np.arange(n)
+            pad = np.full((ny + 2, nx + 2), -1, dtype=np.int64)
+            pad[1:-1, 1:-1] = index
+            steps = ((1, -1), (1, 0), (0, 1), (1, 1))
+            cols = np.stack([pad[1 + dy:ny + 1 + dy, 1 + dx:nx + 1 + dx][free] for dx, dy in steps], axis=1)
+            ok = cols >= 0
+            weights = np.array([math.hypot(dx, dy) for dx, dy in steps])
+            indptr = np.concatenate([[0], np.cumsum(ok.sum(axis=1))])
+            data = np.broadcast_to(weights, cols.shape)[ok]
+            graph = sparse.csr_matrix((data, cols[ok], indptr), shape=(n, n))
             self._csgraph = (graph, index)
+            self._cells = np.flatnonzero(index.ravel() >= 0)
         return self._csgraph
 
     def _dijkstra(self, s: tuple[int, int], t: tuple[int, int]) -> list[tuple[int, int]]:
@@ -243,7 +246,7 @@ class _Router:
         nodes = [dst]
         while nodes[-1] != src:
             nodes.append(int(pred[nodes[-1]]))
-        flat = np.flatnonzero(index.ravel() >= 0)[nodes[::-1]]
+        flat = self._cells[nodes[::-1]]
         return [(int(c % nx), int(c // nx)) for c in flat]
 
 

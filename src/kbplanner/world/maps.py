@@ -23,6 +23,7 @@ import numpy as np
 import trimesh
 
 from kbplanner.core.errors import KbplannerError
+from kbplanner.world import map_store
 from kbplanner.world.build import ground_level_storey
 from kbplanner.world.levels import STAIR, SUPPORT_DEPTH_M, LevelRegion, level_regions, levels_summary
 from kbplanner.world.map_settings import MapSettings
@@ -122,6 +123,28 @@ def storey_map(world: World, storey: str | None = None, settings: MapSettings | 
         raise KbplannerError(f"unknown storey {storey!r}", element=str(storey), fix=f"choose one of: {known}")
     floor = chosen.elevation_m
     band = (floor + settings.floor_clearance_m, floor + settings.robot_height_m)
+    levels = tuple(level_regions(world.static, chosen.iri, floor, band))
+    ground = ground_level_storey(world, chosen)
+    kept = map_store.read(world, chosen, settings)  # a grid an earlier command made of the same world
+    if kept is not None:
+        grid, obstacles = kept
+        for note in grid.notes:
+            log.warning("map: %s", note)
+    else:
+        grid, obstacles = _grid_of_meshes(world, chosen, settings, band, ground)
+        map_store.write(world, chosen, settings, grid, obstacles)
+    seconds = time.perf_counter() - started
+    log.info("map of %s: %d x %d cells, %.1f %% occupied, %.2f s", chosen.label, grid.shape[1],
+             grid.shape[0], 100.0 * (1.0 - grid.free_fraction), seconds)
+    for region in levels:  # stairs are expected obstacles; other floor heights deserve a look
+        (log.info if region.role == STAIR else log.warning)("map of %s: %s", chosen.label, region.text())
+    return StoreyMap(chosen, grid, band, ground, obstacles, seconds, levels)
+
+
+def _grid_of_meshes(world: World, chosen: StoreyInfo, settings: MapSettings, band: tuple[float, float],
+                    ground: bool) -> tuple[OccupancyGrid, int]:
+    """The storey's grid made of its meshes, and how many meshes it holds."""
+    floor = chosen.elevation_m
     meshes: list[trimesh.Trimesh] = []
     names: list[str] = []
     for e in world.static:
@@ -145,8 +168,6 @@ def storey_map(world: World, storey: str | None = None, settings: MapSettings | 
     grid = occupancy_from_meshes(meshes, band, extent, settings.resolution_m, names=names)
     if strays:
         grid = replace(grid, notes=strays + grid.notes)
-    levels = tuple(level_regions(world.static, chosen.iri, floor, band))
-    ground = ground_level_storey(world, chosen)
     if not ground:
         support_band = (floor - SUPPORT_DEPTH_M, floor + 0.01)
         floors = [m for m in (element_mesh(e) for e in world.static
@@ -160,12 +181,7 @@ def storey_map(world: World, storey: str | None = None, settings: MapSettings | 
                       f"m below this storey's level, {floor:+.2f} m) is free of obstacles",)
         grid = OccupancyGrid(occupied=occupied, origin=grid.origin, resolution=grid.resolution, band=band,
                              notes=notes)
-    seconds = time.perf_counter() - started
-    log.info("map of %s: %d x %d cells, %.1f %% occupied, %.2f s", chosen.label, grid.shape[1],
-             grid.shape[0], 100.0 * (1.0 - grid.free_fraction), seconds)
-    for region in levels:  # stairs are expected obstacles; other floor heights deserve a look
-        (log.info if region.role == STAIR else log.warning)("map of %s: %s", chosen.label, region.text())
-    return StoreyMap(chosen, grid, band, ground, len(meshes), seconds, levels)
+    return grid, len(meshes)
 
 
 def _without_strays(

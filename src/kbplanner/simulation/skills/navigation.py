@@ -52,7 +52,7 @@ from kbplanner.simulation.base_trajectory import Trajectory, time_parameterize
 from kbplanner.simulation.carry_paths import cell_alternatives, cells_first, plan_with_carry_modes
 from kbplanner.simulation.grid_yardstick import grid_shortest_path_length
 from kbplanner.simulation.nav_path import NavSettings
-from kbplanner.simulation.navigation import plan_path
+from kbplanner.simulation.navigation import WALLED_OFF, is_walled_off, plan_path
 from kbplanner.simulation.path_quality import YARDSTICK_MARGIN_M, shortest_path_m
 from kbplanner.simulation.separation import reach_m
 from kbplanner.simulation.separation_monitor import SeparationMonitor
@@ -215,17 +215,26 @@ class NavigationSkill(Skill):
 
     def _leg_planned(self, grid: OccupancyGrid, start: Pose2D, goal: Pose2D, fp: Footprint,
                      narrow: Footprint | None) -> tuple[Route | str, ConfigurationSpace | None]:
-        """:meth:`_leg` planned, with the configuration space kept for the yardstick (None: none)."""
+        """:meth:`_leg` planned, with the configuration space kept for the yardstick (None: none).
+
+        Where a window finds the goal walled off, whether it is on the whole map is asked once (for the
+        leg's footprints): a footprint walled off there is walled off in every window, and is not planned
+        in the bigger ones (:func:`~kbplanner.simulation.navigation.plan_path`'s ``known_walled_off``,
+        the same reason as planning it)."""
         s = self.c.settings
         settings = self._settings()
         reasons: list[str] = []
+        walled: frozenset[Footprint] | None = None  # walled off on the whole map (None: not asked)
         for margin in s.window_margins_m:
             sub = window(grid, [(start[0], start[1]), (goal[0], goal[1])], margin)
-            found = self._leg_in(sub, start, goal, fp, narrow, settings)
+            found = self._leg_in(sub, start, goal, fp, narrow, settings, walled or frozenset())
             if isinstance(found, str):
                 reasons.append(f"{'whole map' if margin is None else f'{margin:g} m window'}: {found}")
                 if "in collision" in found or "off the map" in found:
                     break  # a bigger window does not help
+                if walled is None and margin is not None and WALLED_OFF in found:
+                    walled = frozenset(f for f in (fp, narrow) if f is not None
+                                       and self._walled_whole(sub, grid, start, goal, f, settings))
                 continue
             route, space = self._shorter(sub, start, goal, fp, narrow, settings, *found)
             if space is not None and self.spaces is not None:
@@ -233,16 +242,28 @@ class NavigationSkill(Skill):
             return route, space
         return "; ".join(reasons), None
 
+    def _walled_whole(self, sub: OccupancyGrid, grid: OccupancyGrid, start: Pose2D, goal: Pose2D,
+                      fp: Footprint, settings: NavSettings) -> bool:
+        """Whether start and goal are walled off for ``fp`` on the whole ``grid`` (False at once where they
+        are not in the window ``sub``: then the window's answer was another footprint's)."""
+        bins, margin = settings.n_yaw_bins, settings.margin_m
+        if not is_walled_off(configuration_space(sub, fp, bins, margin), start, goal):
+            return False
+        return is_walled_off(configuration_space(grid, fp, bins, margin), start, goal)
+
     def _leg_in(self, sub: OccupancyGrid, start: Pose2D, goal: Pose2D, fp: Footprint,
-                narrow: Footprint | None, settings: NavSettings
+                narrow: Footprint | None, settings: NavSettings, walled: frozenset[Footprint] = frozenset()
                 ) -> tuple[Route, ConfigurationSpace | None] | str:
-        """A leg planned on ``sub`` with its configuration space, or why there is none."""
+        """A leg planned on ``sub`` with its configuration space, or why there is none (footprints in
+        ``walled`` are known to be walled off: :meth:`_leg_planned`)."""
         if narrow is None:
             cs = configuration_space(sub, fp, settings.n_yaw_bins, settings.margin_m)  # kept per process
             # a carry leg in one mode through a narrow passage takes the cell route, as NV-2's legs do
-            routed = cells_first(cs, start, goal, settings) if self.geo is not None else None
+            # (none where the goal is walled off: free cells do not join them)
+            carry = self.geo is not None and fp not in walled
+            routed = cells_first(cs, start, goal, settings) if carry else None
             # (plan_path(cs, ...) as plan_path(sub, ..., fp) builds it)
-            path = routed or plan_path(cs, start, goal, settings=settings)
+            path = routed or plan_path(cs, start, goal, settings=settings, known_walled_off=fp in walled)
             self.details["planning_time_s"] += path.planning_time_s
             if not path.ok:
                 return path.reason
@@ -251,7 +272,7 @@ class NavigationSkill(Skill):
             return Route([(list(path.poses), mode, cs)], path.length_m,
                           path.length_m if mode == NARROW else 0.0), cs
         margin = self.c.settings.carry_margin_m
-        cp = plan_with_carry_modes(sub, start, goal, fp, narrow, settings, margin_m=margin)
+        cp = plan_with_carry_modes(sub, start, goal, fp, narrow, settings, margin_m=margin, walled_off=walled)
         self.details["planning_time_s"] += cp.path.planning_time_s
         if not cp.ok:
             return cp.path.reason
