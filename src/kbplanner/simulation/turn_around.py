@@ -25,6 +25,13 @@ REVERSE_TOLERANCE_M = 0.05  # backward driving below this is not worth turning r
 SPIN_PARTS = 8  # a whole turn checked as this many motions (each under half a turn)
 
 
+def _starts(poses: Sequence[Pose2D]) -> list[int]:
+    """Per pose of :func:`_along`, its step along its segment (0: the segment's first waypoint)."""
+    return [j for k in range(len(poses) - 1)
+            for j in range(max(1, math.ceil(math.hypot(poses[k + 1][0] - poses[k][0],
+                                                       poses[k + 1][1] - poses[k][1]) / STEP_M)))]
+
+
 def _along(poses: Sequence[Pose2D]) -> list[tuple[int, Pose2D]]:
     """Poses every ``STEP_M`` along the path with the index of their segment (yaw linear, the short way)."""
     out: list[tuple[int, Pose2D]] = []
@@ -38,22 +45,60 @@ def _along(poses: Sequence[Pose2D]) -> list[tuple[int, Pose2D]]:
 
 
 def turned_round(cs: ConfigurationSpace, poses: Sequence[Pose2D]) -> list[Pose2D] | None:
-    """``poses`` with the yaw flipped between the first and the last pose where the base turns round freely
-    (module doc), or None where there are not two such poses or the flipped middle is not free."""
+    """``poses`` with the base's yaw flipped by half a turn on the stretches it would drive backwards, each
+    stretch begun and ended at a pose where the base turns round freely (module doc); None where nothing
+    can be flipped or the result is not free.
+
+    Along the path (every ``STEP_M``): unflipped, at a pose where the base can turn round and the motion
+    ahead goes backwards, it turns round if the flipped motion is free; flipped, it turns back at such a
+    pose where the motion ahead goes forwards. Where a flipped motion is blocked (the load is not
+    symmetric), the stretch is undone back to the last pose of it where the base could turn, and no new
+    stretch begins before the blocked motion is passed; a stretch still open at the goal is undone
+    likewise unless the base can turn at the goal."""
     exact = ExactMotion(cs)
+    dense = _along(poses)
+    keep = [j == 0 for j in _starts(poses)] + [True]
+    pts = [p for _, p in dense] + [poses[-1]]
+    n = len(pts)
+    memo: dict[int, bool] = {}
 
-    def spins(p: Pose2D) -> bool:
-        return any(exact.path_free([(p[0], p[1], wrap(p[2] + s * k * 2 * math.pi / SPIN_PARTS))
-                                    for k in range(SPIN_PARTS + 1)]) for s in (1, -1))
+    def spins(i: int) -> bool:
+        if i not in memo:
+            x, y, t = pts[i]
+            memo[i] = any(exact.path_free([(x, y, wrap(t + s * k * 2 * math.pi / SPIN_PARTS))
+                                           for k in range(SPIN_PARTS + 1)]) for s in (1, -1))
+        return memo[i]
 
-    along = _along(poses)
-    first = next((i for i, (_, p) in enumerate(along) if spins(p)), None)
-    last = next((i for i in range(len(along) - 1, -1, -1) if spins(along[i][1])), None)
-    if first is None or last is None or last <= first:
+    def flip(p: Pose2D) -> Pose2D:
+        return (p[0], p[1], wrap(p[2] + math.pi))
+
+    flipped = [False] * (n - 1)  # per motion i -> i + 1
+    state, last_turn, calm_until = False, 0, 0
+    for i in range(n - 1):
+        if math.hypot(pts[i + 1][0] - pts[i][0], pts[i + 1][1] - pts[i][1]) > 1e-9:
+            back = backward_m([pts[i], pts[i + 1]]) > 0.0
+            if back != state and (state or i >= calm_until) and spins(i) and (
+                    state or exact.motion_free(flip(pts[i]), flip(pts[i + 1]))):
+                state = back
+            if state and spins(i):
+                last_turn = i
+        if state and not exact.motion_free(flip(pts[i]), flip(pts[i + 1])):
+            flipped[last_turn:i] = [False] * (i - last_turn)
+            state, calm_until = False, i + 1
+        flipped[i] = state
+    if state and not spins(n - 1):
+        flipped[last_turn:] = [False] * (n - 1 - last_turn)
+    if not any(flipped):
         return None
-    (ka, pa), (kb, pb) = along[first], along[last]
-    middle = [(x, y, wrap(t + math.pi)) for x, y, t in [pa, *poses[ka + 1 : kb + 1], pb]]
-    out = [*poses[: ka + 1], pa, *middle, pb, *poses[kb + 1 :]]
+    out: list[Pose2D] = [pts[0]]
+    if flipped[0]:
+        out.append(flip(pts[0]))
+    for i in range(1, n):
+        before, after = flipped[i - 1], flipped[i] if i < n - 1 else False
+        if before != after or keep[i]:
+            out.append(flip(pts[i]) if before else pts[i])
+        if before != after:
+            out.append(flip(pts[i]) if after else pts[i])
     out = [p for i, p in enumerate(out) if i == 0 or p != out[i - 1]]
     return out if exact.path_free(out) else None
 
