@@ -52,3 +52,18 @@ def test_with_reversing_allowed_the_path_is_turn_drive_turns() -> None:
 def test_no_room_to_turn_anywhere_gives_none() -> None:
     cs = _alcove_and_room()
     assert turned_round(cs, [(10.2, 2.0, 0.0), (8.6, 2.0, math.pi / 90)]) is None
+
+
+def test_a_load_ahead_of_the_base_past_a_stub_wall_also_backs_out_only_as_far_as_it_must() -> None:
+    walls = [box(-0.2, -0.2, 10.7, 0.0), box(-0.2, 4.0, 10.7, 4.2), box(-0.2, 0.0, 0.0, 4.0),
+             box(8.0, 0.0, 10.7, 1.55), box(8.0, 2.45, 10.7, 4.0), box(10.5, 1.55, 10.7, 2.45),
+             box(3.0, 0.0, 3.2, 1.3)]  # a stub wall on the way west
+    grid = occupancy_from_meshes(walls, (0.05, 1.5), Box(-0.5, -0.5, 11.0, 4.5), 0.05)
+    ahead = Footprint((Rect(0.0, 0.0, 0.99, 0.67), Rect(0.5, 0.0, 1.4, 0.5)), name="husky + load ahead")
+    cs = ConfigurationSpace.build(grid, ahead)
+    poses = [(9.2, 2.0, 0.0), (1.5, 2.0, 0.0)]
+    assert path_is_free(cs, poses)
+    plain, _ = turn_drive_turn(cs, poses, allow_reverse=False)
+    got, _ = skid_steer(cs, poses, allow_reverse=False)
+    assert path_is_free(cs, got) and got[0] == poses[0] and got[-1] == poses[-1]
+    assert backward_m(got) < backward_m(plain)
