@@ -3,12 +3,13 @@
 Where a turn on the spot is blocked (a carried frame next to the storage stack, in a corridor),
 :func:`~kbplanner.simulation.motion_check.turn_drive_turn` keeps the planner's SE(2) motion, and OMPL's SE(2)
 space does not know which way the base faces: whole carry legs were driven backwards, into the
-scanner's blind sector. :func:`turned_round` finds the first and the last pose along the path (every
-``STEP_M``) where a whole turn on the spot is free in the leg's configuration space, and flips the base's
-yaw by half a turn between them: the base backs up only to the first such pose, turns round there, drives
-the middle facing the other way and turns back at the last one. The caller keeps the result only where it
-is free (exact check) and drives backwards less: :func:`skid_steer`, turn-drive-turn with that, which the
-planner's paths and the cell routes take. No random numbers.
+scanner's blind sector. :func:`turned_round` walks along the planner's path (every
+``STEP_M``) and flips the base's yaw by half a turn on the stretches it would drive backwards, each begun
+and ended at a pose where a whole turn on the spot is free in the leg's configuration space (with its
+load): the base backs up only to such a pose, turns round there, drives on facing the other way and
+turns back where the path goes forwards again. :func:`skid_steer`, turn-drive-turn with that, keeps the
+result only where it is free (exact check) and drives backwards less; the planner's paths and the cell
+routes take it. No random numbers.
 """
 
 from __future__ import annotations
