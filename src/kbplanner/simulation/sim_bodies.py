@@ -70,23 +70,49 @@ class WorkerBody:
 class SimRobot(RobotModel):
     """The environment's robot: calls :attr:`before_move` before it moves, and keeps the arguments of
     its last :meth:`set_base_pose` and :meth:`set_arm`, which put it back in that pose (:meth:`put`)
-    and are its arm joints until physics steps (:meth:`forget_base`)."""
+    and are its arm joints until physics steps (:meth:`forget_base`).
+
+    Placed in PyBullet when looked at: a base or arm setting is noted and put in PyBullet by
+    :meth:`place_pending`, which every reader of the robot's PyBullet state calls first (its own
+    reads, the lidar, inverse kinematics, :meth:`~kbplanner.simulation.sim_env.SimEnv.sync`). The
+    settings still due are replayed in the order they were last made, the base's floor as it was
+    when set: the same PyBullet calls as the last ones of placing at every setting, so the same state.
+    """
 
     before_move: Callable[[], None] | None = None
     base_set: tuple[float, float, float, float | None] | None = None
     arm_set: tuple[float, ...] | None = None
+    # the settings not yet put in PyBullet, in the order last made: ("base", (x, y, yaw, z)), ("arm", q)
+    _due: tuple[tuple[str, Any], ...] = ()
+
+    def _defer(self, kind: str, args: Any) -> None:
+        self._due = (*(d for d in self._due if d[0] != kind), (kind, args))
 
     def set_base_pose(self, x: float, y: float, yaw: float, z: float | None = None) -> None:
         if self.before_move is not None:
             self.before_move()
-        super().set_base_pose(x, y, yaw, z)
+        self._defer("base", (x, y, yaw, self.floor_z if z is None else z))
+        self._base_fresh = False
         self.base_set = (x, y, yaw, z)
 
     def set_arm(self, q: Sequence[float]) -> None:
         if self.before_move is not None:
             self.before_move()
-        super().set_arm(q)
+        self._check_arm(q)
+        self._defer("arm", tuple(q))
         self.arm_set = tuple(float(v) for v in q)
+
+    def place_pending(self) -> None:
+        """Put the base and the arm settings still due in PyBullet (in the order last made)."""
+        due = self._due
+        if not due:
+            return
+        self._due = ()
+        for kind, args in due:
+            if kind == "base":
+                self._reset_base(*args)
+            else:
+                self._reset_arm(args)
 
     def arm_positions(self) -> tuple[float, ...]:
         """The arm joint angles: those of the last :meth:`set_arm` (PyBullet gives back the very
@@ -108,8 +134,10 @@ class SimRobot(RobotModel):
 
     def put(self, pose: RobotPose) -> None:
         """Set the base and the arm as :meth:`pose_set` gave them (the same PyBullet state)."""
-        super().set_base_pose(*pose[0])
-        super().set_arm(pose[1])
+        x, y, yaw, z = pose[0]
+        self._defer("base", (x, y, yaw, self.floor_z if z is None else z))
+        self._base_fresh = False
+        self._defer("arm", pose[1])
         self.base_set, self.arm_set = pose
 
 
