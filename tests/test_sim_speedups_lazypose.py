@@ -154,3 +154,32 @@ def test_a_setting_is_not_placed_until_looked_at_and_a_bad_one_fails_at_once(cas
             env.set_arm([0.0, 1.0])
     finally:
         env.close()
+
+
+def test_the_stored_pose_is_the_pose_pybullet_reports_bit_for_bit(case) -> None:  # type: ignore[no-untyped-def]
+    """``stored_pose`` (Bullet's quaternion -> matrix -> quaternion in Python) against PyBullet's report
+    after placing the base, over random poses, the branches of the matrix-to-quaternion conversion
+    (yaw near 0, pi/2, pi, signed zeros) and floor elevations."""
+    import pybullet as p
+
+    from kbplanner.simulation.sim_bodies import stored_pose
+
+    env = SimEnv(case.world, robot_name(case.refined), grid=case.grid)
+    try:
+        env.reset(seed=1)
+        robot = env.robot
+        rng = np.random.default_rng(3)
+        special = [0.0, -0.0, math.pi, -math.pi, math.pi / 2, -math.pi / 2, 1e-300, 2 * math.pi, 1e-9]
+        for k in range(3000):
+            x, y = rng.uniform(-300, 300, 2).tolist()
+            yaw = special[k % len(special)] if k % 4 == 0 else float(rng.uniform(-7, 7))
+            z = [0.0, -0.0, 3.2, float(rng.uniform(-10, 40))][k % 4]
+            robot._reset_base(x, y, yaw, z)
+            got = p.getBasePositionAndOrientation(robot.body, physicsClientId=env.client)
+            pos, orn = stored_pose(robot, x, y, yaw, z)
+            assert _bits(*got[0], *got[1]) == _bits(*pos, *orn), (x, y, yaw, z)
+        assert isinstance(robot, SimRobot)
+        robot.set_base_pose(1.0, 2.0, 3.0)
+        assert robot.round_trip_ok()
+    finally:
+        env.close()

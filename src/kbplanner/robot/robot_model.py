@@ -208,6 +208,13 @@ class RobotModel:
             return self._base_read[1]
         self.place_pending()
         com_pos, com_orn = p.getBasePositionAndOrientation(self.body, physicsClientId=self.client)
+        return self._base_from_com(com_pos, com_orn)
+
+    def _base_from_com(self, com_pos: Sequence[float],
+                       com_orn: Sequence[float]) -> tuple[float, float, float]:
+        """(x, y, yaw) of the base frame for PyBullet's pose of the body (its centre of mass frame)."""
+        import pybullet as p
+
         key = struct.pack("7d", *com_pos, *com_orn)
         if self._base_read is not None and self._base_read[0] == key:
             self._base_fresh = self.kinematic

@@ -22,6 +22,7 @@ every period, at a fraction of the calls.
 from __future__ import annotations
 
 import math
+import struct
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -30,7 +31,7 @@ import numpy as np
 
 from kbplanner.core.iris import slug
 from kbplanner.planning.carry import Matrix
-from kbplanner.robot.robot_model import RobotModel
+from kbplanner.robot.robot_model import Quat, RobotModel, Vec3
 from kbplanner.simulation.held_pose import matrix_of, quat_of
 from kbplanner.simulation.workers import WORKER_RADIUS_M, WorkerMotion, WorkerSpec
 from kbplanner.world.world_types import WorldElement
@@ -88,12 +89,45 @@ class SimRobot(RobotModel):
     def _defer(self, kind: str, args: Any) -> None:
         self._due = (*(d for d in self._due if d[0] != kind), (kind, args))
 
+    # whether PyBullet's base pose is known without asking it (checked once per robot: round_trip_ok)
+    _round_trip: bool | None = None
+
     def set_base_pose(self, x: float, y: float, yaw: float, z: float | None = None) -> None:
         if self.before_move is not None:
             self.before_move()
         self._defer("base", (x, y, yaw, self.floor_z if z is None else z))
         self._base_fresh = False
         self.base_set = (x, y, yaw, z)
+
+    def base_pose(self) -> tuple[float, float, float]:
+        """(x, y, yaw) of the base frame: with a base setting still due, from the pose PyBullet will
+        report once it is placed (:func:`stored_pose`, the same numbers), without placing it."""
+        if self._base_fresh and self._base_read is not None:
+            return self._base_read[1]
+        due = next((args for kind, args in self._due if kind == "base"), None)
+        if due is None or not self.round_trip_ok():
+            return super().base_pose()
+        com_pos, com_orn = stored_pose(self, *due)
+        return self._base_from_com(com_pos, com_orn)
+
+    def round_trip_ok(self) -> bool:
+        """Whether :func:`stored_pose` gives PyBullet's reported base pose bit for bit on this PyBullet
+        (checked on :data:`_CHECK_POSES` poses the first time; else every base pose asked is read from
+        PyBullet after placing the robot). Asked with a base setting due, which is placed over the
+        poses checked."""
+        if self._round_trip is None:
+            import pybullet as p
+
+            assert any(kind == "base" for kind, _ in self._due)
+            ok = True
+            for k in range(_CHECK_POSES):
+                pose = (math.sin(k * 12.9898) * 40.0, math.cos(k * 78.233) * 40.0, k * 0.1309 - 4.2, k * 0.37)
+                self._reset_base(*pose)
+                got = p.getBasePositionAndOrientation(self.body, physicsClientId=self.client)
+                ok = ok and _bits(*got[0], *got[1]) == _bits(*(v for part in stored_pose(self, *pose)
+                                                                for v in part))
+            self._round_trip = ok
+        return self._round_trip
 
     def set_arm(self, q: Sequence[float]) -> None:
         if self.before_move is not None:
@@ -139,6 +173,48 @@ class SimRobot(RobotModel):
         self._base_fresh = False
         self._defer("arm", pose[1])
         self.base_set, self.arm_set = pose
+
+
+_CHECK_POSES = 64
+
+
+def _bits(*values: float) -> bytes:
+    return struct.pack(f"{len(values)}d", *values)
+
+
+def stored_pose(robot: RobotModel, x: float, y: float, yaw: float, z: float) -> tuple[Vec3, Quat]:
+    """The body pose PyBullet reports after :meth:`RobotModel.set_base_pose` ``(x, y, yaw, z)``: the
+    position as given, the quaternion through Bullet's rotation matrix and back
+    (``btMatrix3x3::setRotation``, ``getRotation``), in the same double arithmetic."""
+    import pybullet as p
+
+    pos, orn = p.multiplyTransforms((x, y, z), p.getQuaternionFromEuler((0.0, 0.0, yaw)),
+                                    robot._com_pos, robot._com_orn)
+    qx, qy, qz, qw = (float(v) for v in orn)
+    s = 2.0 / (qx * qx + qy * qy + qz * qz + qw * qw)
+    xs, ys, zs = qx * s, qy * s, qz * s
+    wx, wy, wz = qw * xs, qw * ys, qw * zs
+    xx, xy, xz = qx * xs, qx * ys, qx * zs
+    yy, yz, zz = qy * ys, qy * zs, qz * zs
+    m = ((1.0 - (yy + zz), xy - wz, xz + wy), (xy + wz, 1.0 - (xx + zz), yz - wx),
+         (xz - wy, yz + wx, 1.0 - (xx + yy)))
+    t = [0.0, 0.0, 0.0, 0.0]
+    trace = m[0][0] + m[1][1] + m[2][2]
+    if trace > 0.0:
+        r = math.sqrt(trace + 1.0)
+        t[3] = r * 0.5
+        r = 0.5 / r
+        t[0], t[1], t[2] = (m[2][1] - m[1][2]) * r, (m[0][2] - m[2][0]) * r, (m[1][0] - m[0][1]) * r
+    else:
+        i = (2 if m[1][1] < m[2][2] else 1) if m[0][0] < m[1][1] else (2 if m[0][0] < m[2][2] else 0)
+        j, k = (i + 1) % 3, (i + 2) % 3
+        r = math.sqrt(m[i][i] - m[j][j] - m[k][k] + 1.0)
+        t[i] = r * 0.5
+        r = 0.5 / r
+        t[3] = (m[k][j] - m[j][k]) * r
+        t[j] = (m[j][i] + m[i][j]) * r
+        t[k] = (m[k][i] + m[i][k]) * r
+    return (float(pos[0]), float(pos[1]), float(pos[2])), (t[0], t[1], t[2], t[3])
 
 
 def _translation(v: Sequence[float]) -> Matrix:
