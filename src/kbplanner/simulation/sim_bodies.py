@@ -17,6 +17,11 @@ Nothing in the per-period loop reads these bodies from PyBullet except a lidar s
 frame, a body's frame or a physics step, before which the environment places them
 (:meth:`~kbplanner.simulation.sim_env.SimEnv.sync`): they are where they would be had they been placed
 every period, at a fraction of the calls.
+
+The robot itself (:class:`SimRobot`) is placed the same way: its base and arm settings are noted and put
+in PyBullet by :meth:`SimRobot.place_pending`, which every reader of its PyBullet state calls first;
+its base pose is answered without placing it, from the pose PyBullet will report (:func:`stored_pose`,
+checked bit for bit against PyBullet once per robot).
 """
 
 from __future__ import annotations
