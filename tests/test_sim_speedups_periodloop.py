@@ -29,6 +29,7 @@ def _state(env: SimEnv, bodies: list[int]) -> bytes:
     """The PyBullet poses of ``bodies`` and of every robot link, bit for bit."""
     import pybullet as p
 
+    env.robot.place_pending()  # (a reader of PyBullet's robot places it first)
     out = b""
     for b in bodies:
         pos, orn = p.getBasePositionAndOrientation(b, physicsClientId=env.client)
@@ -116,6 +117,7 @@ def test_the_environment_robots_kept_arm_joints_and_put_back_pose_are_pybullets(
             q = (rng.normal(size=len(robot.arm_joints)) * 10.0 ** rng.uniform(-12, 0.5)).tolist()
             q[k % len(q)] = -0.0 if k % 2 else 0.0
             robot.set_arm(q)
+            robot.place_pending()
             read = tuple(float(s[0]) for s in p.getJointStates(robot.body, robot.arm_joints,
                                                                physicsClientId=robot.client))
             assert _bits(*robot.arm_positions()) == _bits(*read) == _bits(*q)

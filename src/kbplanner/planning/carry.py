@@ -332,6 +332,7 @@ class ElementProbe:
         import pybullet as p
 
         best = max_m
+        self.robot.place_pending()
         for link in self.links:
             for c in p.getClosestPoints(self.body, self.robot.body, max_m, -1, link,
                                         physicsClientId=self.robot.client):

@@ -401,6 +401,7 @@ def _solve_numeric(robot: RobotModel, target_xyz: Vec3, orn: Sequence[float] | N
             kwargs = dict(lowerLimits=lower_all, upperLimits=upper_all, jointRanges=ranges_all,
                           restPoses=rest_all, maxNumIterations=200, residualThreshold=1e-6,
                           physicsClientId=robot.client)
+            robot.place_pending()  # inverse kinematics starts from the robot's PyBullet state
             if orn is not None:
                 sol = p.calculateInverseKinematics(robot.body, robot.tool_link, target_xyz, orn, **kwargs)
             else:

@@ -133,6 +133,7 @@ def scan(robot: RobotModel, spec: LidarSpec, *, ignore: Iterable[int] = (),
         dirs = dirs[idx]
     starts = origin + spec.range_min_m * dirs
     ends = origin + spec.range_max_m * dirs
+    robot.place_pending()  # (placed already by link_pose; the rays see the robot where it was set)
     hits = p.rayTestBatch(starts.tolist(), ends.tolist(), physicsClientId=robot.client) if len(dirs) else ()
     skip = {robot.body, *ignore}
     span = spec.range_max_m - spec.range_min_m
@@ -170,6 +171,7 @@ def sensor_view_hits(
         starts = origin + 0.02 * dirs
         ends = origin + length * dirs
         n = 0
+        robot.place_pending()
         for h in p.rayTestBatch(starts.tolist(), ends.tolist(), physicsClientId=robot.client):
             if (int(h[0]) == robot.body and int(h[1]) in arm_links) or int(h[0]) in extra:
                 n += 1

@@ -175,15 +175,22 @@ class RobotModel:
 
         ``z`` defaults to :attr:`floor_z`, the floor the robot works on (a storey's elevation).
         """
-        import pybullet as p
+        self._reset_base(x, y, yaw, self.floor_z if z is None else z)
 
-        if z is None:
-            z = self.floor_z
+    def _reset_base(self, x: float, y: float, yaw: float, z: float) -> None:
+        """Put the base frame at (x, y, z) facing ``yaw`` in PyBullet now."""
+        import pybullet as p
 
         pos, orn = p.multiplyTransforms((x, y, z), p.getQuaternionFromEuler((0.0, 0.0, yaw)),
                                         self._com_pos, self._com_orn)
         p.resetBasePositionAndOrientation(self.body, pos, orn, physicsClientId=self.client)
         self._base_fresh = False
+
+    def place_pending(self) -> None:
+        """Put the robot in PyBullet where it was last set, before PyBullet is asked about it (a
+        distance, a ray test, an image, a link's pose, inverse kinematics). This model places it when
+        set: nothing to do (the simulation environment's robot defers the placing, see
+        :class:`~kbplanner.simulation.sim_bodies.SimRobot`)."""
 
     def forget_base(self) -> None:
         """The base may have moved other than by :meth:`set_base_pose` (physics stepped): read it again."""
@@ -199,7 +206,15 @@ class RobotModel:
 
         if self._base_fresh and self._base_read is not None:
             return self._base_read[1]
+        self.place_pending()
         com_pos, com_orn = p.getBasePositionAndOrientation(self.body, physicsClientId=self.client)
+        return self._base_from_com(com_pos, com_orn)
+
+    def _base_from_com(self, com_pos: Sequence[float],
+                       com_orn: Sequence[float]) -> tuple[float, float, float]:
+        """(x, y, yaw) of the base frame for PyBullet's pose of the body (its centre of mass frame)."""
+        import pybullet as p
+
         key = struct.pack("7d", *com_pos, *com_orn)
         if self._base_read is not None and self._base_read[0] == key:
             self._base_fresh = self.kinematic
@@ -226,12 +241,19 @@ class RobotModel:
         distances as a ``resetJointState`` per joint (velocities zero), in a quarter of the time
         (``tests/test_robot_model.py`` compares them).
         """
-        import pybullet as p
+        self._check_arm(q)
+        self._reset_arm(q)
 
+    def _check_arm(self, q: Sequence[float]) -> None:
         self._need_arm()
         if len(q) != len(self.arm_joints):
             raise InputFileError(f"expected {len(self.arm_joints)} joint angles, got {len(q)}",
                                  element=self.spec.name, fix="give one angle per arm joint")
+
+    def _reset_arm(self, q: Sequence[float]) -> None:
+        """Set the arm joints in PyBullet now."""
+        import pybullet as p
+
         p.resetJointStatesMultiDof(self.body, self.arm_joints, [[float(v)] for v in q], [[0.0]] * len(q),
                                    physicsClientId=self.client)
 
@@ -241,6 +263,7 @@ class RobotModel:
 
         if not self.arm_joints:
             return ()
+        self.place_pending()
         return tuple(float(st[0]) for st in p.getJointStates(self.body, self.arm_joints,
                                                                physicsClientId=self.client))
 
@@ -267,6 +290,7 @@ class RobotModel:
         """World position and quaternion (x, y, z, w) of a link frame (``-1``: the base)."""
         import pybullet as p
 
+        self.place_pending()
         if link == -1:
             com_pos, com_orn = p.getBasePositionAndOrientation(self.body, physicsClientId=self.client)
             inv_pos, inv_orn = p.invertTransform(self._com_pos, self._com_orn)
@@ -288,6 +312,7 @@ class RobotModel:
         """Smallest distance (m) between two sets of this robot's links (negative: penetration)."""
         import pybullet as p
 
+        self.place_pending()
         best = max_m
         for a in links_a:
             for b in links_b:
@@ -317,6 +342,7 @@ class RobotModel:
 
         if not self.arm_joints:
             return False
+        self.place_pending()
         body_links = self._body_links()
         boxes = [p.getAABB(self.body, b, physicsClientId=self.client) for b in body_links]
         for a in self.arm_links[1:]:

@@ -65,6 +65,7 @@ def render_png(env: SimEnv, size: tuple[int, int] = (640, 480), *, worker: bool 
     import pybullet as p
 
     width, height = size
+    env.robot.place_pending()  # the image shows PyBullet's robot: where it was last set
     x, y, yaw = env.base_pose()
     target = [x, y, env.world.ground_z + 0.8]
     view = p.computeViewMatrixFromYawPitchRoll(

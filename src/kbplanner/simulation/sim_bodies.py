@@ -17,11 +17,17 @@ Nothing in the per-period loop reads these bodies from PyBullet except a lidar s
 frame, a body's frame or a physics step, before which the environment places them
 (:meth:`~kbplanner.simulation.sim_env.SimEnv.sync`): they are where they would be had they been placed
 every period, at a fraction of the calls.
+
+The robot itself (:class:`SimRobot`) is placed the same way: its base and arm settings are noted and put
+in PyBullet by :meth:`SimRobot.place_pending`, which every reader of its PyBullet state calls first;
+its base pose is answered without placing it, from the pose PyBullet will report (:func:`stored_pose`,
+checked bit for bit against PyBullet once per robot).
 """
 
 from __future__ import annotations
 
 import math
+import struct
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -30,7 +36,7 @@ import numpy as np
 
 from kbplanner.core.iris import slug
 from kbplanner.planning.carry import Matrix
-from kbplanner.robot.robot_model import RobotModel
+from kbplanner.robot.robot_model import Quat, RobotModel, Vec3
 from kbplanner.simulation.held_pose import matrix_of, quat_of
 from kbplanner.simulation.workers import WORKER_RADIUS_M, WorkerMotion, WorkerSpec
 from kbplanner.world.world_types import WorldElement
@@ -70,23 +76,82 @@ class WorkerBody:
 class SimRobot(RobotModel):
     """The environment's robot: calls :attr:`before_move` before it moves, and keeps the arguments of
     its last :meth:`set_base_pose` and :meth:`set_arm`, which put it back in that pose (:meth:`put`)
-    and are its arm joints until physics steps (:meth:`forget_base`)."""
+    and are its arm joints until physics steps (:meth:`forget_base`).
+
+    Placed in PyBullet when looked at: a base or arm setting is noted and put in PyBullet by
+    :meth:`place_pending`, which every reader of the robot's PyBullet state calls first (its own
+    reads, the lidar, inverse kinematics, :meth:`~kbplanner.simulation.sim_env.SimEnv.sync`). The
+    settings still due are replayed in the order they were last made, the base's floor as it was
+    when set: the same PyBullet calls as the last ones of placing at every setting, so the same state.
+    """
 
     before_move: Callable[[], None] | None = None
     base_set: tuple[float, float, float, float | None] | None = None
     arm_set: tuple[float, ...] | None = None
+    # the settings not yet put in PyBullet, in the order last made: ("base", (x, y, yaw, z)), ("arm", q)
+    _due: tuple[tuple[str, Any], ...] = ()
+
+    def _defer(self, kind: str, args: Any) -> None:
+        self._due = (*(d for d in self._due if d[0] != kind), (kind, args))
+
+    # whether PyBullet's base pose is known without asking it (checked once per robot: round_trip_ok)
+    _round_trip: bool | None = None
 
     def set_base_pose(self, x: float, y: float, yaw: float, z: float | None = None) -> None:
         if self.before_move is not None:
             self.before_move()
-        super().set_base_pose(x, y, yaw, z)
+        self._defer("base", (x, y, yaw, self.floor_z if z is None else z))
+        self._base_fresh = False
         self.base_set = (x, y, yaw, z)
+
+    def base_pose(self) -> tuple[float, float, float]:
+        """(x, y, yaw) of the base frame: with a base setting still due, from the pose PyBullet will
+        report once it is placed (:func:`stored_pose`, the same numbers), without placing it."""
+        if self._base_fresh and self._base_read is not None:
+            return self._base_read[1]
+        due = next((args for kind, args in self._due if kind == "base"), None)
+        if due is None or not self.round_trip_ok():
+            return super().base_pose()
+        com_pos, com_orn = stored_pose(self, *due)
+        return self._base_from_com(com_pos, com_orn)
+
+    def round_trip_ok(self) -> bool:
+        """Whether :func:`stored_pose` gives PyBullet's reported base pose bit for bit on this PyBullet
+        (checked on :data:`_CHECK_POSES` poses the first time; else every base pose asked is read from
+        PyBullet after placing the robot). Asked with a base setting due, which is placed over the
+        poses checked."""
+        if self._round_trip is None:
+            import pybullet as p
+
+            assert any(kind == "base" for kind, _ in self._due)
+            ok = True
+            for k in range(_CHECK_POSES):
+                pose = (math.sin(k * 12.9898) * 40.0, math.cos(k * 78.233) * 40.0, k * 0.1309 - 4.2, k * 0.37)
+                self._reset_base(*pose)
+                got = p.getBasePositionAndOrientation(self.body, physicsClientId=self.client)
+                ok = ok and _bits(*got[0], *got[1]) == _bits(*(v for part in stored_pose(self, *pose)
+                                                                for v in part))
+            self._round_trip = ok
+        return self._round_trip
 
     def set_arm(self, q: Sequence[float]) -> None:
         if self.before_move is not None:
             self.before_move()
-        super().set_arm(q)
+        self._check_arm(q)
+        self._defer("arm", tuple(q))
         self.arm_set = tuple(float(v) for v in q)
+
+    def place_pending(self) -> None:
+        """Put the base and the arm settings still due in PyBullet (in the order last made)."""
+        due = self._due
+        if not due:
+            return
+        self._due = ()
+        for kind, args in due:
+            if kind == "base":
+                self._reset_base(*args)
+            else:
+                self._reset_arm(args)
 
     def arm_positions(self) -> tuple[float, ...]:
         """The arm joint angles: those of the last :meth:`set_arm` (PyBullet gives back the very
@@ -108,9 +173,53 @@ class SimRobot(RobotModel):
 
     def put(self, pose: RobotPose) -> None:
         """Set the base and the arm as :meth:`pose_set` gave them (the same PyBullet state)."""
-        super().set_base_pose(*pose[0])
-        super().set_arm(pose[1])
+        x, y, yaw, z = pose[0]
+        self._defer("base", (x, y, yaw, self.floor_z if z is None else z))
+        self._base_fresh = False
+        self._defer("arm", pose[1])
         self.base_set, self.arm_set = pose
+
+
+_CHECK_POSES = 64
+
+
+def _bits(*values: float) -> bytes:
+    return struct.pack(f"{len(values)}d", *values)
+
+
+def stored_pose(robot: RobotModel, x: float, y: float, yaw: float, z: float) -> tuple[Vec3, Quat]:
+    """The body pose PyBullet reports after :meth:`RobotModel.set_base_pose` ``(x, y, yaw, z)``: the
+    position as given, the quaternion through Bullet's rotation matrix and back
+    (``btMatrix3x3::setRotation``, ``getRotation``), in the same double arithmetic."""
+    import pybullet as p
+
+    pos, orn = p.multiplyTransforms((x, y, z), p.getQuaternionFromEuler((0.0, 0.0, yaw)),
+                                    robot._com_pos, robot._com_orn)
+    qx, qy, qz, qw = (float(v) for v in orn)
+    s = 2.0 / (qx * qx + qy * qy + qz * qz + qw * qw)
+    xs, ys, zs = qx * s, qy * s, qz * s
+    wx, wy, wz = qw * xs, qw * ys, qw * zs
+    xx, xy, xz = qx * xs, qx * ys, qx * zs
+    yy, yz, zz = qy * ys, qy * zs, qz * zs
+    m = ((1.0 - (yy + zz), xy - wz, xz + wy), (xy + wz, 1.0 - (xx + zz), yz - wx),
+         (xz - wy, yz + wx, 1.0 - (xx + yy)))
+    t = [0.0, 0.0, 0.0, 0.0]
+    trace = m[0][0] + m[1][1] + m[2][2]
+    if trace > 0.0:
+        r = math.sqrt(trace + 1.0)
+        t[3] = r * 0.5
+        r = 0.5 / r
+        t[0], t[1], t[2] = (m[2][1] - m[1][2]) * r, (m[0][2] - m[2][0]) * r, (m[1][0] - m[0][1]) * r
+    else:
+        i = (2 if m[1][1] < m[2][2] else 1) if m[0][0] < m[1][1] else (2 if m[0][0] < m[2][2] else 0)
+        j, k = (i + 1) % 3, (i + 2) % 3
+        r = math.sqrt(m[i][i] - m[j][j] - m[k][k] + 1.0)
+        t[i] = r * 0.5
+        r = 0.5 / r
+        t[3] = (m[k][j] - m[j][k]) * r
+        t[j] = (m[j][i] + m[i][j]) * r
+        t[k] = (m[k][i] + m[i][k]) * r
+    return (float(pos[0]), float(pos[1]), float(pos[2])), (t[0], t[1], t[2], t[3])
 
 
 def _translation(v: Sequence[float]) -> Matrix:

@@ -180,10 +180,13 @@ class SimEnv:
 
     def sync(self) -> None:
         """Place the worker bodies and the held element where they are now, before PyBullet is asked
-        about them (a scan, a ray test, an image, a physics step, a body's pose)."""
+        about them (a scan, a ray test, an image, a physics step, a body's pose); then the robot where
+        it was last set (:meth:`~kbplanner.simulation.sim_bodies.SimRobot.place_pending`)."""
         if self._workers_due:
             self._move_workers()
         self._place_held()
+        if self._robot is not None:
+            self._robot.place_pending()
 
     def close(self) -> None:
         """Disconnect (idempotent)."""
