@@ -38,17 +38,15 @@ Example:
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import io
 import logging
-import os
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
 
+from kbplanner.core.kept_folder import KeptFolder, code_digest
 from kbplanner.core.outputs import atomic_write_bytes
 from kbplanner.world.footprint import Footprint
 from kbplanner.world.occupancy import OccupancyGrid
@@ -62,22 +60,12 @@ BUDGET_BYTES = 256 * 1024 * 1024
 TRIM_EVERY = 16  # writes between two looks at the folder's size
 _CODE = ("footprint.py", "cspace_fft.py", "cspace_cache.py", "occupancy.py", "cspace_store.py")
 
-_folder: list[Path] = []
+_kept = KeptFolder()
 _code_memo: list[bytes] = []
 counts = {"read": 0, "written": 0}
 
 
-@contextlib.contextmanager
-def kept_in(folder: Path | None) -> Iterator[None]:
-    """Read and write kept free maps in ``folder`` while the block runs (None: neither)."""
-    if folder is None or os.environ.get("KBPLANNER_NO_CACHE", "").strip() not in ("", "0"):
-        yield
-        return
-    _folder.append(Path(folder))
-    try:
-        yield
-    finally:
-        _folder.pop()
+kept_in = _kept.kept_in
 
 
 def folder_for(cache_entry: Path | None) -> Path | None:
@@ -88,18 +76,15 @@ def folder_for(cache_entry: Path | None) -> Path | None:
 
 def folder() -> Path | None:
     """The folder given by the innermost :func:`kept_in`, or None."""
-    return _folder[-1] if _folder else None
+    return _kept.current()
 
 
 def _code_digest() -> bytes:
     if not _code_memo:
         import scipy
 
-        h = hashlib.sha256(f"{FORMAT} numpy {np.__version__} scipy {scipy.__version__}".encode())
-        here = Path(__file__).resolve().parent
-        for name in _CODE:
-            h.update(name.encode() + b"\0" + (here / name).read_bytes() + b"\0")
-        _code_memo.append(h.digest())
+        prefix = f"{FORMAT} numpy {np.__version__} scipy {scipy.__version__}"
+        _code_memo.append(code_digest(prefix, Path(__file__).resolve().parent, _CODE))
     return _code_memo[0]
 
 

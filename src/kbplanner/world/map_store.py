@@ -21,17 +21,16 @@ date (``kbplanner plan`` then ``simulate``; ``simulate`` again) reads it instead
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import io
 import json
 import logging
 import os
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 
+from kbplanner.core.kept_folder import KeptFolder, code_digest
 from kbplanner.core.outputs import atomic_write_bytes, versions
 from kbplanner.world.map_settings import MapSettings
 from kbplanner.world.occupancy import OccupancyGrid
@@ -45,22 +44,12 @@ KEEP = 32  # maps kept per project cache entry (the newest)
 _CODE = ("maps.py", "occupancy.py", "raster.py", "meshes.py", "levels.py", "map_settings.py",
          "world_types.py", "build.py", "map_store.py")
 
-_folder: list[Path] = []
+_kept = KeptFolder()
 _code_memo: list[bytes] = []
 counts = {"read": 0, "written": 0}
 
 
-@contextlib.contextmanager
-def kept_in(folder: Path | None) -> Iterator[None]:
-    """Read and write kept maps in ``folder`` while the block runs (None: neither)."""
-    if folder is None or os.environ.get("KBPLANNER_NO_CACHE", "").strip() not in ("", "0"):
-        yield
-        return
-    _folder.append(Path(folder))
-    try:
-        yield
-    finally:
-        _folder.pop()
+kept_in = _kept.kept_in
 
 
 def folder_for(cache_entry: Path | None) -> Path | None:
@@ -70,11 +59,8 @@ def folder_for(cache_entry: Path | None) -> Path | None:
 
 def _code_digest() -> bytes:
     if not _code_memo:
-        h = hashlib.sha256(f"{FORMAT} {sorted(versions().items())!r}".encode())
-        here = Path(__file__).resolve().parent
-        for name in _CODE:
-            h.update(name.encode() + b"\0" + (here / name).read_bytes() + b"\0")
-        _code_memo.append(h.digest())
+        prefix = f"{FORMAT} {sorted(versions().items())!r}"
+        _code_memo.append(code_digest(prefix, Path(__file__).resolve().parent, _CODE))
     return _code_memo[0]
 
 
@@ -104,7 +90,7 @@ def _float(v: list[object]) -> float:
 
 
 def _path(world: World, storey: StoreyInfo, settings: MapSettings) -> Path | None:
-    where = _folder[-1] if _folder else None
+    where = _kept.current()
     return None if where is None else where / f"{key(world, storey, settings)}.npz"
 
 
