@@ -47,7 +47,7 @@ def test_a_built_wheel_ships_every_turtle_shape_query_and_sim_file(tmp_path: Pat
     assert "kbplanner/py.typed" in names
     assert any(n.startswith("kbplanner/_data/ontology/") and n.endswith(".ttl") for n in names)
     assert any(n.startswith("kbplanner/queries/") and n.endswith(".rq") for n in names)
-    for viewer in ("three-bundle.min.js", "LICENSE-three.txt", "playback.js"):  # the report's 4D playback
+    for viewer in ("three-bundle.min.js.gz", "LICENSE-three.txt", "playback.js"):  # the report's 4D playback
         assert f"kbplanner/analysis/viewer/{viewer}" in names
     out = subprocess.run(
         [sys.executable, "-c", CHECK, str(site.resolve())],

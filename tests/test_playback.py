@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 from PIL import Image
 
-from kbplanner.analysis.playback import VIEWER, playback_data
+from kbplanner.analysis.playback import playback_data, three_bundle
 from kbplanner.analysis.run_record import RunRecord
 from kbplanner.project import Project
 from kbplanner.world.build import build_world
@@ -82,7 +82,7 @@ def test_the_report_embeds_an_offline_playback_page_with_three_js_and_the_world_
     play = (report / "rep" / "playback" / "stored.html").read_text(encoding="utf-8")
     assert (report / "rep" / "playback" / "LICENSE-three.txt").read_text().startswith("The MIT License")
     assert not re.search(r"""(src|href)=["']?(https?:)?//""", play)  # nothing fetched at view time
-    assert (VIEWER / "three-bundle.min.js").read_text(encoding="utf-8")[:200] in play
+    assert three_bundle()[:200] in play
     assert re.search(r'<script id="world-glb" type="application/octet-stream">Z2xURg', play)  # "glTF" magic
 
 

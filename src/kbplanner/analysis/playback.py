@@ -16,6 +16,7 @@ the page keeps its state (time, robot pose, carried element, errors) on ``#state
 from __future__ import annotations
 
 import base64
+import gzip
 import html
 import json
 import math
@@ -38,6 +39,7 @@ if TYPE_CHECKING:
 
 VIEWER = Path(__file__).resolve().parent / "viewer"
 FOLDER = "playback"
+BUNDLE = "three-bundle.min.js.gz"
 ROBOT_HEIGHT_M = 0.5
 CUT_ABOVE_FLOOR_M = 2.2  # the section cut of the view: above workers (1.75 m), below ceilings
 
@@ -134,13 +136,19 @@ checked> cut above the storey</label></div>
 """
 
 
+def three_bundle() -> str:
+    """The vendored three.js bundle (``viewer/three-bundle.min.js.gz``: kept gzipped, built as the viewer's
+    README says), as the script text the page embeds."""
+    return gzip.decompress((VIEWER / BUNDLE).read_bytes()).decode("utf-8")
+
+
 def playback_html(data: dict[str, Any], glb: bytes, title: str) -> str:
     """The self-contained playback page."""
     legend = (f"{html.escape(title)}: world at {html.escape(str(data['world_date']))}. Magenta: the robot "
               "(footprint); teal: the element it carries (footprint in the carry mode); blue: workers and "
               "their paths; black: the robot's path; timeline and ground marks: red safety stops, amber near "
               "misses. Drag to orbit, scroll to zoom.")
-    three = (VIEWER / "three-bundle.min.js").read_text(encoding="utf-8")
+    three = three_bundle()
     viewer = (VIEWER / "playback.js").read_text(encoding="utf-8")
     payload = json.dumps(data, separators=(",", ":"), sort_keys=True).replace("</", "<\\/")
     return _PAGE.format(title=html.escape(title), legend=legend, glb=base64.b64encode(glb).decode("ascii"),
