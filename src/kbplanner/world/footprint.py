@@ -310,10 +310,9 @@ class ConfigurationSpace:
     def _labels_and_roots(
         self, diagonal: bool
     ) -> tuple[npt.NDArray[np.int32], npt.NDArray[np.int64]]:
-        from scipy import ndimage
+        from kbplanner.world.cspace_labels import label_runs
 
-        structure = np.ones((3, 3, 3), dtype=bool) if diagonal else ndimage.generate_binary_structure(3, 1)
-        labels, n = ndimage.label(self.free, structure=structure)
+        labels, n = label_runs(self.free, diagonal)  # ndimage.label's labels, from the runs of cells
         # Join labels across the wrap; each label maps to the smallest label of its class (what a
         # union-find that keeps the smaller root gives), found with sparse connected components.
         first, last = labels[0], labels[-1]
