@@ -112,6 +112,6 @@ def test_bins_transformed_a_few_at_a_time_or_one_by_one_agree(monkeypatch: pytes
     rng = np.random.default_rng(7)
     grid = OccupancyGrid(_occupancy(rng, 120, 130, 0.01), origin=(1.0, -2.0), resolution=0.05)
     whole = ConfigurationSpace.build(grid, FOOTPRINTS[2]).free
-    monkeypatch.setattr(cspace_fft, "_BATCH_CELLS", 1)
+    monkeypatch.setattr(cspace_fft, "BATCH_CELLS", 1)
     one = ConfigurationSpace.build(grid, FOOTPRINTS[2]).free
     assert np.array_equal(whole, one) and whole.any()

@@ -111,7 +111,7 @@ def rasterised_kernel(rects: tuple[Rect, ...], resolution: float, yaw_lo: float,
 
 
 #: Complex cells (frequency rows x columns x bins) transformed at once by a build (512 kB: in the caches)
-_BATCH_CELLS = 64 * 1024
+BATCH_CELLS = 64 * 1024
 
 
 @dataclass(frozen=True)
@@ -186,7 +186,7 @@ def free_maps(occupied: BoolArray, rects: tuple[Rect, ...], resolution: float, n
         # one free map per distinct kernel (e.g. a centrally symmetric footprint half a turn later has
         # the same), written in its first bin and copied to the others; the transforms a few at a time
         n_distinct = len(kset.flipped)
-        step = max(1, min(n_distinct, _BATCH_CELLS // (shape[0] * (shape[1] // 2 + 1))))
+        step = max(1, min(n_distinct, BATCH_CELLS // (shape[0] * (shape[1] // 2 + 1))))
         work = np.empty((step, shape[0], shape[1] // 2 + 1), dtype=np.complex64)  # reused: no new pages
         for i in range(0, n_distinct, step):
             hits = hits_many(grid_f, kset.flipped[i : i + step], h, shape, ny, nx, work)

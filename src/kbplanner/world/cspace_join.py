@@ -40,6 +40,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy import fft as sp_fft
 
+from kbplanner.world.cspace_fft import BATCH_CELLS, hits_many, kernel_set
 from kbplanner.world.footprint import ConfigurationSpace, Footprint
 from kbplanner.world.occupancy import OccupancyGrid
 
@@ -132,14 +133,15 @@ def part_free(grid: OccupancyGrid, footprint: Footprint, region: tuple[int, int,
     The correlation runs on the region grown by the kernels' reach only, the real cells around it: a
     build on a grid around the region (:func:`~kbplanner.world.cspace_cache.configuration_space`) pads
     that grid by the reach again and computes its free maps in the band the region is grown by, which
-    the part throws away (about 30 % more transform work on B4's parts, and a copy kept).
+    the part throws away (about 30 % more transform work on B4's parts, and a copy kept). The kernels are
+    the build's (:func:`~kbplanner.world.cspace_fft.kernel_set`: each distinct one once, turned half a
+    turn), transformed as the build does (:func:`~kbplanner.world.cspace_fft.hits_many`, into one work
+    array), keeping the rows and columns ``2h ..`` of the grown region.
     """
     y0, y1, x0, x1 = region
     sy, sx = y1 - y0, x1 - x0
-    res = grid.resolution
-    width = 2 * math.pi / n_bins
-    kernels = [footprint.kernel(res, k * width - width / 2, k * width + width / 2) for k in range(n_bins)]
-    h = max(k.shape[0] for k in kernels) // 2
+    kset = kernel_set(footprint.rects, float(grid.resolution), int(n_bins), 0.0)
+    h = kset.h
     ny, nx = grid.shape
     occ = np.ones((sy + 2 * h, sx + 2 * h), dtype=np.float32)
     gy0, gy1, gx0, gx1 = max(0, y0 - h), min(ny, y1 + h), max(0, x0 - h), min(nx, x1 + h)
@@ -147,22 +149,16 @@ def part_free(grid: OccupancyGrid, footprint: Footprint, region: tuple[int, int,
     # A circular correlation at least as long as the grown region keeps every wrapped-around term out
     # of the cells kept: rows and columns 2h .. 2h + size - 1 of the convolution with the flipped kernel.
     shape = (sp_fft.next_fast_len(sy + 2 * h, real=True), sp_fft.next_fast_len(sx + 2 * h, real=True))
-    occ_f = sp_fft.rfft2(occ, shape)
-    size = 2 * h + 1
+    occ_f = sp_fft.fft(sp_fft.rfft(occ, n=shape[1], axis=1), n=shape[0], axis=0, overwrite_x=True)
     free = np.empty((n_bins, sy, sx), dtype=bool)
-    seen: dict[tuple[tuple[int, ...], bytes], int] = {}  # a kernel met before: the same free map
-    for k, kern in enumerate(kernels):
-        j = seen.setdefault((kern.shape, kern.tobytes()), k)
-        if j != k:
-            free[k] = free[j]
-            continue
-        hk = kern.shape[0] // 2
-        full = np.zeros((size, size), dtype=np.float32)
-        full[h - hk:h + hk + 1, h - hk:h + hk + 1] = kern
-        # the two passes of each 2-D transform by hand: only the kernel's rows along x, and back only
-        # the rows kept
-        kern_f = sp_fft.fft(sp_fft.rfft(full[::-1, ::-1], n=shape[1], axis=1), n=shape[0], axis=0)
-        rows = sp_fft.ifft(occ_f * kern_f, axis=0)[2 * h:2 * h + sy]
-        hits = sp_fft.irfft(rows, n=shape[1], axis=1)[:, 2 * h:2 * h + sx]
-        free[k] = hits < 0.5
+    n_distinct = len(kset.flipped)
+    step = max(1, min(n_distinct, BATCH_CELLS // (shape[0] * (shape[1] // 2 + 1))))
+    work = np.empty((step, shape[0], shape[1] // 2 + 1), dtype=np.complex64)
+    for i in range(0, n_distinct, step):
+        hits = hits_many(occ_f, kset.flipped[i:i + step], 2 * h, shape, sy, sx, work)
+        for j in range(i, min(i + step, n_distinct)):
+            np.less(hits[j - i], 0.5, out=free[kset.first[j]])
+    for k, j in enumerate(kset.index):  # a kernel met before: the same free map
+        if kset.first[j] != k:
+            free[k] = free[kset.first[j]]
     return free
