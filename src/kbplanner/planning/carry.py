@@ -45,7 +45,6 @@ from __future__ import annotations
 
 import logging
 import math
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -54,6 +53,7 @@ import numpy.typing as npt
 import shapely
 from scipy.spatial.transform import Rotation
 
+from kbplanner.planning.rotation_numbers import quat_of_matrix, rpy_of_matrix
 from kbplanner.robot.arm_ik import IkMethod, solve_ik
 from kbplanner.robot.robot_model import RobotModel
 from kbplanner.world.footprint import Footprint, Rect
@@ -98,10 +98,7 @@ def rpy_of(m: Matrix) -> Vec3:
     At pitch +-90 deg (gimbal lock) roll and yaw are not unique; SciPy then sets the third angle to 0,
     which gives the same rotation, so its warning is silenced.
     """
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", message="Gimbal lock detected")
-        r, p, y = (float(v) for v in Rotation.from_matrix(np.asarray(m)[:3, :3]).as_euler("xyz"))
-    return (r, p, y)
+    return rpy_of_matrix(m)  # SciPy's numbers without its dispatch (planning/rotation_numbers.py)
 
 
 def from_pos_quat(pos: Sequence[float], quat: Sequence[float]) -> Matrix:
@@ -113,9 +110,8 @@ def from_pos_quat(pos: Sequence[float], quat: Sequence[float]) -> Matrix:
 
 
 def quat_of(m: Matrix) -> tuple[float, float, float, float]:
-    """PyBullet quaternion (x, y, z, w) of a transform."""
-    x, y, z, w = (float(v) for v in Rotation.from_matrix(m[:3, :3]).as_quat())
-    return (x, y, z, w)
+    """PyBullet quaternion (x, y, z, w) of a transform (SciPy's ``Rotation.from_matrix`` numbers)."""
+    return quat_of_matrix(m)
 
 
 def base_transform(x: float, y: float, yaw: float, z: float = 0.0) -> Matrix:
