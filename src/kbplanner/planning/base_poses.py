@@ -65,7 +65,9 @@ class PoseChecker:
     def __init__(self, grid: OccupancyGrid, n_bins: int = N_YAW_BINS) -> None:
         self.grid = grid
         self.n_bins = n_bins
-        self._kernels: dict[tuple[Footprint, int], npt.NDArray[np.bool_]] = {}
+        # per footprint and yaw bin: the kernel cut to the rows and columns that hold a cell, and their
+        # offsets (dy0, dx0) from the robot's cell (None: an empty kernel, nothing to block)
+        self._kernels: dict[tuple[Footprint, int], tuple[npt.NDArray[np.bool_], int, int] | None] = {}
 
     def with_grid(self, grid: OccupancyGrid) -> PoseChecker:
         """The same checker (and kernel cache) on another grid of the same shape."""
@@ -74,29 +76,49 @@ class PoseChecker:
         return other
 
     def free(self, footprint: Footprint, x: float, y: float, yaw: float) -> bool:
-        """Whether the footprint at the pose touches no occupied cell (cells off the grid are occupied)."""
+        """Whether the footprint at the pose touches no occupied cell (cells off the grid are occupied).
+
+        Only the kernel's rows and columns that hold a cell are looked at (the same cells decide)."""
         g = self.grid
         w = 2 * math.pi / self.n_bins
         k = math.floor((yaw + w / 2) / w) % self.n_bins
-        kern = self._kernels.get((footprint, k))
-        if kern is None:
-            kern = footprint.kernel(g.resolution, k * w - w / 2, k * w + w / 2)
-            self._kernels[(footprint, k)] = kern
-        h = kern.shape[0] // 2
+        key = (footprint, k)
+        if key in self._kernels:
+            cut = self._kernels[key]
+        else:
+            cut = _cut(footprint.kernel(g.resolution, k * w - w / 2, k * w + w / 2))
+            self._kernels[key] = cut
         ix = math.floor((x - g.origin[0]) / g.resolution)
         iy = math.floor((y - g.origin[1]) / g.resolution)
         ny, nx = g.shape
         if not (0 <= ix < nx and 0 <= iy < ny):
             return False
-        lo_y, hi_y, lo_x, hi_x = iy - h, iy + h + 1, ix - h, ix + h + 1
+        if cut is None:
+            return True
+        kern, dy0, dx0 = cut
+        ky, kx = kern.shape
+        lo_y, lo_x = iy + dy0, ix + dx0
+        hi_y, hi_x = lo_y + ky, lo_x + kx
         if lo_y < 0 or lo_x < 0 or hi_y > ny or hi_x > nx:  # the kernel reaches off the map
             window = np.ones(kern.shape, dtype=bool)
             sy0, sx0 = max(lo_y, 0), max(lo_x, 0)
             sy1, sx1 = min(hi_y, ny), min(hi_x, nx)
-            window[sy0 - lo_y:sy1 - lo_y, sx0 - lo_x:sx1 - lo_x] = g.occupied[sy0:sy1, sx0:sx1]
+            if sy0 < sy1 and sx0 < sx1:
+                window[sy0 - lo_y:sy1 - lo_y, sx0 - lo_x:sx1 - lo_x] = g.occupied[sy0:sy1, sx0:sx1]
         else:
             window = g.occupied[lo_y:hi_y, lo_x:hi_x]
         return not bool((window & kern).any())
+
+
+def _cut(kern: npt.NDArray[np.bool_]) -> tuple[npt.NDArray[np.bool_], int, int] | None:
+    """A kernel (robot's cell at its centre) cut to its rows and columns that hold a cell, with the
+    offsets of the first of them from the robot's cell; None when it holds none."""
+    rows, cols = np.flatnonzero(kern.any(axis=1)), np.flatnonzero(kern.any(axis=0))
+    if not len(rows):
+        return None
+    h = kern.shape[0] // 2
+    r0, r1, c0, c1 = int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+    return np.ascontiguousarray(kern[r0:r1, c0:c1]), r0 - h, c0 - h
 
 
 def window(grid: OccupancyGrid, points: list[tuple[float, float]], margin_m: float | None) -> OccupancyGrid:
