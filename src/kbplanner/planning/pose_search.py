@@ -164,6 +164,8 @@ class PoseSearch:
         if reach <= self.s.min_reach_m:
             return []
         mx, my = self.robot.spec.arm_mount_xyz[0], self.robot.spec.arm_mount_xyz[1]
+        tx, ty = float(target[0]), float(target[1])
+        spread_yaw = self.s.yaw_spread_rad
         out: list[Pose2] = []
         for _ in range(self.s.base_samples):
             r = float(rng.uniform(self.s.min_reach_m, reach))
@@ -172,10 +174,10 @@ class PoseSearch:
             else:
                 spread = float(rng.uniform(-1.0, 1.0)) * self.s.bearing_spread_rad
                 bearing = math.atan2(side[1], side[0]) + spread
-            ax, ay = target[0] + r * math.cos(bearing), target[1] + r * math.sin(bearing)
-            turn = float(np.clip(rng.normal(0.0, self.s.yaw_spread_rad / 3), -self.s.yaw_spread_rad,
-                                 self.s.yaw_spread_rad))
-            yaw = math.atan2(target[1] - ay, target[0] - ax) + turn
+            ax, ay = tx + r * math.cos(bearing), ty + r * math.sin(bearing)
+            # np.clip's value, without its dispatch on one float
+            turn = min(max(float(rng.normal(0.0, spread_yaw / 3)), -spread_yaw), spread_yaw)
+            yaw = math.atan2(ty - ay, tx - ax) + turn
             x = ax - (math.cos(yaw) * mx - math.sin(yaw) * my)
             y = ay - (math.sin(yaw) * mx + math.cos(yaw) * my)
             out.append(pose2(x, y, yaw))
