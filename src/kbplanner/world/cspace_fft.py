@@ -60,54 +60,72 @@ def kernel_half_size(rects: tuple[Rect, ...], resolution: float, margin_m: float
 def rasterised_kernel(rects: tuple[Rect, ...], resolution: float, yaw_lo: float, yaw_hi: float,
                       margin_m: float) -> BoolArray:
     """:meth:`Footprint.kernel` (read-only), memoised: a navigation rebuilds configuration spaces for
-    the same footprints (robot, robot + load in each carry mode) on many windows of the map."""
+    the same footprints (robot, robot + load in each carry mode) on many windows of the map.
+
+    The union of each rectangle's cells (:func:`_rect_cells`, memoised per rectangle: the robot's base
+    is a rectangle of every carry footprint, rasterised once per yaw bin for all of them)."""
+    h = kernel_half_size(rects, resolution, margin_m)
+    out = np.zeros((2 * h + 1, 2 * h + 1), dtype=bool)
+    for r in rects:
+        cells = _rect_cells(r, resolution, yaw_lo, yaw_hi, margin_m)
+        if cells is not None:
+            dy0, dx0, inside = cells
+            out[h + dy0:h + dy0 + inside.shape[0], h + dx0:h + dx0 + inside.shape[1]] |= inside
+    out.setflags(write=False)
+    return out
+
+
+@functools.lru_cache(maxsize=8192)
+def _rect_cells(r: Rect, resolution: float, yaw_lo: float, yaw_hi: float, margin_m: float
+                ) -> tuple[int, int, BoolArray] | None:
+    """The cells one rectangle of a footprint covers over a yaw interval, as (dy0, dx0, mask): the mask's
+    first row and column at those offsets (cells) from the robot's cell; None when it covers none.
+
+    Each cell's value is the very float ``xx - cx`` etc. of a meshgrid gives: a cell's offset is
+    ``(integer offset) * resolution`` whatever the kernel's size, so a rectangle's cells do not depend on
+    the other rectangles of its footprint (tests/test_footprint_kernel.py compares with the loop over a
+    meshgrid)."""
     grow = resolution + margin_m
     n_sub = max(2, math.ceil((yaw_hi - yaw_lo) / _SUB_ANGLE_RAD) + 1)
-    h = kernel_half_size(rects, resolution, margin_m)
+    h = kernel_half_size((r,), resolution, margin_m)  # the rectangle's own reach covers its cells
     offs = np.arange(-h, h + 1) * resolution
     eps = 1e-9
     # A rectangle grown by an axis-aligned square (Minkowski sum of two centrally symmetric convex
     # polygons) is exactly the intersection of four slabs: along the rectangle's two axes and along
-    # x and y, each as wide as the two shapes' support functions added. Every sub-angle of a rectangle
-    # at once, on the box of cells its x and y slabs leave: the scalars as one float each (Python
-    # floats, math.cos/sin), the cells' offsets along x and y as vectors broadcast against each other -
-    # each cell's value is the very float ``xx - cx`` etc. of a meshgrid gives
-    # (tests/test_footprint_kernel.py compares with the loop over a meshgrid).
+    # x and y, each as wide as the two shapes' support functions added. Every sub-angle at once, on
+    # the box of cells its x and y slabs leave: the scalars as one float each (Python floats,
+    # math.cos/sin), the cells' offsets along x and y as vectors broadcast against each other.
     cxs, cys, uxs, uys, t1, t2, t3, t4 = ([] for _ in range(8))
+    hl, hw = r.length / 2, r.width / 2
     for yaw in np.linspace(yaw_lo, yaw_hi, n_sub):
         c, s = math.cos(float(yaw)), math.sin(float(yaw))
-        for r in rects:
-            a = float(yaw) + r.yaw
-            ux, uy = math.cos(a), math.sin(a)
-            hl, hw = r.length / 2, r.width / 2
-            cxs.append(c * r.cx - s * r.cy)
-            cys.append(s * r.cx + c * r.cy)
-            uxs.append(ux)
-            uys.append(uy)
-            t1.append(hl + grow * (abs(ux) + abs(uy)) + eps)
-            t2.append(hw + grow * (abs(uy) + abs(ux)) + eps)
-            t3.append(hl * abs(ux) + hw * abs(uy) + grow + eps)
-            t4.append(hl * abs(uy) + hw * abs(ux) + grow + eps)
-    out = np.zeros((2 * h + 1, 2 * h + 1), dtype=bool)
-    n_rects = len(rects)
-    for i in range(n_rects):  # each rectangle over its sub-angles, on the box its x and y slabs leave
-        cx, cy = np.array(cxs[i::n_rects])[:, None], np.array(cys[i::n_rects])[:, None]
-        uxa, uya = np.array(uxs[i::n_rects])[:, None, None], np.array(uys[i::n_rects])[:, None, None]
-        in_x = np.abs(offs[None, :] - cx) <= np.array(t3[i::n_rects])[:, None]  # (sub-angle, column)
-        in_y = np.abs(offs[None, :] - cy) <= np.array(t4[i::n_rects])[:, None]  # (sub-angle, row)
-        cols, rows = np.nonzero(in_x.any(axis=0))[0], np.nonzero(in_y.any(axis=0))[0]
-        if not len(cols) or not len(rows):
-            continue
-        x0, x1, y0, y1 = int(cols[0]), int(cols[-1]) + 1, int(rows[0]), int(rows[-1]) + 1
-        dx = (offs[None, x0:x1] - cx)[:, None, :]  # (sub-angle, 1, column): the floats of xx - cx
-        dy = (offs[None, y0:y1] - cy)[:, :, None]  # (sub-angle, row, 1)
-        inside = np.abs(dx * uxa + dy * uya) <= np.array(t1[i::n_rects])[:, None, None]
-        inside &= np.abs(-dx * uya + dy * uxa) <= np.array(t2[i::n_rects])[:, None, None]
-        inside &= in_x[:, None, x0:x1]
-        inside &= in_y[:, y0:y1, None]
-        out[y0:y1, x0:x1] |= inside.any(axis=0)
-    out.setflags(write=False)
-    return out
+        a = float(yaw) + r.yaw
+        ux, uy = math.cos(a), math.sin(a)
+        cxs.append(c * r.cx - s * r.cy)
+        cys.append(s * r.cx + c * r.cy)
+        uxs.append(ux)
+        uys.append(uy)
+        t1.append(hl + grow * (abs(ux) + abs(uy)) + eps)
+        t2.append(hw + grow * (abs(uy) + abs(ux)) + eps)
+        t3.append(hl * abs(ux) + hw * abs(uy) + grow + eps)
+        t4.append(hl * abs(uy) + hw * abs(ux) + grow + eps)
+    cx, cy = np.array(cxs)[:, None], np.array(cys)[:, None]
+    uxa, uya = np.array(uxs)[:, None, None], np.array(uys)[:, None, None]
+    in_x = np.abs(offs[None, :] - cx) <= np.array(t3)[:, None]  # (sub-angle, column)
+    in_y = np.abs(offs[None, :] - cy) <= np.array(t4)[:, None]  # (sub-angle, row)
+    cols, rows = np.nonzero(in_x.any(axis=0))[0], np.nonzero(in_y.any(axis=0))[0]
+    if not len(cols) or not len(rows):
+        return None
+    x0, x1, y0, y1 = int(cols[0]), int(cols[-1]) + 1, int(rows[0]), int(rows[-1]) + 1
+    dx = (offs[None, x0:x1] - cx)[:, None, :]  # (sub-angle, 1, column): the floats of xx - cx
+    dy = (offs[None, y0:y1] - cy)[:, :, None]  # (sub-angle, row, 1)
+    inside = np.abs(dx * uxa + dy * uya) <= np.array(t1)[:, None, None]
+    inside &= np.abs(-dx * uya + dy * uxa) <= np.array(t2)[:, None, None]
+    inside &= in_x[:, None, x0:x1]
+    inside &= in_y[:, y0:y1, None]
+    mask = inside.any(axis=0)
+    mask.setflags(write=False)
+    return y0 - h, x0 - h, mask
 
 
 #: Complex cells (frequency rows x columns x bins) transformed at once by a build (512 kB: in the caches)
