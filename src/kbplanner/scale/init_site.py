@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from datetime import date, timedelta
 from urllib.parse import quote
 
+from kbplanner.scale.building_schedule import SCHEDULE_COLUMNS
 from kbplanner.scale.building_site import (
     _PREFIXES,
     Route,
@@ -283,17 +284,7 @@ def schedule_rows(storey: str, walls: Sequence[str], doors: Sequence[str]) -> li
                 "",
             )
         )
-    cols = [
-        "task_id",
-        "name",
-        "start",
-        "finish",
-        "predecessors",
-        "elements",
-        "robotized",
-        "task_specification",
-    ]
-    return [dict(zip(cols, r, strict=True)) for r in rows]
+    return [dict(zip(SCHEDULE_COLUMNS, r, strict=True)) for r in rows]
 
 
 def schedule_csv(rows: Sequence[dict[str, str]], spec: str) -> str:
