@@ -2,9 +2,10 @@
 
 Not a pipeline step. Runs :mod:`simulate_phases` (in its own process each time) on a git ref's exported
 tree (``--before``, default ``main``) and on this checkout, alternately, ``--repeat`` times per
-scenario and tree, warm (each tree first runs the command once, unmeasured, so that its refined plan,
-configuration spaces and maps are kept; the trees have different code digests, so each keeps its
-own). Both use this checkout's case study folder (the outputs name it). Compares the outputs of the
+scenario and tree, warm: each tree has its own cache folder (``KBPLANNER_CACHE_DIR``, seeded with this
+checkout's IFC import of the case study) and first runs the command once, unmeasured, so that its
+project cache, refined plan, configuration spaces and maps are kept. Both use this checkout's case
+study folder (the outputs name it). Compares the outputs of the
 last runs of both trees (``trajectories.csv``, ``events.jsonl``, ``metrics.json``: byte-identical or
 not). Writes the runs to ``--out`` and prints the median CPU seconds per phase.
 
@@ -39,8 +40,17 @@ def _export(ref: str, into: Path) -> Path:
     return into / "src"
 
 
-def _phases(src: Path, scenario: str, seed: int, out: Path, result: Path) -> dict[str, Any]:
-    env = {**os.environ, "PYTHONPATH": str(src)}
+def _seed_imports(cache: Path) -> None:
+    """Give ``cache`` the case study's IFC import (when this checkout has one), so no side imports the IFC."""
+    src = CASE / ".kbplanner-cache"
+    for d in (src.iterdir() if src.is_dir() else []):
+        if (d / "model.ttl").is_file():
+            shutil.copytree(d, cache / d.name)
+
+
+def _phases(src: Path, cache: Path, scenario: str, seed: int, out: Path, result: Path) -> dict[str, Any]:
+    env = {**os.environ, "PYTHONPATH": str(src), "KBPLANNER_CACHE_DIR": str(cache)}
+    env.pop("KBPLANNER_NO_CACHE", None)
     cmd = [sys.executable, str(SCRIPT), str(result), "warm", "simulate", str(CASE), "--scenario", scenario,
            "--seed", str(seed), "--out", str(out), "--force"]
     subprocess.run(cmd, env=env, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
@@ -61,16 +71,20 @@ def main() -> int:
     work = Path(tempfile.mkdtemp(prefix="kbp-phases-"))
     try:
         trees = {"before": _export(args.before, work / "before"), "after": REPO / "src"}
+        caches = {side: work / f"cache-{side}" for side in trees}  # each tree its own project cache entries
+        for cache in caches.values():
+            cache.mkdir()
+            _seed_imports(cache)
         load_start = os.getloadavg()
         runs: dict[str, dict[str, list[dict[str, Any]]]] = {s: {t: [] for t in trees} for s in scenarios}
         same: dict[str, dict[str, bool]] = {}
         for scenario in scenarios:
             for side, src in trees.items():  # warm-up: each tree keeps its own refined plan and maps
-                _phases(src, scenario, args.seed, work / f"run-{side}", work / "warm.json")
+                _phases(src, caches[side], scenario, args.seed, work / f"run-{side}", work / "warm.json")
             for _ in range(args.repeat):
                 for side, src in trees.items():
-                    runs[scenario][side].append(
-                        _phases(src, scenario, args.seed, work / f"run-{side}", work / f"{side}.json"))
+                    runs[scenario][side].append(_phases(src, caches[side], scenario, args.seed,
+                                                        work / f"run-{side}", work / f"{side}.json"))
             before, after = work / "run-before", work / "run-after"
             same[scenario] = {f: (before / f).read_bytes() == (after / f).read_bytes() for f in OUTPUTS}
         load_end = os.getloadavg()
