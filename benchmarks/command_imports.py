@@ -8,7 +8,8 @@ process (the median of ``--repeat``), with ``PYTHONPATH`` at this checkout's sou
 - ``trimesh``: ``import trimesh`` after everything else the command uses at run time is imported (NumPy,
   SciPy's spatial, sparse graph and ndimage, shapely, PIL, PyBullet, OMPL, rdflib with its SPARQL
   engine, rich): what trimesh brings on its own (its package imports all its submodules, networkx and
-  SciPy's optimize among them), and the top-level packages that come only with it;
+  SciPy's optimize among them), and the packages (subpackages of those already there) that come only
+  with it;
 - ``B4 search``: ``kbplanner.planning.manipulation`` (B4's pose search and IK) after the command's
   imports: what a command whose refined plan is kept no longer imports (0 when the command imports it).
 
@@ -44,7 +45,10 @@ t = time.process_time()
 for m in then:
     importlib.import_module(m)
 cpu = time.process_time() - t
-new = sorted({m.split(".")[0] for m in set(sys.modules) - before} - set(sys.stdlib_module_names))
+tops = {m.split(".")[0] for m in before}
+added = set(sys.modules) - before
+new = sorted({m.split(".")[0] if m.split(".")[0] not in tops else ".".join(m.split(".")[:2]) for m in added
+              if m.split(".")[0] not in sys.stdlib_module_names})
 print(json.dumps({"cpu_s": cpu, "modules": len(set(sys.modules) - before), "new_packages": new}))
 """
 
@@ -80,7 +84,8 @@ def main() -> int:
     print(f"imports of kbplanner simulate, CPU s, median of {args.repeat}; load average "
           f"{load_start[0]:.2f} -> {load_end[0]:.2f} (1 min)")
     for r in rows:
-        extra = [p for p in r["new_packages"] if p not in ("kbplanner", "trimesh") and not p.startswith("_")]
+        extra = [p for p in r["new_packages"] if p.split(".")[0] not in ("kbplanner", "trimesh", "_")
+                 and not p.startswith("_") and "._" not in p]
         print(f"{r['imports']:<10} {r['cpu_s']:6.3f} s {r['modules']:5d} modules"
               + (f"  (with it only: {', '.join(extra)})" if r["imports"] == "trimesh" else ""))
     print(f"wrote {args.out}")
