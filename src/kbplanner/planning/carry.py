@@ -48,16 +48,19 @@ import math
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
 import shapely
 from scipy.spatial.transform import Rotation
 
-from kbplanner.robot.arm_ik import IkMethod, solve_ik
 from kbplanner.robot.robot_model import RobotModel
 from kbplanner.world.footprint import Footprint, Rect
 from kbplanner.world.world_types import Bounds
+
+if TYPE_CHECKING:  # the IK is imported by carry_modes (B4), not by the simulation's carrying
+    from kbplanner.robot.arm_ik import IkMethod
 
 log = logging.getLogger(__name__)
 
@@ -404,6 +407,8 @@ def carry_modes(
     Raises nothing: a mode that cannot be found is returned as a :class:`CarryMode` with an empty
     ``joints`` tuple; use :func:`carry_problem` to get the reason.
     """
+    from kbplanner.robot.arm_ik import solve_ik
+
     saved_base = robot.base_pose()
     saved_arm = robot.arm_positions()
     robot.set_base_pose(0.0, 0.0, 0.0)
