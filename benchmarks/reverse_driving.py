@@ -1,9 +1,10 @@
-"""How far the robot's base drives backwards in finished runs (an independent check, no kbplanner import).
+"""How far the robot's base drives backwards in finished runs (from their trajectories only).
 
 Reads ``trajectories.csv`` of one or more run directories and sums, per run, the distance driven with
 the direction of travel more than 90 degrees off the base's yaw (backwards, towards the scanner's
 blind sector behind the base), the whole distance driven, and how much of the backward distance is
-driven while an element is carried. Prints a row per run and the medians, and writes JSON.
+driven while an element is carried (:func:`kbplanner.analysis.reverse_driving.reverse_of`, which the
+tests use too). Prints a row per run and the medians, and writes JSON.
 
 Usage: python benchmarks/reverse_driving.py RUN_DIR [RUN_DIR ...] [--out FILE]
 """
@@ -11,33 +12,11 @@ Usage: python benchmarks/reverse_driving.py RUN_DIR [RUN_DIR ...] [--out FILE]
 from __future__ import annotations
 
 import argparse
-import csv
 import json
-import math
 import statistics
 from pathlib import Path
 
-
-def reverse_of(run: Path) -> dict[str, float | str]:
-    """Backward, carried-backward and whole distance (m) driven in one run."""
-    back = carried = total = 0.0
-    with (run / "trajectories.csv").open(newline="") as fh:
-        rows = csv.DictReader(fh)
-        prev = next(rows, None)
-        for row in rows:
-            assert prev is not None
-            dx, dy = float(row["x"]) - float(prev["x"]), float(row["y"]) - float(prev["y"])
-            d = math.hypot(dx, dy)
-            if d > 1e-6:
-                total += d
-                yaw = float(prev["yaw"])
-                if dx * math.cos(yaw) + dy * math.sin(yaw) < -0.01 * d:
-                    back += d
-                    if prev.get("carried"):
-                        carried += d
-            prev = row
-    return {"run": str(run), "backward_m": round(back, 2), "backward_carrying_m": round(carried, 2),
-            "driven_m": round(total, 2)}
+from kbplanner.analysis.reverse_driving import reverse_of
 
 
 def main() -> int:

@@ -22,6 +22,8 @@ from collections.abc import Callable  # noqa: E402
 from typing import Any  # noqa: E402
 
 T: dict[str, float] = {}
+#: B4's pose search and IK (a warm command, its refined plan kept, needs none of them; issue 14)
+B4_SEARCH = ("kbplanner.planning.manipulation", "kbplanner.planning.pose_search", "kbplanner.robot.arm_ik")
 
 
 def _timed(label: str, f: Callable[..., Any]) -> Callable[..., Any]:
@@ -66,7 +68,8 @@ def main(argv: list[str]) -> int:
     T["total"] = time.process_time() - _T0
     with open(out, "w", encoding="utf-8") as f:
         json.dump({"phases_cpu_s": {k: round(v, 3) for k, v in T.items()}, "exit": code, "mode": mode,
-                   "command": command}, f, indent=1)
+                   "command": command, "modules": len(sys.modules),
+                   "b4_search_imported": sorted(m for m in B4_SEARCH if m in sys.modules)}, f, indent=1)
     return 0
 
 

@@ -183,9 +183,9 @@ def run(args: argparse.Namespace) -> int:
     from kbplanner.core.outputs import atomic_write_bytes, atomic_write_text, json_text, run_directory
     from kbplanner.model.dates import parse_date
     from kbplanner.planning.feasibility import element_verdicts, figure_name, needs_figure
-    from kbplanner.planning.manipulation import robot_name
     from kbplanner.planning.plan_rdf import plan_turtle
     from kbplanner.planning.planner import plan_task
+    from kbplanner.planning.step_kinds import robot_name
     from kbplanner.planning.task_and_robot import resolve_task
     from kbplanner.project import Project
     from kbplanner.robot.robot_table import load_robot_specs

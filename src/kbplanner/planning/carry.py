@@ -47,6 +47,7 @@ import logging
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
@@ -54,10 +55,12 @@ import shapely
 from scipy.spatial.transform import Rotation
 
 from kbplanner.planning.rotation_numbers import quat_of_matrix, rpy_of_matrix
-from kbplanner.robot.arm_ik import IkMethod, solve_ik
 from kbplanner.robot.robot_model import RobotModel
 from kbplanner.world.footprint import Footprint, Rect
 from kbplanner.world.world_types import Bounds
+
+if TYPE_CHECKING:  # the IK is imported by carry_modes (B4), not by the simulation's carrying
+    from kbplanner.robot.arm_ik import IkMethod
 
 log = logging.getLogger(__name__)
 
@@ -400,6 +403,8 @@ def carry_modes(
     Raises nothing: a mode that cannot be found is returned as a :class:`CarryMode` with an empty
     ``joints`` tuple; use :func:`carry_problem` to get the reason.
     """
+    from kbplanner.robot.arm_ik import solve_ik
+
     saved_base = robot.base_pose()
     saved_arm = robot.arm_positions()
     robot.set_base_pose(0.0, 0.0, 0.0)

@@ -76,7 +76,6 @@ import copy
 import logging
 from collections.abc import Callable
 
-from kbplanner.core.vocab import KBP
 from kbplanner.planning.base_poses import PoseChecker, element_polygon, mark_polygon
 from kbplanner.planning.grasp_poses import Pick, PickSearch
 from kbplanner.planning.install_order import blocked_move, installable, move_before, stack_above
@@ -84,19 +83,21 @@ from kbplanner.planning.install_poses import InstallSearch
 from kbplanner.planning.plan_model import Plan, Pose2, SkillCall
 from kbplanner.planning.pose_frames import as_joints, as_pose6_list, joints, pose2, pose6_matrix
 from kbplanner.planning.pose_search import RefineSettings
+from kbplanner.planning.step_kinds import (  # B4's callers import these from here too
+    KIND_GRASP,
+    KIND_NAVIGATION,  # noqa: F401 - re-exported (B4 names the kinds it refines)
+    KIND_NAVIGATION_WITH_OBJECT,
+    KIND_RELEASE,
+    NAVIGATION_KINDS,
+    elements_in_order,
+    robot_name,
+)
 from kbplanner.robot.robot_model import RobotModel
 from kbplanner.world.occupancy import OccupancyGrid
 from kbplanner.world.site_checks import check_pickup_locations
 from kbplanner.world.world_types import World, WorldElement
 
 log = logging.getLogger(__name__)
-
-KIND_NAVIGATION = str(KBP.Navigation)
-KIND_NAVIGATION_WITH_OBJECT = str(KBP.NavigationWithObject)
-KIND_GRASP = str(KBP.MoveManipulatorAndGrasp)
-KIND_RELEASE = str(KBP.MoveManipulatorAndRelease)
-NAVIGATION_KINDS = (KIND_NAVIGATION, KIND_NAVIGATION_WITH_OBJECT)
-
 
 # Reasons of B4 failures that do not depend on the IK (no retry with the fallback IK).
 _CARRY_WAY = ("carry way walled off", "carry way needs the load turned")
@@ -331,31 +332,6 @@ def _skip_after(steps: list[SkillCall], i: int) -> None:
             s.feasible = False
             s.reason = (f"skipped: step {steps[i].step} ({steps[i].action_label}) of this element is "
                         "infeasible")
-
-
-def elements_in_order(plan: Plan) -> list[str]:
-    """Element IRIs in the order of their first step."""
-    seen: dict[str, None] = {}
-    for s in sorted(plan.steps, key=lambda s: s.step):
-        seen.setdefault(s.element, None)
-    return list(seen)
-
-
-def robot_name(plan: Plan) -> str:
-    """The robot table's name of the plan's robot: the one whose URDF the plan names, else its id.
-
-    Example:
-        >>> p = Plan("p", None, "T", "", "S", "husky-ur5", "Husky UR5", "husky_ur5.urdf", "rule")
-        >>> robot_name(p)
-        'husky_ur5'
-    """
-    from kbplanner.robot.robot_table import load_robot_specs
-
-    specs = load_robot_specs()
-    by_urdf = {s.urdf_name: name for name, s in specs.items()}
-    if plan.robot_urdf and plan.robot_urdf.rsplit("/", 1)[-1] in by_urdf:
-        return by_urdf[plan.robot_urdf.rsplit("/", 1)[-1]]
-    return plan.robot_id.replace("-", "_")
 
 
 #: The start of the note of a plan whose B4 the caller's ``stop`` ended (:func:`refine_plan`).

@@ -28,14 +28,17 @@ import hashlib
 import logging
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from kbplanner.core.outputs import atomic_write_text, versions
 from kbplanner.core.resources import data_dir
-from kbplanner.planning.manipulation import elements_in_order, refine_plan
 from kbplanner.planning.plan_model import Plan
-from kbplanner.planning.pose_search import RefineSettings
-from kbplanner.world.occupancy import OccupancyGrid
-from kbplanner.world.world_types import World
+from kbplanner.planning.step_kinds import elements_in_order
+
+if TYPE_CHECKING:  # B4's search and IK are imported only when B4 runs (a kept plan needs none of it)
+    from kbplanner.planning.pose_search import RefineSettings
+    from kbplanner.world.occupancy import OccupancyGrid
+    from kbplanner.world.world_types import World
 
 log = logging.getLogger(__name__)
 
@@ -66,7 +69,7 @@ def refine_key(plan: Plan, world: World, grid: OccupancyGrid | None, seed: int,
     """The content hash a refined plan is kept under (see module docstring)."""
     h = hashlib.sha256()
     for part in (FORMAT, repr(sorted(versions().items())), code_digest(), repr(world), plan.to_json(),
-                 repr(seed), repr(settings or RefineSettings()), repr(reorder)):
+                 repr(seed), _settings_text(settings), repr(reorder)):
         h.update(part.encode("utf-8"))
         h.update(b"\0")
     if grid is None:
@@ -75,6 +78,16 @@ def refine_key(plan: Plan, world: World, grid: OccupancyGrid | None, seed: int,
         h.update(repr((grid.origin, grid.resolution, grid.band, grid.occupied.shape)).encode("utf-8"))
         h.update(grid.occupied.tobytes())
     return h.hexdigest()
+
+
+def _settings_text(settings: RefineSettings | None) -> str:
+    """The key's text of B4's settings: the defaults (``None``) as ``"defaults"`` (their values are in the
+    source, so in :func:`code_digest`), others by their ``repr``; ``pose_search`` is imported only then."""
+    if settings is None:
+        return "defaults"
+    from kbplanner.planning.pose_search import RefineSettings
+
+    return "defaults" if settings == RefineSettings() else repr(settings)
 
 
 def refine_kept(
@@ -112,6 +125,17 @@ def refine_kept(
                       reorder=reorder)
     _write(path, out)
     return out
+
+
+def refine_plan(plan: Plan, world: World, *, seed: int, grid: OccupancyGrid | None,
+                settings: RefineSettings | None, progress: Callable[[str, int, int], None] | None,
+                reorder: bool) -> Plan:
+    """B4 (:func:`kbplanner.planning.manipulation.refine_plan`), its search and IK modules imported here,
+    when a plan is refined: a command whose refined plan is kept imports none of them (issue 14)."""
+    from kbplanner.planning import manipulation
+
+    return manipulation.refine_plan(plan, world, seed=seed, grid=grid, settings=settings, progress=progress,
+                                    reorder=reorder)
 
 
 def _read(path: Path) -> Plan | None:

@@ -57,6 +57,7 @@ from kbplanner.scale.building_geometry import Builder
 from kbplanner.scale.building_plan import MAX_STOREYS, MAX_UNITS, SCENARIO, GeneratorError
 from kbplanner.scale.building_schedule import schedule_csv, schedule_tasks
 from kbplanner.scale.building_site import SiteFiles
+from kbplanner.scale.project_toml import model_calendar_simulation
 
 log = logging.getLogger(__name__)
 
@@ -101,22 +102,9 @@ def _project_toml(builder: Builder, base: str, name: str, sim_date: str) -> str:
             f'base_iri = "{base}"',
             f"seed = {builder.seed}",
             "",
-            "[model]",
-            'ifc = "model/building.ifc"',
-            'schedule = "schedule.csv"',
-            'site = ["site/site_layout.ttl", "site/workers.ttl"]',
-            'jobsite = ["site/jobsite.ttl"]',
-            'augmentation = ["augmentation/work_sequence.ttl"]',
-            "",
-            "[calendar]",
-            'work_start = "07:00"',
-            'work_end = "15:30"',
-            'workdays = ["Mon", "Tue", "Wed", "Thu", "Fri"]',
-            "",
-            "[simulation]",
-            'task = "T-FRAME-L01"',
-            f'date = "{sim_date}"',
-            "",
+            *model_calendar_simulation(
+                "model/building.ifc", '["augmentation/work_sequence.ttl"]', "T-FRAME-L01", sim_date
+            ),
             f"[scenarios.{SCENARIO}]",
             'description = "A frame storage with a pickup location in the living room of every unit"',
             'overlays = ["scenarios/storage_in_units.ttl", "augmentation/grasp_points.ttl"]',

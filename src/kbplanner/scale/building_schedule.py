@@ -14,6 +14,18 @@ from datetime import date, timedelta
 
 from kbplanner.scale.building_plan import FRAMING_SPEC, START_DATE
 
+# The columns of a schedule.csv that kbplanner writes (a generated building, `kbplanner init`).
+SCHEDULE_COLUMNS = (
+    "task_id",
+    "name",
+    "start",
+    "finish",
+    "predecessors",
+    "elements",
+    "robotized",
+    "task_specification",
+)
+
 
 def week(w: int, day: int = 0) -> date:
     """Day ``day`` of week ``w`` of the schedule (week 0: mobilisation)."""
@@ -114,17 +126,7 @@ def schedule_tasks(storeys: int) -> list[dict[str, str]]:
 def schedule_csv(storeys: int) -> str:
     """``schedule.csv`` of the generated building."""
     buf = io.StringIO()
-    cols = [
-        "task_id",
-        "name",
-        "start",
-        "finish",
-        "predecessors",
-        "elements",
-        "robotized",
-        "task_specification",
-    ]
-    w = csv.DictWriter(buf, fieldnames=cols, lineterminator="\n")
+    w = csv.DictWriter(buf, fieldnames=list(SCHEDULE_COLUMNS), lineterminator="\n")
     w.writeheader()
     for r in schedule_tasks(storeys):
         w.writerow(r)

@@ -53,6 +53,55 @@ def _pose_ttl(iri: str, x: float, y: float, z: float, yaw: float, label: str | N
     return out
 
 
+Route = tuple[str, str, str, float, list[tuple[str, float]]]  # key, label, role, speed m/s, (stop, dwell s)
+
+
+def _workers_ttl(base: str, routes: list[Route]) -> list[str]:
+    """Turtle of workers walking their routes (key, label, role, speed, stops with dwell times)."""
+    out: list[str] = []
+    for key, label, role, speed, stops in routes:
+        iri = f"{base}worker/{key}"
+        stop_iris = [f"<{iri}-stop-{i + 1}>" for i in range(len(stops))]
+        out += [
+            f"<{iri}> a kbp:Worker ;",
+            f'    rdfs:label "{label}" ;',
+            f'    kbp:role "{role}" ;',
+            f"    kbp:walkingSpeed {_num(speed)} ;",
+            f"    kbp:routeStop {' , '.join(stop_iris)} .",
+        ]
+        for i, (loc, dwell) in enumerate(stops):
+            out += [
+                f"{stop_iris[i]} a kbp:RouteStop ;",
+                f"    kbp:order {i + 1} ; kbp:location <{base}site/{loc}> ; kbp:dwellTime {_num(dwell)} .",
+            ]
+        out.append("")
+    return out
+
+
+def _jobsite_ttl(base: str, comment: list[str], label: str, door_clearance: float) -> str:
+    """Turtle of the jobsite parameters (A5) as in the case study: a robot passes 0.9 m doors with
+    ``door_clearance`` m free on each side; ``comment`` lines open the file."""
+    return "\n".join(
+        [
+            _PREFIXES,
+            *comment,
+            "",
+            f"<{base}jobsite/params> a kbp:JobsiteParameters ;",
+            f'    rdfs:label "{label}" ;',
+            "    kbp:maxRobotWidth 0.9e0 ; kbp:maxRobotLength 1.4e0 ; kbp:maxRobotHeight 1.9e0 ;",
+            "    kbp:maxRobotMass 150.0e0 ; kbp:maxSpeed 1.0e0 ; kbp:safetyStopDistance 0.5e0 ;",
+            f"    kbp:doorClearance {_num(door_clearance)} ;",
+            f"    kbp:hasActionLimit <{base}jobsite/nv-1> , <{base}jobsite/nv-2> .",
+            f'<{base}jobsite/nv-1> a kbp:ActionLimit ; rdfs:label "unloaded navigation" ;',
+            "    kbp:appliesTo kb:NV-1 ; kbp:minSpeed 0.1e0 ; kbp:maxSpeed 0.8e0 .",
+            f'<{base}jobsite/nv-2> a kbp:ActionLimit ; rdfs:label "navigation carrying a frame" ;',
+            "    kbp:appliesTo kb:NV-2 ; kbp:minSpeed 0.05e0 ; kbp:maxSpeed 0.3e0 ;",
+            "    kbp:safetyStopDistance 1.0e0 .",
+            "",
+        ]
+    )
+
+
 def _site_object(
     base: str,
     key: str,
@@ -149,7 +198,7 @@ class SiteFiles:
             "# robot's way in) and the site supervisor's round. Speeds m/s, dwell times s.",
             "",
         ]
-        routes = [
+        routes: list[Route] = [
             (
                 "carpenter-1",
                 "Carpenter 1",
@@ -165,46 +214,16 @@ class SiteFiles:
                 [("office", 120.0), ("generator", 20.0), ("lumber-storage", 20.0)],
             ),
         ]
-        for key, label, role, speed, stops in routes:
-            iri = f"{base}worker/{key}"
-            stop_iris = [f"<{iri}-stop-{i + 1}>" for i in range(len(stops))]
-            out += [
-                f"<{iri}> a kbp:Worker ;",
-                f'    rdfs:label "{label}" ;',
-                f'    kbp:role "{role}" ;',
-                f"    kbp:walkingSpeed {_num(speed)} ;",
-                f"    kbp:routeStop {' , '.join(stop_iris)} .",
-            ]
-            for i, (loc, dwell) in enumerate(stops):
-                out += [
-                    f"{stop_iris[i]} a kbp:RouteStop ;",
-                    f"    kbp:order {i + 1} ; kbp:location <{base}site/{loc}> ; "
-                    f"kbp:dwellTime {_num(dwell)} .",
-                ]
-            out.append("")
+        out += _workers_ttl(base, routes)
         return "\n".join(out)
 
     def jobsite(self) -> str:
-        base = self.base
-        return "\n".join(
-            [
-                _PREFIXES,
-                "# Jobsite parameters (A5) of the generated site, as in the case study: a robot passes 0.9 m",
-                "# doors with 0.1 m free on each side; speeds m/s, distances m, mass kg.",
-                "",
-                f"<{base}jobsite/params> a kbp:JobsiteParameters ;",
-                '    rdfs:label "Generated jobsite parameters" ;',
-                "    kbp:maxRobotWidth 0.9e0 ; kbp:maxRobotLength 1.4e0 ; kbp:maxRobotHeight 1.9e0 ;",
-                "    kbp:maxRobotMass 150.0e0 ; kbp:maxSpeed 1.0e0 ; kbp:safetyStopDistance 0.5e0 ;",
-                "    kbp:doorClearance 0.1e0 ;",
-                f"    kbp:hasActionLimit <{base}jobsite/nv-1> , <{base}jobsite/nv-2> .",
-                f'<{base}jobsite/nv-1> a kbp:ActionLimit ; rdfs:label "unloaded navigation" ;',
-                "    kbp:appliesTo kb:NV-1 ; kbp:minSpeed 0.1e0 ; kbp:maxSpeed 0.8e0 .",
-                f'<{base}jobsite/nv-2> a kbp:ActionLimit ; rdfs:label "navigation carrying a frame" ;',
-                "    kbp:appliesTo kb:NV-2 ; kbp:minSpeed 0.05e0 ; kbp:maxSpeed 0.3e0 ;",
-                "    kbp:safetyStopDistance 1.0e0 .",
-                "",
-            ]
+        return _jobsite_ttl(
+            self.base,
+            ["# Jobsite parameters (A5) of the generated site, as in the case study: a robot passes 0.9 m",
+             "# doors with 0.1 m free on each side; speeds m/s, distances m, mass kg."],
+            "Generated jobsite parameters",
+            0.1,
         )
 
     def work_sequence(self) -> str:

@@ -25,6 +25,7 @@ from kbplanner.knowledge.knowledge_base import load_kb
 from kbplanner.knowledge.robot_selection import load_robots
 from kbplanner.scale import init_site as site
 from kbplanner.scale.init_walls import footprint
+from kbplanner.scale.project_toml import model_calendar_simulation
 
 START_OUT_M = 4.0  # robot start in front of the entrance door
 UPPER_STOREY_M = 1.0  # a task storey this far above the ground is reached by lift (a robot arrival)
@@ -166,22 +167,10 @@ def project_toml(
         f'base_iri = "{base}"',
         f"seed = {seed}",
         "",
-        "[model]",
-        f'ifc = "{ifc_rel}"',
-        'schedule = "schedule.csv"',
-        'site = ["site/site_layout.ttl", "site/workers.ttl"]',
-        'jobsite = ["site/jobsite.ttl"]',
-        "augmentation = []  # the work sequence is in each scenario: it follows the storages",
-        "",
-        "[calendar]",
-        'work_start = "07:00"',
-        'work_end = "15:30"',
-        'workdays = ["Mon", "Tue", "Wed", "Thu", "Fri"]',
-        "",
-        "[simulation]",
-        f'task = "{site.FRAME_TASK}"',
-        f'date = "{sim_date}"',
-        "",
+        *model_calendar_simulation(
+            ifc_rel, "[]  # the work sequence is in each scenario: it follows the storages",
+            site.FRAME_TASK, sim_date,
+        ),
     ]
     for key, (desc, file) in scenarios.items():
         lines += [

@@ -19,7 +19,16 @@ from dataclasses import dataclass
 from datetime import date, timedelta
 from urllib.parse import quote
 
-from kbplanner.scale.building_site import _PREFIXES, _num, _pose_ttl, _site_object
+from kbplanner.scale.building_schedule import SCHEDULE_COLUMNS
+from kbplanner.scale.building_site import (
+    _PREFIXES,
+    Route,
+    _jobsite_ttl,
+    _num,
+    _pose_ttl,
+    _site_object,
+    _workers_ttl,
+)
 from kbplanner.scale.init_ifc import FrameRecord
 
 START_DATE = date(2024, 3, 4)  # a Monday: the scaffold's week 0
@@ -116,7 +125,7 @@ def site_layout(base: str, plan: SitePlan) -> str:
 
 def workers(base: str, plan: SitePlan) -> str:
     keys = {o.key for o in plan.objects}
-    routes = [
+    routes: list[Route] = [
         ("carpenter-1", "Carpenter 1", "carpenter", 1.2, [("lumber-storage", 30.0), ("entrance-area", 60.0)]),
         (
             "supervisor",
@@ -133,48 +142,19 @@ def workers(base: str, plan: SitePlan) -> str:
         "# robot's way in), the supervisor makes a round. Speeds m/s, dwell times s.",
         "",
     ]
-    for key, label, role, speed, stops in routes:
-        stops = [(loc, dwell) for loc, dwell in stops if loc in keys]
-        if len(stops) < 2:
-            continue
-        iri = f"{base}worker/{key}"
-        stop_iris = [f"<{iri}-stop-{i + 1}>" for i in range(len(stops))]
-        out += [
-            f"<{iri}> a kbp:Worker ;",
-            f'    rdfs:label "{label}" ;',
-            f'    kbp:role "{role}" ;',
-            f"    kbp:walkingSpeed {_num(speed)} ;",
-            f"    kbp:routeStop {' , '.join(stop_iris)} .",
-        ]
-        for i, (loc, dwell) in enumerate(stops):
-            out += [
-                f"{stop_iris[i]} a kbp:RouteStop ;",
-                f"    kbp:order {i + 1} ; kbp:location <{base}site/{loc}> ; kbp:dwellTime {_num(dwell)} .",
-            ]
-        out.append("")
+    kept = [(key, label, role, speed, [(loc, dwell) for loc, dwell in stops if loc in keys])
+            for key, label, role, speed, stops in routes]
+    out += _workers_ttl(base, [r for r in kept if len(r[4]) >= 2])
     return "\n".join(out)
 
 
 def jobsite(base: str) -> str:
-    return "\n".join(
-        [
-            _PREFIXES,
-            "# Jobsite parameters (A5) proposed by `kbplanner init`, as in the case study: a robot",
-            "# passes 0.9 m doors with 0.1 m free on each side; speeds m/s, distances m, mass kg.",
-            "",
-            f"<{base}jobsite/params> a kbp:JobsiteParameters ;",
-            '    rdfs:label "Jobsite parameters (kbplanner init)" ;',
-            "    kbp:maxRobotWidth 0.9e0 ; kbp:maxRobotLength 1.4e0 ; kbp:maxRobotHeight 1.9e0 ;",
-            "    kbp:maxRobotMass 150.0e0 ; kbp:maxSpeed 1.0e0 ; kbp:safetyStopDistance 0.5e0 ;",
-            f"    kbp:doorClearance {_num(DOOR_CLEARANCE)} ;",
-            f"    kbp:hasActionLimit <{base}jobsite/nv-1> , <{base}jobsite/nv-2> .",
-            f'<{base}jobsite/nv-1> a kbp:ActionLimit ; rdfs:label "unloaded navigation" ;',
-            "    kbp:appliesTo kb:NV-1 ; kbp:minSpeed 0.1e0 ; kbp:maxSpeed 0.8e0 .",
-            f'<{base}jobsite/nv-2> a kbp:ActionLimit ; rdfs:label "navigation carrying a frame" ;',
-            "    kbp:appliesTo kb:NV-2 ; kbp:minSpeed 0.05e0 ; kbp:maxSpeed 0.3e0 ;",
-            "    kbp:safetyStopDistance 1.0e0 .",
-            "",
-        ]
+    return _jobsite_ttl(
+        base,
+        ["# Jobsite parameters (A5) proposed by `kbplanner init`, as in the case study: a robot",
+         "# passes 0.9 m doors with 0.1 m free on each side; speeds m/s, distances m, mass kg."],
+        "Jobsite parameters (kbplanner init)",
+        DOOR_CLEARANCE,
     )
 
 
@@ -304,17 +284,7 @@ def schedule_rows(storey: str, walls: Sequence[str], doors: Sequence[str]) -> li
                 "",
             )
         )
-    cols = [
-        "task_id",
-        "name",
-        "start",
-        "finish",
-        "predecessors",
-        "elements",
-        "robotized",
-        "task_specification",
-    ]
-    return [dict(zip(cols, r, strict=True)) for r in rows]
+    return [dict(zip(SCHEDULE_COLUMNS, r, strict=True)) for r in rows]
 
 
 def schedule_csv(rows: Sequence[dict[str, str]], spec: str) -> str:

@@ -117,7 +117,11 @@ def narrow_intervals(
 ) -> list[tuple[float, float]]:
     """Arc-length intervals of a path where the normal footprint is blocked, grown by ``margin_m``.
 
-    The path is sampled every ``step_m``; overlapping grown intervals are merged.
+    The path is sampled every ``step_m`` (its turns on the spot every quarter yaw bin); grown intervals
+    less than ``margin_m`` apart are merged: the load is not turned back for a normal stretch shorter
+    than the margin kept round a narrow one and turned on its side again at once (a turn on the spot
+    that only the narrow load can make, next to a narrow passage, would otherwise be a narrow stretch
+    of its own, a few decimetres before the passage's).
     """
     dense = densify(poses, step_m, normal.bin_width / 4)
     s = _arc_lengths(dense)
@@ -133,7 +137,7 @@ def narrow_intervals(
         while j + 1 < len(ok) and not ok[j + 1]:
             j += 1
         lo, hi = max(0.0, float(s[i]) - margin_m), min(total, float(s[j]) + margin_m)
-        if intervals and lo <= intervals[-1][1]:
+        if intervals and lo < intervals[-1][1] + margin_m:
             intervals[-1] = (intervals[-1][0], max(hi, intervals[-1][1]))
         else:
             intervals.append((lo, hi))

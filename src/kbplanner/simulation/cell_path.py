@@ -17,8 +17,9 @@ import weakref
 import numpy as np
 import numpy.typing as npt
 
-from kbplanner.simulation.motion_check import ExactMotion, shortcut, turn_drive_turn
+from kbplanner.simulation.motion_check import ExactMotion, shortcut
 from kbplanner.simulation.nav_path import OK, NavPath, NavSettings, Pose2D, failed_path, path_length, wrap
+from kbplanner.simulation.turn_around import skid_steer
 from kbplanner.world.footprint import ConfigurationSpace
 
 
@@ -205,5 +206,5 @@ def _poses_of_cells(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, setting
     poses = shortcut(motion, poses, cs.grid.resolution * 5)
     mixed: int | None = None
     if settings.base_motion == "turn_drive_turn":
-        poses, mixed = turn_drive_turn(cs, poses, allow_reverse=settings.allow_reverse)
+        poses, mixed = skid_steer(cs, poses, allow_reverse=settings.allow_reverse)
     return tuple(poses), mixed

@@ -53,8 +53,8 @@ from kbplanner.core.outputs import (
     write_json,
 )
 from kbplanner.planning.carry import NARROW, NORMAL, geometry_from_joints, pose_of, rect_dict
-from kbplanner.planning.manipulation import KIND_NAVIGATION_WITH_OBJECT, elements_in_order, robot_name
 from kbplanner.planning.plan_model import Plan, SkillCall
+from kbplanner.planning.step_kinds import KIND_NAVIGATION_WITH_OBJECT, elements_in_order, robot_name
 from kbplanner.simulation.keyframes import render_png
 from kbplanner.simulation.path_quality import ArmClock, path_quality
 from kbplanner.simulation.recorder import Recorder, clean

@@ -244,11 +244,30 @@ def path_is_free(cs: ConfigurationSpace, poses: Sequence[Sequence[float]]) -> bo
     return ExactMotion(cs).path_free(poses)
 
 
+def backward_m(poses: Sequence[Pose2D]) -> float:
+    """How far the straight SE(2) motions between ``poses`` travel backwards: the direction of travel
+    more than 90 degrees off the yaw (the yaw linear along each motion, 16 samples; as
+    ``benchmarks/reverse_driving.py`` counts it on a trajectory)."""
+    back = 0.0
+    for p, q in itertools.pairwise(poses):
+        dx, dy = q[0] - p[0], q[1] - p[1]
+        d = math.hypot(dx, dy)
+        if d <= 1e-9:
+            continue
+        turn = wrap(q[2] - p[2])
+        for k in range(16):
+            yaw = p[2] + (k + 0.5) / 16 * turn
+            if dx * math.cos(yaw) + dy * math.sin(yaw) < -0.01 * d:
+                back += d / 16
+    return back
+
+
 def turn_drive_turn(
     cs: ConfigurationSpace,
     poses: Sequence[Pose2D],
     *,
     allow_reverse: bool = True,
+    trace: list[tuple[str, float]] | None = None,
 ) -> tuple[list[Pose2D], int]:
     """Rewrite an SE(2) path for a skid-steer base: turn in place, drive straight, turn at the goal.
 
@@ -258,6 +277,10 @@ def turn_drive_turn(
     the segment (1/8, 1/4, ... of it) is driven as in SE(2), turning while moving, and the rest turn-
     drive-turn. Every motion is checked densely. Returns the waypoints and how many segments needed
     such an SE(2) part; if one cannot be rejoined at all, the SE(2) path itself is returned.
+
+    ``trace``, where given, gets one ``(how, backward_m)`` per segment: how it was rewritten ("tdt",
+    "mixed u=...", "se2 segment", "se2 path") and how far its motions travel backwards (direction of
+    travel over 90 degrees off the yaw, :func:`backward_m`); for measuring only, the result is the same.
     """
     if len(poses) < 2:
         return list(poses), 0
@@ -286,19 +309,27 @@ def turn_drive_turn(
         last = i == n - 1
         moves = tdt(out[-1], b, last)
         if free([out[-1], *moves]):
+            if trace is not None:
+                trace.append(("tdt", backward_m([out[-1], *moves])))
             out.extend(moves)
             continue
         for u in (0.125, 0.25, 0.5, 0.75, 1.0):
             m = (a[0] + u * (b[0] - a[0]), a[1] + u * (b[1] - a[1]), wrap(a[2] + u * wrap(b[2] - a[2])))
             rest = tdt(m, b, last) if u < 1.0 else []
             if free([out[-1], m]) and free([m, *rest]):
+                if trace is not None:
+                    trace.append((f"mixed u={u:g}", backward_m([out[-1], m, *rest])))
                 out.append(m)
                 out.extend(rest)
                 mixed += 1
                 break
         else:
             if not (free([out[-1], a]) and free([a, b])):
+                if trace is not None:
+                    trace.append(("se2 path", backward_m(poses)))
                 return list(poses), n
+            if trace is not None:
+                trace.append(("se2 segment", backward_m([out[-1], a, b])))
             out.extend(p for p in (a, b) if p != out[-1])
             mixed += 1
     return out, mixed

@@ -44,7 +44,7 @@ from ompl import util as ou
 
 from kbplanner.core.errors import KbplannerError
 from kbplanner.simulation.cell_path import cell_route, face_connected
-from kbplanner.simulation.motion_check import ExactMotion, free_bytes, shortcut, turn_drive_turn
+from kbplanner.simulation.motion_check import ExactMotion, free_bytes, shortcut
 from kbplanner.simulation.nav_path import (
     OK,
     PLANNERS,
@@ -55,6 +55,7 @@ from kbplanner.simulation.nav_path import (
     path_length,
     wrap,
 )
+from kbplanner.simulation.turn_around import skid_steer
 from kbplanner.world.footprint import ConfigurationSpace, Footprint
 from kbplanner.world.occupancy import OccupancyGrid
 
@@ -396,7 +397,7 @@ def _solve(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSet
         poses = shortcut(motion, poses, grid.resolution * 5)
     elapsed = time.perf_counter() - t0
     if settings.base_motion == "turn_drive_turn":
-        poses, kept = turn_drive_turn(cs, poses, allow_reverse=settings.allow_reverse)
+        poses, kept = skid_steer(cs, poses, allow_reverse=settings.allow_reverse)
         how += "; turn-drive-turn" + (f" ({kept} segment(s) partly turning while driving)" if kept else "")
         elapsed = time.perf_counter() - t0
     return NavPath(poses=tuple(poses), length_m=path_length(poses), planning_time_s=elapsed,

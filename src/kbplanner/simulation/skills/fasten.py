@@ -18,7 +18,6 @@ import math
 from kbplanner.core.vocab import KBP
 from kbplanner.knowledge.skill_kinds import local
 from kbplanner.planning.pose_frames import as_pose6_list
-from kbplanner.robot.arm_ik import solve_ik
 from kbplanner.simulation.skills.base import JointPath, Skill, Status
 
 DEFAULT_DWELL_S = 2.0
@@ -68,6 +67,8 @@ class FastenSkill(Skill):
             self.fail(f"contact force {force:g} N is more than the arm's payload of {payload:g} kg "
                       f"({payload * G:.0f} N)")
             return
+        from kbplanner.robot.arm_ik import solve_ik  # only a fastening step needs the IK
+
         ik = solve_ik(env.robot, tuple(target[:3]), tuple(target[3:]))  # type: ignore[arg-type]
         if not ik.reachable:
             self.fail(f"the tool pose is out of reach from where the robot stands: {ik.reason}")

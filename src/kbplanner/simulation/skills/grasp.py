@@ -14,8 +14,8 @@ import math
 
 import numpy as np
 
-from kbplanner.planning.manipulation import KIND_GRASP
 from kbplanner.planning.pose_frames import as_pose6_list
+from kbplanner.planning.step_kinds import KIND_GRASP
 from kbplanner.simulation.skills.base import JointPath, Skill, Status
 
 ORDER = ("approach", "pre_grasp", "grasp")

@@ -44,9 +44,9 @@ import shapely
 
 from kbplanner.planning.base_poses import PoseChecker, mark_polygon
 from kbplanner.planning.carry import NARROW, NORMAL, CarryGeometry, geometry_from_joints
-from kbplanner.planning.manipulation import KIND_NAVIGATION, KIND_NAVIGATION_WITH_OBJECT
 from kbplanner.planning.plan_model import Pose2
 from kbplanner.planning.pose_frames import as_pose6_list
+from kbplanner.planning.step_kinds import KIND_NAVIGATION, KIND_NAVIGATION_WITH_OBJECT
 from kbplanner.robot.lidar import LidarSpec, lidar_spec
 from kbplanner.simulation.base_trajectory import Trajectory, time_parameterize
 from kbplanner.simulation.carry_paths import cell_alternatives, cells_first, plan_with_carry_modes

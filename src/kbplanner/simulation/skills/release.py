@@ -17,8 +17,8 @@ import math
 
 import numpy as np
 
-from kbplanner.planning.manipulation import KIND_RELEASE
 from kbplanner.planning.pose_frames import as_pose6_list, pose6_matrix, target_variants
+from kbplanner.planning.step_kinds import KIND_RELEASE
 from kbplanner.simulation.sim_env import angle_between
 from kbplanner.simulation.skills.base import JointPath, Skill, Status
 

@@ -1,0 +1,124 @@
+"""Navigation (B5), a skid-steer path that drove backwards turned round where the base can turn.
+
+Where a turn on the spot is blocked (a carried frame next to the storage stack, in a corridor),
+:func:`~kbplanner.simulation.motion_check.turn_drive_turn` keeps the planner's SE(2) motion, and OMPL's SE(2)
+space does not know which way the base faces: whole carry legs were driven backwards, into the
+scanner's blind sector. :func:`turned_round` walks along the planner's path (every
+``STEP_M``) and flips the base's yaw by half a turn on the stretches it would drive backwards, each begun
+and ended at a pose where a whole turn on the spot is free in the leg's configuration space (with its
+load): the base backs up only to such a pose, turns round there, drives on facing the other way and
+turns back where the path goes forwards again. :func:`skid_steer`, turn-drive-turn with that, keeps the
+result only where it is free (exact check) and drives backwards less; the planner's paths and the cell
+routes take it. No random numbers.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+from kbplanner.simulation.motion_check import ExactMotion, backward_m, turn_drive_turn
+from kbplanner.simulation.nav_path import Pose2D, wrap
+from kbplanner.world.footprint import ConfigurationSpace
+
+STEP_M = 0.1  # spacing of the poses tried along the path
+REVERSE_TOLERANCE_M = 0.05  # backward driving below this is not worth turning round for
+SPIN_PARTS = 8  # a whole turn checked as this many motions (each under half a turn)
+
+
+def _starts(poses: Sequence[Pose2D]) -> list[int]:
+    """Per pose of :func:`_along`, its step along its segment (0: the segment's first waypoint)."""
+    return [j for k in range(len(poses) - 1)
+            for j in range(max(1, math.ceil(math.hypot(poses[k + 1][0] - poses[k][0],
+                                                       poses[k + 1][1] - poses[k][1]) / STEP_M)))]
+
+
+def _along(poses: Sequence[Pose2D]) -> list[tuple[int, Pose2D]]:
+    """Poses every ``STEP_M`` along the path with the index of their segment (yaw linear, the short way)."""
+    out: list[tuple[int, Pose2D]] = []
+    for k in range(len(poses) - 1):
+        a, b = poses[k], poses[k + 1]
+        n = max(1, math.ceil(math.hypot(b[0] - a[0], b[1] - a[1]) / STEP_M))
+        turn = wrap(b[2] - a[2])
+        out += [(k, (a[0] + j / n * (b[0] - a[0]), a[1] + j / n * (b[1] - a[1]), wrap(a[2] + j / n * turn)))
+                for j in range(n)]
+    return out
+
+
+def turned_round(cs: ConfigurationSpace, poses: Sequence[Pose2D]) -> list[Pose2D] | None:
+    """``poses`` with the base's yaw flipped by half a turn on the stretches it would drive backwards, each
+    stretch begun and ended at a pose where the base turns round freely (module doc); None where nothing
+    can be flipped or the result is not free.
+
+    Along the path (every ``STEP_M``): unflipped, at a pose where the base can turn round and the motion
+    ahead goes backwards, it turns round if the flipped motion is free; flipped, it turns back at such a
+    pose where the motion ahead goes forwards. Where a flipped motion is blocked (the load is not
+    symmetric), the stretch is undone back to the last pose of it where the base could turn, and no new
+    stretch begins before the blocked motion is passed; a stretch still open at the goal is undone
+    likewise unless the base can turn at the goal."""
+    exact = ExactMotion(cs)
+    dense = _along(poses)
+    keep = [j == 0 for j in _starts(poses)] + [True]
+    pts = [p for _, p in dense] + [poses[-1]]
+    n = len(pts)
+    memo: dict[int, bool] = {}
+
+    def spins(i: int) -> bool:
+        if i not in memo:
+            x, y, t = pts[i]
+            memo[i] = any(exact.path_free([(x, y, wrap(t + s * k * 2 * math.pi / SPIN_PARTS))
+                                           for k in range(SPIN_PARTS + 1)]) for s in (1, -1))
+        return memo[i]
+
+    def flip(p: Pose2D) -> Pose2D:
+        return (p[0], p[1], wrap(p[2] + math.pi))
+
+    flipped = [False] * (n - 1)  # per motion i -> i + 1
+    state, last_turn, calm_until = False, 0, 0
+    for i in range(n - 1):
+        if math.hypot(pts[i + 1][0] - pts[i][0], pts[i + 1][1] - pts[i][1]) > 1e-9:
+            back = backward_m([pts[i], pts[i + 1]]) > 0.0
+            if back != state and (state or i >= calm_until) and spins(i) and (
+                    state or exact.motion_free(flip(pts[i]), flip(pts[i + 1]))):
+                state = back
+            if state and spins(i):
+                last_turn = i
+        if state and not exact.motion_free(flip(pts[i]), flip(pts[i + 1])):
+            flipped[last_turn:i] = [False] * (i - last_turn)
+            state, calm_until = False, i + 1
+        flipped[i] = state
+    if state and not spins(n - 1):
+        flipped[last_turn:] = [False] * (n - 1 - last_turn)
+    if not any(flipped):
+        return None
+    out: list[Pose2D] = [pts[0]]
+    if flipped[0]:
+        out.append(flip(pts[0]))
+    for i in range(1, n):
+        before, after = flipped[i - 1], flipped[i] if i < n - 1 else False
+        if before != after or keep[i]:
+            out.append(flip(pts[i]) if before else pts[i])
+        if before != after:
+            out.append(flip(pts[i]) if after else pts[i])
+    out = [p for i, p in enumerate(out) if i == 0 or p != out[i - 1]]
+    return out if exact.path_free(out) else None
+
+
+def skid_steer(cs: ConfigurationSpace, poses: Sequence[Pose2D], *, allow_reverse: bool = True,
+               trace: list[tuple[str, float]] | None = None) -> tuple[list[Pose2D], int]:
+    """:func:`~kbplanner.simulation.motion_check.turn_drive_turn`; without ``allow_reverse``, where that
+    drives backwards over ``REVERSE_TOLERANCE_M``, the path :func:`turned_round` rewritten so, if it is
+    free and drives backwards less (``trace`` then gets ``("turned round", backward_m)``)."""
+    got = turn_drive_turn(cs, poses, allow_reverse=allow_reverse, trace=trace)
+    if allow_reverse or len(poses) < 2 or backward_m(got[0]) <= REVERSE_TOLERANCE_M:
+        return got
+    flipped = turned_round(cs, poses)
+    if flipped is None:
+        return got
+    other = turn_drive_turn(cs, flipped, allow_reverse=allow_reverse)
+    less = backward_m(other[0]) < backward_m(got[0]) - REVERSE_TOLERANCE_M
+    if less and ExactMotion(cs).path_free(other[0]):
+        if trace is not None:
+            trace.append(("turned round", backward_m(other[0])))
+        return other
+    return got
