@@ -2,11 +2,11 @@
 
 Takes a PyBullet pose (position, quaternion x, y, z, w) or a 4x4 transform; gives the transform
 (:func:`matrix_of`) or the quaternion (:func:`quat_of`) with the numbers of
-:func:`kbplanner.planning.carry.from_pos_quat` and :func:`kbplanner.planning.carry.quat_of`: the same
-SciPy routines (its compiled rotation backend) on the same arrays, without the array-API dispatch of
+:func:`kbplanner.planning.carry.from_pos_quat` and :func:`kbplanner.planning.carry.quat_of`: SciPy's
+formulas, operation by operation, without the array-API dispatch of
 :class:`scipy.spatial.transform.Rotation` around them, which costs most of the time for one rotation
-(about 100 us of 110 per quaternion). Where that backend is not there (another SciPy), the public
-class is used: the numbers are the same either way.
+(about 100 us of 110 per quaternion). The quaternion is B4's
+(:mod:`kbplanner.planning.rotation_numbers`); rotations outside its exact path are left to SciPy.
 """
 
 from __future__ import annotations
@@ -17,9 +17,10 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+from scipy.spatial.transform import Rotation
 
 from kbplanner.planning.carry import from_pos_quat
-from kbplanner.planning.carry import quat_of as _quat_of_public
+from kbplanner.planning.rotation_numbers import quat_of_matrix
 
 Matrix = npt.NDArray[np.float64]
 
@@ -52,42 +53,15 @@ def matrix_of(pos: Sequence[float], quat: Sequence[float]) -> Matrix:
 
 
 def quat_of(m: Matrix) -> tuple[float, float, float, float]:
-    """PyBullet quaternion (x, y, z, w) of a transform (``carry.quat_of``'s numbers).
+    """PyBullet quaternion (x, y, z, w) of a transform (``carry.quat_of``'s numbers: SciPy's
+    ``Rotation.from_matrix``, by :func:`kbplanner.planning.rotation_numbers.quat_of_matrix`)."""
+    return quat_of_matrix(m)
 
-    SciPy first checks the rotation: a non-positive determinant is an error, a Gram matrix farther
-    from the identity than ``isclose(atol=1e-12)`` (relative 1e-5) is orthogonalised by an SVD first.
-    Here a rotation certainly inside those bounds (half of them: a few ulp of rounding can not cross
-    them) takes Shepperd's method directly, operation by operation as SciPy does it; any other is
-    left to SciPy."""
-    (a, b, c), (d, e, f), (g, h, i) = np.asarray(m, dtype=np.float64)[:3, :3].tolist()
-    rows = ((a, b, c), (d, e, f), (g, h, i))
-    for r in range(3):
-        for s in range(r, 3):
-            dot = rows[r][0] * rows[s][0] + rows[r][1] * rows[s][1] + rows[r][2] * rows[s][2]
-            if not abs(dot - (1.0 if r == s else 0.0)) < (5e-6 if r == s else 5e-13):
-                return _quat_of_public(m)
-    if not a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g) > 0.5:
-        return _quat_of_public(m)
-    trace = a + e + i
-    decision = (a, e, i, trace)
-    choice = max(range(4), key=decision.__getitem__)  # the first of equal ones, as argmax
-    mat = ((a, b, c), (d, e, f), (g, h, i))
-    q = [0.0, 0.0, 0.0, 0.0]
-    if choice != 3:
-        ii = choice
-        jj = (ii + 1) % 3
-        kk = (jj + 1) % 3
-        q[ii] = 1 - trace + 2 * mat[ii][ii]
-        q[jj] = mat[jj][ii] + mat[ii][jj]
-        q[kk] = mat[kk][ii] + mat[ii][kk]
-        q[3] = mat[kk][jj] - mat[jj][kk]
-    else:
-        q[0] = h - f
-        q[1] = c - g
-        q[2] = d - b
-        q[3] = 1 + trace
-    return _unit(q)
+
+def _scipy_quat(m: Matrix) -> tuple[float, float, float, float]:
+    x, y, z, w = (float(v) for v in Rotation.from_matrix(np.asarray(m)[:3, :3]).as_quat())
+    return (x, y, z, w)
 
 
 #: the reference implementations (for tests)
-REFERENCE: dict[str, Callable[..., Any]] = {"matrix_of": from_pos_quat, "quat_of": _quat_of_public}
+REFERENCE: dict[str, Callable[..., Any]] = {"matrix_of": from_pos_quat, "quat_of": _scipy_quat}
