@@ -16,6 +16,7 @@ import numpy as np
 import numpy.typing as npt
 
 from kbplanner.core.errors import KbplannerError
+from kbplanner.simulation import cell_store
 from kbplanner.simulation.nav_path import Pose2D
 from kbplanner.world.cspace_cache import configuration_space
 from kbplanner.world.footprint import ConfigurationSpace, Footprint
@@ -130,21 +131,34 @@ def _free_any(cs: ConfigurationSpace) -> npt.NDArray[np.bool_]:
 def _cells(cs: ConfigurationSpace, s: tuple[int, int], t: tuple[int, int]) -> list[tuple[int, int]] | None:
     """:func:`_dijkstra_cells` over :func:`_free_any` of ``cs``, the graph and each (s, t)'s path kept on
     the space: the leg's planner (the carry cell route, :mod:`kbplanner.simulation.corridor_cells`) and
-    its yardstick search the same cells."""
+    its yardstick search the same cells; and on disk, where a folder is given
+    (:mod:`kbplanner.simulation.cell_store`: a path an earlier run searched over the same map is read)."""
     memo = cs.path_memo
     key = ("cells", s, t)
     if key in memo:
         got: list[tuple[int, int]] | None = memo[key]
         return None if got is None else list(got)
+    free = _free_any(cs)
+    store_key = None
+    if cell_store.active():  # a path an earlier run searched over the same map
+        store_key = memo.get("store_key")
+        if store_key is None:
+            store_key = memo["store_key"] = cell_store.key(free)
+        kept, cells = cell_store.lookup(free, s, t, store_key)
+        if kept:
+            memo[key] = cells
+            return None if cells is None else list(cells)
     graph_of = memo.get("graph")
     if graph_of is None:
-        graph_of = _graph(_free_any(cs))
+        graph_of = _graph(free)
         index, graph = graph_of
         memo["graph"] = graph_of
         memo["bytes"] = memo.get("bytes", 0) + int(index.nbytes + graph.data.nbytes + graph.indices.nbytes
                                                    + graph.indptr.nbytes)
     got = _dijkstra_cells(_free_any(cs), s, t, graph_of)
     memo[key] = None if got is None else tuple(got)
+    if store_key is not None:
+        cell_store.keep(free, s, t, memo[key], store_key)
     return None if got is None else list(got)
 
 
