@@ -1,5 +1,5 @@
 """The grid shortest cell paths kept on disk (B5, simulation/cell_store.py): read back, the very cells a
-search gives, with no search; the yardstick's length the same; a damaged file is ignored; nothing is kept
+search gives, with no search; the yardstick's lengths the very numbers, not worked out again; a damaged file is ignored; nothing is kept
 without a folder."""
 
 from __future__ import annotations
@@ -46,6 +46,7 @@ def test_a_second_run_reads_the_same_cells_without_searching(tmp_path: Path,
         raise AssertionError("a kept path was searched again")
 
     monkeypatch.setattr(grid_yardstick, "_dijkstra_cells", no_search)
+    monkeypatch.setattr(grid_yardstick, "_farthest_visible", no_search)  # the lengths read too
     with cspace_store.kept_in(folder):
         again = _search(_space())
     assert cell_store.counts["read"] >= 1

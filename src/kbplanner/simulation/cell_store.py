@@ -13,9 +13,11 @@ or scenario) reads them instead of building the graph and searching.
   ``KBPLANNER_NO_CACHE=1``: neither read nor written).
 - Key: SHA-256 of the format, the versions of NumPy and SciPy (the search), the source of the search and
   this module (:data:`_CODE`), the map's shape and its free cells.
-- Value: ``KEY.npz`` (no pickle): per search its end cells and the path's cells (none: no path); read
-  back the paths are the very cells a search gives (``tests/test_cell_store.py``), so every output of a
-  run is byte-identical with or without them.
+- Value: ``KEY.npz`` (no pickle): per search its end cells and the path's cells (none: no path), and the
+  yardstick's lengths (:func:`~kbplanner.simulation.grid_yardstick.grid_shortest_path_length`: the path
+  shortened by line of sight) per start, goal and the grid's origin and resolution; read back the paths
+  are the very cells a search gives and the lengths the very numbers (``tests/test_cell_store.py``), so
+  every output of a run is byte-identical with or without them.
 - A file that cannot be read is ignored (searched again); one that cannot be written is logged, never an
   error (written atomically). The newest :data:`KEEP` files are kept.
 """
@@ -46,8 +48,10 @@ Cells = tuple[tuple[int, int], ...] | None
 
 _code_memo: list[bytes] = []
 counts = {"read": 0, "written": 0}
-# per folder and map key: the paths read or searched, and whether some were searched (to be written)
-_known: dict[tuple[Path, str], tuple[dict[Ends, Cells], list[bool]]] = {}
+LengthKey = tuple[float, float, float, float, float, float, float]  # start, goal, origin x y, resolution
+# per folder and map key: the paths read or searched, whether some were searched (to be written), the
+# yardstick's lengths (per start, goal and the grid's origin and resolution)
+_known: dict[tuple[Path, str], tuple[dict[Ends, Cells], list[bool], dict[LengthKey, float]]] = {}
 
 
 def _code_digest() -> bytes:
@@ -67,7 +71,8 @@ def key(free: npt.NDArray[np.bool_]) -> str:
     return h.hexdigest()
 
 
-def _paths(free: npt.NDArray[np.bool_], map_key: str | None) -> tuple[dict[Ends, Cells], list[bool]] | None:
+def _paths(free: npt.NDArray[np.bool_], map_key: str | None
+           ) -> tuple[dict[Ends, Cells], list[bool], dict[LengthKey, float]] | None:
     """The kept paths of this map (read from the folder the first time), or None without a folder."""
     where = cspace_store.folder()
     if where is None:
@@ -77,28 +82,32 @@ def _paths(free: npt.NDArray[np.bool_], map_key: str | None) -> tuple[dict[Ends,
     got = _known.get(k)
     if got is None:
         if len(_known) >= 1024:  # (a long process: those written forgotten)
-            for old in [o for o, (_, new) in _known.items() if not new[0]]:
+            for old in [o for o, (_, new, _) in _known.items() if not new[0]]:
                 del _known[old]
-        got = (_read(folder / f"{k[1]}.npz"), [False])
+        paths, lengths = _read(folder / f"{k[1]}.npz")
+        got = (paths, [False], lengths)
         _known[k] = got
     return got
 
 
-def _read(path: Path) -> dict[Ends, Cells]:
+def _read(path: Path) -> tuple[dict[Ends, Cells], dict[LengthKey, float]]:
     try:
         with np.load(path, allow_pickle=False) as data:
             ends = np.asarray(data["ends"], dtype=np.int64)
             starts = np.asarray(data["starts"], dtype=np.int64)
             cells = np.asarray(data["cells"], dtype=np.int64)
+            length_keys = np.asarray(data["length_keys"], dtype=np.float64)
+            lengths = np.asarray(data["lengths"], dtype=np.float64)
     except FileNotFoundError:
-        return {}
+        return {}, {}
     except (OSError, ValueError, KeyError, EOFError) as exc:  # a damaged file: searched again and replaced
         log.warning("ignoring the kept cell paths %s: %s", path.name, exc)
-        return {}
+        return {}, {}
     if ends.ndim != 2 or ends.shape[1] != 4 or starts.shape != (len(ends) + 1,) or cells.ndim != 2 \
-            or cells.shape[1] != 2 or int(starts[-1]) != len(cells) or int(starts[0]) != 0:
+            or cells.shape[1] != 2 or int(starts[-1]) != len(cells) or int(starts[0]) != 0 \
+            or length_keys.ndim != 2 or length_keys.shape[1] != 7 or lengths.shape != (len(length_keys),):
         log.warning("ignoring the kept cell paths %s: not a set of paths", path.name)
-        return {}
+        return {}, {}
     out: dict[Ends, Cells] = {}
     flat = cells.tolist()
     bounds = starts.tolist()
@@ -106,7 +115,7 @@ def _read(path: Path) -> dict[Ends, Cells]:
         a, b = bounds[n], bounds[n + 1]
         out[((sy, sx), (ty, tx))] = tuple((y, x) for y, x in flat[a:b]) if b > a else None
     counts["read"] += 1
-    return out
+    return out, {tuple(k): v for k, v in zip(length_keys.tolist(), lengths.tolist(), strict=True)}
 
 
 def active() -> bool:
@@ -133,6 +142,21 @@ def keep(free: npt.NDArray[np.bool_], s: tuple[int, int], t: tuple[int, int], ce
         got[1][0] = True
 
 
+def lookup_length(free: npt.NDArray[np.bool_], map_key: str, ends: LengthKey) -> float | None:
+    """The kept yardstick length over ``free`` between the ends (start x, y, goal x, y, the grid's origin
+    x, y and resolution), or None."""
+    got = _paths(free, map_key)
+    return None if got is None else got[2].get(ends)
+
+
+def keep_length(free: npt.NDArray[np.bool_], map_key: str, ends: LengthKey, length: float) -> None:
+    """Note a yardstick length, written by :func:`flush` (when a folder is given)."""
+    got = _paths(free, map_key)
+    if got is not None and ends not in got[2]:
+        got[2][ends] = length
+        got[1][0] = True
+
+
 def flush() -> None:
     """Write the maps of the folder given now that got new paths (a whole file per map)."""
     where = cspace_store.folder()
@@ -140,7 +164,7 @@ def flush() -> None:
         return
     folder = where.parent / SUBDIR
     wrote = False
-    for (f, k), (paths, new) in _known.items():
+    for (f, k), (paths, new, lengths) in _known.items():
         if f != folder or not new[0]:
             continue
         ends = sorted(paths)
@@ -149,7 +173,10 @@ def flush() -> None:
         cells = np.array([c for seq in seqs for c in seq], dtype=np.int64).reshape(-1, 2)
         buf = io.BytesIO()
         pairs = np.array([[*s, *t] for s, t in ends], dtype=np.int64).reshape(-1, 4)
-        np.savez(buf, ends=pairs, starts=starts, cells=cells)
+        length_keys = sorted(lengths)
+        np.savez(buf, ends=pairs, starts=starts, cells=cells,
+                 length_keys=np.array(length_keys, dtype=np.float64).reshape(-1, 7),
+                 lengths=np.array([lengths[k] for k in length_keys], dtype=np.float64))
         try:
             atomic_write_bytes(folder / f"{k}.npz", buf.getvalue())
         except OSError as exc:

@@ -139,11 +139,8 @@ def _cells(cs: ConfigurationSpace, s: tuple[int, int], t: tuple[int, int]) -> li
         got: list[tuple[int, int]] | None = memo[key]
         return None if got is None else list(got)
     free = _free_any(cs)
-    store_key = None
-    if cell_store.active():  # a path an earlier run searched over the same map
-        store_key = memo.get("store_key")
-        if store_key is None:
-            store_key = memo["store_key"] = cell_store.key(free)
+    store_key = _store_key(cs, free)
+    if store_key is not None:  # a path an earlier run searched over the same map
         kept, cells = cell_store.lookup(free, s, t, store_key)
         if kept:
             memo[key] = cells
@@ -162,6 +159,17 @@ def _cells(cs: ConfigurationSpace, s: tuple[int, int], t: tuple[int, int]) -> li
     return None if got is None else list(got)
 
 
+def _store_key(cs: ConfigurationSpace, free: npt.NDArray[np.bool_]) -> str | None:
+    """:func:`kbplanner.simulation.cell_store.key` of the space's ``free`` (kept on it), None when no
+    folder is given."""
+    if not cell_store.active():
+        return None
+    got: str | None = cs.path_memo.get("store_key")
+    if got is None:
+        got = cs.path_memo["store_key"] = cell_store.key(free)
+    return got
+
+
 # the lengths found in a configuration space (the skills ask again for the leg they planned)
 _Ends = tuple[tuple[float, ...], tuple[float, ...]]
 _LENGTHS: weakref.WeakKeyDictionary[ConfigurationSpace, dict[_Ends, float]] = weakref.WeakKeyDictionary()
@@ -177,7 +185,25 @@ def _shortest_length(cs: ConfigurationSpace, start: Pose2D | tuple[float, float]
         return math.inf
     if not (free[sy, sx] and free[gy, gx]):
         return math.inf
-    cells = _cells(cs, (sy, sx), (gy, gx))
+    store_key = _store_key(cs, free)
+    ends = (float(start[0]), float(start[1]), float(goal[0]), float(goal[1]), float(g.origin[0]),
+            float(g.origin[1]), float(g.resolution))
+    if store_key is not None:  # the length an earlier run found (the same map, ends and grid)
+        kept = cell_store.lookup_length(free, store_key, ends)
+        if kept is not None:
+            return kept
+    length = _line_of_sight_length(cs, free, (sy, sx), (gy, gx), start, goal)
+    if store_key is not None:
+        cell_store.keep_length(free, store_key, ends, length)
+    return length
+
+
+def _line_of_sight_length(cs: ConfigurationSpace, free: npt.NDArray[np.bool_], s: tuple[int, int],
+                          t: tuple[int, int], start: Pose2D | tuple[float, float],
+                          goal: Pose2D | tuple[float, float]) -> float:
+    """The grid shortest path from cell ``s`` to ``t`` shortened by line of sight (inf: none)."""
+    g = cs.grid
+    cells = _cells(cs, s, t)
     if cells is None:
         return math.inf
     pts = [(float(start[0]), float(start[1]))]
