@@ -1,6 +1,6 @@
 """The grid shortest cell paths kept on disk (B5, simulation/cell_store.py): read back, the very cells a
-search gives, with no search; the yardstick's lengths the very numbers, not worked out again; a damaged file is ignored; nothing is kept
-without a folder."""
+search gives, with no search; the yardstick's lengths the very numbers, not worked out again; the carry
+legs' corridor routes the very poses; a damaged file is ignored; nothing is kept without a folder."""
 
 from __future__ import annotations
 
@@ -80,3 +80,31 @@ def test_no_path_and_a_damaged_file(tmp_path: Path) -> None:
         cell_store._known.clear()
         assert cell_store.lookup(free, s, t) == (False, None)
     assert not cell_store.active() and cell_store.lookup(free, s, t) == (False, None)
+
+
+def test_corridor_routes_read_back_without_searching(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from kbplanner.simulation import corridor_cells as cc
+
+    queries = [((0.6, 0.6, 0.0), (4.2, 2.6, 1.5)), ((4.2, 2.6, 0.3), (0.4, 3.1, -2.0)),
+               ((0.6, 0.6, 0.0), (4.2, 2.6, 1.5), 0.2)]
+
+    def routes() -> list[object]:
+        cs = _space()
+        return [cc.corridor_cells(cs, q[0], q[1], *q[2:]) for q in queries]  # type: ignore[arg-type]
+
+    searched = routes()  # no folder
+    assert searched[0] is not None and len(searched[0]) > 10
+    folder = tmp_path / "cspace"
+    with cspace_store.kept_in(folder):
+        first = routes()
+        cell_store.flush()
+    assert len(list((tmp_path / cell_store.SUBDIR).glob("corridor-*.npz"))) == 1
+    cell_store._corridors.clear()  # a new process
+
+    def no_search(*_a: object) -> None:
+        raise AssertionError("a kept route was searched again")
+
+    monkeypatch.setattr(cc, "bfs_cells", no_search)
+    with cspace_store.kept_in(folder):
+        again = routes()
+    assert first == searched and again == searched  # the same poses, float for float
