@@ -11,7 +11,11 @@ real-time factor, each piece's calls and CPU seconds, and the loop's CPU per per
 run's ``trajectories.csv``, ``events.jsonl`` and ``metrics.json`` are byte-identical between the trees.
 The timers cost both trees alike (a microsecond or so per call).
 
-Usage: .venv/bin/python benchmarks/bench_tick.py [--before REF] [--scenario S ...] [--seed N]
+``--warm``: each tree runs once before the measured run, so that both read what their project caches keep
+(the baseline's tree is exported to a temporary folder, its caches empty: without it the baseline builds
+its configuration spaces in the measured run).
+
+Usage: .venv/bin/python benchmarks/bench_tick.py [--before REF] [--scenario S ...] [--seed N] [--warm]
 Prints a table and writes benchmarks/results/tick.json (or --out).
 """
 
@@ -108,6 +112,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scenario", action="append", help="scenario(s) (default: both storage scenarios)")
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--out", type=Path, default=RESULTS_DIR / "tick.json")
+    ap.add_argument("--warm", action="store_true",
+                    help="run each tree once first (outputs dropped): both measured runs then read what "
+                         "their project caches keep (configuration spaces, cell paths, walking routes), as "
+                         "a second command does")
     args = ap.parse_args(argv)
     scenarios = args.scenario or ["storage-outside", "storage-inside"]
     load_before = list(os.getloadavg())
@@ -116,6 +124,9 @@ def main(argv: list[str] | None = None) -> int:
         tmp = Path(tmp_name)
         before_src = _export(args.before, tmp / "before")
         for s in scenarios:
+            if args.warm:
+                for label, src in (("before", before_src), ("after", REPO / "src")):
+                    _run(src, s, args.seed, tmp / f"{s}-{label}-warm")
             runs = {label: _run(src, s, args.seed, tmp / f"{s}-{label}")
                     for label, src in (("before", before_src), ("after", REPO / "src"))}
             same = all((tmp / f"{s}-before" / f).read_bytes() == (tmp / f"{s}-after" / f).read_bytes()
@@ -126,7 +137,7 @@ def main(argv: list[str] | None = None) -> int:
                                                   for r in (b, a)],
                          "speedup_loop_cpu": round(b["loop_cpu_s"] / a["loop_cpu_s"], 2),
                          "speedup_step_cpu": round(b["step_cpu_s"] / a["step_cpu_s"], 2)})
-    out = {"machine": machine_info(("python", "cpus", "platform")), "before": args.before,
+    out = {"machine": machine_info(("python", "cpus", "platform")), "before": args.before, "warm": args.warm,
            "load_average_start": load_before, "load_average_end": list(os.getloadavg()), "scenarios": rows}
     write_json(args.out, out)
     w = sys.stdout.write
@@ -141,6 +152,7 @@ def main(argv: list[str] | None = None) -> int:
         for k in b["pieces"]:
             (nb, cb), (na, ca) = b["pieces"][k], a["pieces"][k]
             w(f"    {k:22} {cb:7.2f} / {ca:7.2f} s  ({nb} / {na} calls)\n")
+    w("warm (each tree ran once first); " if args.warm else "")
     w(f"load average {load_before[0]:.2f} -> {out['load_average_end'][0]:.2f}; wrote {args.out}\n")
     return 0
 

@@ -8,13 +8,16 @@ free (x, y, yaw bin) cells within ``radius_m`` of it, and searches those breadth
 cells (:func:`kbplanner.simulation.cell_path.bfs_cells`): a fraction of the volume the whole window's
 search visits. Every cell it returns is free, so the path is as certain as the whole window's; where
 the corridor holds none (the load must swing out further to turn), None, and the caller searches the
-whole window. Used by :func:`kbplanner.simulation.carry_paths.cells_first`.
+whole window. Used by :func:`kbplanner.simulation.carry_paths.cells_first`. A route an earlier run
+searched over the same configuration space is read instead (:mod:`kbplanner.simulation.cell_store`).
 """
 
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 
+from kbplanner.simulation import cell_store
 from kbplanner.simulation.cell_path import bfs_cells
 from kbplanner.simulation.grid_yardstick import shortest_cells
 from kbplanner.simulation.nav_path import Pose2D, wrap
@@ -27,8 +30,6 @@ def corridor_cells(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D,
                    radius_m: float = CORRIDOR_RADIUS_M) -> list[Pose2D] | None:
     """Cell centres (yaw at the bin centre) of a path through face-adjacent free cells within
     ``radius_m`` of the grid's shortest path from start to goal, or None (no such path, or none there)."""
-    from scipy import ndimage
-
     g = cs.grid
     ny, nx = g.shape
     ends = []
@@ -39,6 +40,36 @@ def corridor_cells(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D,
         ends.append((cs.yaw_bin(p[2]), iy, ix))
     if not (cs.free[ends[0]] and cs.free[ends[1]]):
         return None
+    space = None
+    if cell_store.active():  # the route an earlier run searched over the same space (cell_store)
+        memo_key = ("space_key", float(g.resolution))
+        space = cs.path_memo.get(memo_key)
+        if space is None:
+            space = cs.path_memo[memo_key] = cell_store.space_key(cs.free, g.resolution)
+        route_of = (*ends[0], *ends[1], float(radius_m))
+        kept, route = cell_store.lookup_route(space, route_of)
+        if kept:
+            return None if route is None else _centres(cs, np.array(route, dtype=np.int64).reshape(-1, 3))
+    cell = _route(cs, start, goal, ends, radius_m)
+    if space is not None:
+        cell_store.keep_route(space, route_of, None if cell is None else tuple(map(tuple, cell.tolist())))
+    return None if cell is None else _centres(cs, cell)
+
+
+def _centres(cs: ConfigurationSpace, cell: npt.NDArray[np.int64]) -> list[Pose2D]:
+    """The centres of cells (bin, y, x) as poses (yaw at the bin centre)."""
+    g = cs.grid
+    res, (ox, oy), w = g.resolution, g.origin, cs.bin_width
+    return [(ox + (float(x) + 0.5) * res, oy + (float(y) + 0.5) * res, wrap(float(b) * w))
+            for b, y, x in cell.tolist()]
+
+
+def _route(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, ends: list[tuple[int, int, int]],
+           radius_m: float) -> npt.NDArray[np.int64] | None:
+    """The cells (bin, y, x) of :func:`corridor_cells`' path (its ends' cells free), or None."""
+    from scipy import ndimage
+
+    g = cs.grid
     path = shortest_cells(cs, start, goal)
     if path is None:
         return None
@@ -58,6 +89,4 @@ def corridor_cells(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D,
     cell = np.asarray(np.unravel_index(np.asarray(nodes, dtype=np.int64), box.shape), dtype=np.int64).T
     cell[:, 1] += y0
     cell[:, 2] += x0
-    res, (ox, oy), w = g.resolution, g.origin, cs.bin_width
-    return [(ox + (float(x) + 0.5) * res, oy + (float(y) + 0.5) * res, wrap(float(b) * w))
-            for b, y, x in cell.tolist()]
+    return cell

@@ -461,6 +461,7 @@ def simulate(
         KbplannerError: no robot in the plan, no [simulation] date for the world, a robot whose URDF
             cannot be loaded.
     """
+    from kbplanner.simulation import cell_store, walk_store
     from kbplanner.simulation.floors import walk_grid
     from kbplanner.simulation.workers import WorkerSpec, load_workers, plan_workers
     from kbplanner.world import cspace_store
@@ -491,7 +492,12 @@ def simulate(
         run = _Run(env, plan, settings, seed, progress)
         # configuration spaces of earlier commands, beside the project cache (none with --no-cache)
         with cspace_store.kept_in(cspace_store.folder_for(project.cache_entry)):
+            if env.crowd is not None:  # the workers' route legs of an earlier run on this walking map
+                walk_store.read_into(env.crowd.router)
             elements = run.run()
+            if env.crowd is not None:
+                walk_store.write_from(env.crowd.router)
+            cell_store.flush()  # the cell paths searched in this run, for the next
         sim_time = env.t
         robot_fp = env.robot.spec.footprint()
         floor_z, ground_z = env.robot_floor_z, float(env.world.ground_z)

@@ -16,6 +16,7 @@ import numpy as np
 import numpy.typing as npt
 
 from kbplanner.core.errors import KbplannerError
+from kbplanner.simulation import cell_store
 from kbplanner.simulation.nav_path import Pose2D
 from kbplanner.world.cspace_cache import configuration_space
 from kbplanner.world.footprint import ConfigurationSpace, Footprint
@@ -130,22 +131,43 @@ def _free_any(cs: ConfigurationSpace) -> npt.NDArray[np.bool_]:
 def _cells(cs: ConfigurationSpace, s: tuple[int, int], t: tuple[int, int]) -> list[tuple[int, int]] | None:
     """:func:`_dijkstra_cells` over :func:`_free_any` of ``cs``, the graph and each (s, t)'s path kept on
     the space: the leg's planner (the carry cell route, :mod:`kbplanner.simulation.corridor_cells`) and
-    its yardstick search the same cells."""
+    its yardstick search the same cells; and on disk, where a folder is given
+    (:mod:`kbplanner.simulation.cell_store`: a path an earlier run searched over the same map is read)."""
     memo = cs.path_memo
     key = ("cells", s, t)
     if key in memo:
         got: list[tuple[int, int]] | None = memo[key]
         return None if got is None else list(got)
+    free = _free_any(cs)
+    store_key = _store_key(cs, free)
+    if store_key is not None:  # a path an earlier run searched over the same map
+        kept, cells = cell_store.lookup(free, s, t, store_key)
+        if kept:
+            memo[key] = cells
+            return None if cells is None else list(cells)
     graph_of = memo.get("graph")
     if graph_of is None:
-        graph_of = _graph(_free_any(cs))
+        graph_of = _graph(free)
         index, graph = graph_of
         memo["graph"] = graph_of
         memo["bytes"] = memo.get("bytes", 0) + int(index.nbytes + graph.data.nbytes + graph.indices.nbytes
                                                    + graph.indptr.nbytes)
     got = _dijkstra_cells(_free_any(cs), s, t, graph_of)
     memo[key] = None if got is None else tuple(got)
+    if store_key is not None:
+        cell_store.keep(free, s, t, memo[key], store_key)
     return None if got is None else list(got)
+
+
+def _store_key(cs: ConfigurationSpace, free: npt.NDArray[np.bool_]) -> str | None:
+    """:func:`kbplanner.simulation.cell_store.key` of the space's ``free`` (kept on it), None when no
+    folder is given."""
+    if not cell_store.active():
+        return None
+    got: str | None = cs.path_memo.get("store_key")
+    if got is None:
+        got = cs.path_memo["store_key"] = cell_store.key(free)
+    return got
 
 
 # the lengths found in a configuration space (the skills ask again for the leg they planned)
@@ -163,7 +185,25 @@ def _shortest_length(cs: ConfigurationSpace, start: Pose2D | tuple[float, float]
         return math.inf
     if not (free[sy, sx] and free[gy, gx]):
         return math.inf
-    cells = _cells(cs, (sy, sx), (gy, gx))
+    store_key = _store_key(cs, free)
+    ends = (float(start[0]), float(start[1]), float(goal[0]), float(goal[1]), float(g.origin[0]),
+            float(g.origin[1]), float(g.resolution))
+    if store_key is not None:  # the length an earlier run found (the same map, ends and grid)
+        kept = cell_store.lookup_length(free, store_key, ends)
+        if kept is not None:
+            return kept
+    length = _line_of_sight_length(cs, free, (sy, sx), (gy, gx), start, goal)
+    if store_key is not None:
+        cell_store.keep_length(free, store_key, ends, length)
+    return length
+
+
+def _line_of_sight_length(cs: ConfigurationSpace, free: npt.NDArray[np.bool_], s: tuple[int, int],
+                          t: tuple[int, int], start: Pose2D | tuple[float, float],
+                          goal: Pose2D | tuple[float, float]) -> float:
+    """The grid shortest path from cell ``s`` to ``t`` shortened by line of sight (inf: none)."""
+    g = cs.grid
+    cells = _cells(cs, s, t)
     if cells is None:
         return math.inf
     pts = [(float(start[0]), float(start[1]))]

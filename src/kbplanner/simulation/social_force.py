@@ -56,6 +56,7 @@ from kbplanner.simulation.separation import (
     points_rects_offsets,
     rects_distance,
 )
+from kbplanner.simulation.social_force_few import Frame, accelerations_few, same_people_terms
 from kbplanner.world.footprint import Rect
 
 FloatArray = npt.NDArray[np.float64]
@@ -177,7 +178,7 @@ def _accelerations_few(pos: FloatArray, vel: FloatArray, desired: FloatArray, k:
     return acc if all(on) else np.where(active[:, None], acc, 0.0)
 
 
-_Frame = tuple[float, float, float, float, list[tuple[float, float, float, float, float, float]]]
+_Frame = Frame
 _FRAME: list[tuple[object, object, _Frame]] = []
 
 
@@ -205,115 +206,22 @@ def accelerations_of(xs: list[float], ys: list[float], vxs: list[float], vys: li
     exponentials), and the row sums added up in order from 0.0 (numpy's sum of a row of fewer than
     eight numbers), so the results are bit-identical.
 
-    (Written out for fewer than eight workers - the footprint distances of
-    :func:`~kbplanner.simulation.separation.points_rects_distance` inline, the robot's frame kept while
-    it stands -, :func:`_accelerations_of_any` otherwise.)"""
+    (Fewer than eight workers: :func:`kbplanner.simulation.social_force_few.accelerations_few`, the robot's
+    frame kept while it stands; :func:`_accelerations_of_any` otherwise.)"""
     n = len(xs)
     if n >= 8:
         return _accelerations_of_any(xs, ys, vxs, vys, des, k, seen, on)
     c = _lists(k)
-    tau = c["tau"]
-    ax = [(des[i][0] - vxs[i]) / tau[i] for i in range(n)]
-    ay = [(des[i][1] - vys[i]) / tau[i] for i in range(n)]
-    exs: list[float] = []
-    eys: list[float] = []
-    if seen is not None:  # the offsets of each worker from each rectangle (rectangle frame)
-        x0, y0, cy, sy, consts = _frame(seen)
-        for i in range(n):
-            dx, dy = xs[i] - x0, ys[i] - y0
-            lx, ly = cy * dx + sy * dy, -sy * dx + cy * dy
-            for rcx, rcy, cr, sr, hl, hw in consts:
-                qx, qy = lx - rcx, ly - rcy
-                ux, uy = cr * qx + sr * qy, -sr * qx + cr * qy
-                # ((u > 0) - (u < 0)) * max(abs(u) - half, 0.0), zeros signed as that product signs them
-                e = abs(ux) - hl
-                exs.append((e if ux > 0 else -e) if e > 0 else (-0.0 if ux < 0 else 0.0))
-                e = abs(uy) - hw
-                eys.append((e if uy > 0 else -e) if e > 0 else (-0.0 if uy < 0 else 0.0))
-    m0 = len(exs)
-    if n > 1:
-        h = _hypot(np.array(exs + [xi - xj for xi in xs for xj in xs] + vxs, dtype=np.float64),
-                   np.array(eys + [yi - yj for yi in ys for yj in ys] + vys, dtype=np.float64)).tolist()
-    elif m0:
-        h = _hypot(np.array(exs, dtype=np.float64), np.array(eys, dtype=np.float64)).tolist()
-    else:
-        h = []
-    inf = math.inf
-    expo: list[float] = []
-    if n > 1:
-        s_p, neg_s_p, neg_b_p = c["s_p"], c["neg_s_p"], c["neg_b_p"]
-        two_r = 2 * WORKER_RADIUS_M
-        for i in range(n):
-            si, ni, bi = s_p[i], neg_s_p[i], neg_b_p[i]
-            base = m0 + i * n
-            for j in range(n):
-                # the diagonal: inf (fill_diagonal), max(inf, ..) / -b = -inf
-                expo.append(max((h[base + j] if j != i else inf) - two_r - si, ni) / bi)
-    near: list[tuple[float, float, float]] = []
-    if seen is not None:  # the nearest rectangle of each worker: distance, direction away from it
-        k0 = 0
-        for _ in range(n):
-            best, bx, by = inf, 0.0, 0.0
-            for _rcx, _rcy, cr, sr, _hl, _hw in consts:
-                d = h[k0]
-                if d < best:
-                    ex, ey = exs[k0], eys[k0]
-                    best = d
-                    bx, by = cr * ex - sr * ey, sr * ex + cr * ey
-                k0 += 1
-            if not best > 0:
-                near.append((best, 0.0, 0.0))
-            else:
-                near.append((best, (cy * bx - sy * by) / best, (sy * bx + cy * by) / best))
-        s_c, neg_s_c, neg_b_r = c["s_c"], c["neg_s_c"], c["neg_b_r"]
-        expo += [max(near[i][0] - WORKER_RADIUS_M - s_c[i], neg_s_c[i]) / neg_b_r[i] for i in range(n)]
-    e_all = np.exp(np.array(expo, dtype=np.float64)).tolist() if expo else []
-    if n > 1:
-        lam, oml, a_over_b_p = c["lam"], c["one_minus_lam"], c["a_over_b_p"]
-        sums_x: list[float] = []
-        sums_y: list[float] = []
-        for i in range(n):
-            xi, yi, vx, vy = xs[i], ys[i], vxs[i], vys[i]
-            spi = h[m0 + n * n + i]
-            moving, m = spi > 1e-9, max(spi, 1e-9)
-            li, oi, ai = lam[i], oml[i], a_over_b_p[i]
-            base = i * n
-            tx = ty = 0.0  # numpy's row sum: from 0.0, one after the other
-            for j in range(n):
-                if j == i:  # oneself: at an infinite distance, no force (0.0 * 0.0, as the former code)
-                    tx += 0.0
-                    ty += 0.0
-                    continue
-                dij = h[m0 + base + j]
-                norm = dij if dij > 0 else 1.0
-                nx, ny = (xi - xs[j]) / norm, (yi - ys[j]) / norm
-                mag = ai * e_all[base + j] if dij < inf and on[j] else 0.0  # (a distance is never -inf)
-                cos_phi = -(nx * vx + ny * vy) / m if moving else 1.0
-                mw = mag * (li + oi * (1 + cos_phi) / 2)
-                tx += mw * nx
-                ty += mw * ny
-            sums_x.append(tx)
-            sums_y.append(ty)
-        ax = [ax[i] + sums_x[i] for i in range(n)]
-        ay = [ay[i] + sums_y[i] for i in range(n)]
-    if seen is not None:
-        px, py = seen.pose[0], seen.pose[1]
-        a_over_b_r = c["a_over_b_r"]
-        off = n * n if n > 1 else 0
-        for i in range(n):
-            _, ux, uy = near[i]
-            if ux == 0 and uy == 0:  # inside the footprint: away from the robot's centre
-                cx, cy_ = xs[i] - px, ys[i] - py
-                cn = max(float(_hypot(cx, cy_)), 1e-9)
-                ux, uy = cx / cn, cy_ / cn
-            mag = a_over_b_r[i] * e_all[off + i]
-            if -(ux * vxs[i] + uy * vys[i]) > 0:
-                ax[i] += mag * (_COS_R * ux - _SIN_R * uy)
-                ay[i] += mag * (_SIN_R * ux + _COS_R * uy)
-            else:
-                ax[i] += mag * ux
-                ay[i] += mag * uy
-    return ax, ay
+    hit = _SYMMETRIC.get(id(c))
+    if hit is None or hit[0] is not c:
+        hit = (c, same_people_terms(c))
+        _SYMMETRIC[id(c)] = hit
+    if seen is None:
+        return accelerations_few(xs, ys, vxs, vys, des, c, hit[1], None, None, on)
+    return accelerations_few(xs, ys, vxs, vys, des, c, hit[1], _frame(seen), seen.pose, on)
+
+
+_SYMMETRIC: dict[int, tuple[dict[str, list[float]], bool]] = {}  # per constants' lists: same_people_terms
 
 
 def _accelerations_of_any(xs: list[float], ys: list[float], vxs: list[float], vys: list[float],

@@ -165,6 +165,7 @@ class _Router:
                 self.grid = OccupancyGrid(~free, origin=grid.origin, resolution=grid.resolution * k)
             self.free = free
         self._memo: dict[tuple[tuple[int, int], tuple[int, int]], np.ndarray] = {}
+        self.kept_legs: frozenset[tuple[tuple[int, int], tuple[int, int]]] = frozenset()  # read or kept
         self._csgraph: tuple[Any, np.ndarray] | None = None
         self._pred: dict[int, np.ndarray] = {}
         self._nearest: np.ndarray | None = None

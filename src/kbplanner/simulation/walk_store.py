@@ -1,0 +1,123 @@
+"""B5 reactive workers, walking routes kept on disk: the router's paths by a content hash of the walking map.
+
+The reactive workers' router (:class:`kbplanner.simulation.workers._Router`) finds each route leg on the
+walking map with a Dijkstra search over every free cell (the case study's 520 x 420 cells: the graph
+built once, about 70 ms, then some 45 ms per start cell, four starts in a run: a quarter of a second of
+the simulation step's CPU). The legs depend on the map and the two cells only, so a run keeps them in a
+folder and the next run on the same map (``kbplanner simulate`` again, another scenario or seed) reads
+them instead; a leg not kept (a new start or goal cell) is searched as before and kept at the end.
+
+- Where: ``walks/`` beside the configuration spaces' folder (:func:`kbplanner.world.cspace_store.folder`,
+  given by the executor around the run), so on, off and placed as those are (``kbplanner --no-cache``,
+  ``KBPLANNER_NO_CACHE=1``: neither read nor written).
+- Key: SHA-256 of the format, the versions of NumPy and SciPy (the search), the source of the router and
+  this module (:data:`_CODE`), the walking map's shape, origin and resolution and its free cells.
+- Value: ``KEY.npz`` (no pickle): per leg the start and goal cells and the simplified polyline; read back
+  the polylines are the very arrays a search gives (``tests/test_walk_store.py``), so every output of a
+  run is byte-identical with or without them.
+- A file that cannot be read is ignored (the legs searched again); one that cannot be written is logged,
+  never an error (written atomically). The newest :data:`KEEP` files are kept.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import logging
+from pathlib import Path
+
+import numpy as np
+
+from kbplanner.core.kept_folder import code_digest
+from kbplanner.core.outputs import atomic_write_bytes
+from kbplanner.simulation.workers import _Router
+from kbplanner.world import cspace_store
+
+log = logging.getLogger(__name__)
+
+FORMAT = "1"
+SUBDIR = "walks"
+KEEP = 32  # walking maps kept (the newest)
+_CODE = ("workers.py", "walk_store.py")
+
+_code_memo: list[bytes] = []
+counts = {"read": 0, "written": 0}
+
+
+def _code_digest() -> bytes:
+    if not _code_memo:
+        import scipy
+
+        prefix = f"{FORMAT} numpy {np.__version__} scipy {scipy.__version__}"
+        _code_memo.append(code_digest(prefix, Path(__file__).resolve().parent, _CODE))
+    return _code_memo[0]
+
+
+def key(router: _Router) -> str | None:
+    """The content hash a router's legs are kept under (None: a router without a map)."""
+    grid, free = router.grid, router.free
+    if grid is None or free is None:
+        return None
+    h = hashlib.sha256(_code_digest())
+    h.update(repr((tuple(free.shape), tuple(float(v) for v in grid.origin), float(grid.resolution))).encode())
+    h.update(np.ascontiguousarray(free, dtype=bool).tobytes())
+    return h.hexdigest()
+
+
+def _path(router: _Router) -> Path | None:
+    where = cspace_store.folder()
+    k = key(router) if where is not None else None
+    return None if where is None or k is None else where.parent / SUBDIR / f"{k}.npz"
+
+
+def read_into(router: _Router) -> int:
+    """Put the kept legs of this router's map into its memo (those it has not got); how many were read."""
+    path = _path(router)
+    if path is None:
+        return 0
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            cells = np.asarray(data["cells"], dtype=np.int64)
+            starts = np.asarray(data["starts"], dtype=np.int64)
+            points = np.asarray(data["points"], dtype=np.float64)
+    except FileNotFoundError:
+        return 0
+    except (OSError, ValueError, KeyError, EOFError) as exc:  # a damaged file: searched again and replaced
+        log.warning("ignoring the kept walking routes %s: %s", path.name, exc)
+        return 0
+    if cells.ndim != 2 or cells.shape[1] != 4 or starts.shape != (len(cells) + 1,) or points.ndim != 2 \
+            or points.shape[1] != 2 or (len(cells) and int(starts[-1]) != len(points)):
+        log.warning("ignoring the kept walking routes %s: not a set of legs", path.name)
+        return 0
+    memo = router._memo
+    for n, (sx, sy, tx, ty) in enumerate(cells.tolist()):
+        memo.setdefault(((sx, sy), (tx, ty)), points[int(starts[n]):int(starts[n + 1])].copy())
+    counts["read"] += 1
+    router.kept_legs = frozenset(memo)
+    return len(cells)
+
+
+def write_from(router: _Router) -> None:
+    """Keep the router's legs when it searched a leg not read from the folder (when a folder is given)."""
+    memo = router._memo
+    if not memo or set(memo) <= router.kept_legs:
+        return
+    path = _path(router)
+    if path is None:
+        return
+    legs = sorted(memo)
+    cells = np.array([[s[0], s[1], t[0], t[1]] for s, t in legs], dtype=np.int64).reshape(-1, 4)
+    sizes = [len(memo[k]) for k in legs]
+    starts = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
+    points = np.concatenate([np.asarray(memo[k], dtype=np.float64).reshape(-1, 2) for k in legs])
+    buf = io.BytesIO()
+    np.savez(buf, cells=cells, starts=starts, points=points)
+    try:
+        atomic_write_bytes(path, buf.getvalue())
+        counts["written"] += 1
+        router.kept_legs = frozenset(memo)
+        kept = sorted(path.parent.glob("*.npz"), key=lambda p: (p.stat().st_mtime_ns, p.name), reverse=True)
+        for old in kept[KEEP:]:
+            old.unlink(missing_ok=True)
+    except OSError as exc:
+        log.warning("could not keep the walking routes in %s: %s", path.parent, exc)
