@@ -28,6 +28,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import statistics
 import subprocess
 import sys
@@ -104,13 +105,24 @@ def _run(src: Path, scenario: str, seed: int, out: Path, log: Path, b4_cache: st
             "path_quality": {k: v for k, v in quality.items() if k != "per_element"} if quality else None}
 
 
+KEPT_BY_RUNS = ("cspace", "cells", "walks")  # what a simulate run keeps in the project's cache folder
+
+
+def _forget_runs(src: Path) -> None:
+    """A first run: remove what earlier ``simulate`` runs of this tree kept (configuration spaces, cell
+    paths, walking legs; kbplanner's own cache files), keeping the parsed project."""
+    cache = src.parent / "data" / "case_study" / ".kbplanner-cache"
+    for sub in KEPT_BY_RUNS:
+        shutil.rmtree(cache / sub, ignore_errors=True)
+
+
 def _median(rows: list[dict[str, Any]], key: str) -> float | None:
     values = [r[key] for r in rows if isinstance(r.get(key), (int, float))]
     return round(statistics.median(values), 3) if values else None
 
 
 def bench(before_src: Path, after_src: Path, scenario: str, seed: int, rounds: int, tmp: Path,
-          b4_cache: str = "cold", task: str | None = None) -> dict[str, Any]:
+          b4_cache: str = "cold", task: str | None = None, first_run: bool = False) -> dict[str, Any]:
     runs: dict[str, list[dict[str, Any]]] = {"before": [], "after": []}
     identical = True
     for label, src in (("before", before_src), ("after", after_src)):
@@ -120,13 +132,15 @@ def bench(before_src: Path, after_src: Path, scenario: str, seed: int, rounds: i
         outs = {}
         for label, src in (("before", before_src), ("after", after_src)):
             out = tmp / f"{scenario}-{label}-{k}"
+            if first_run:
+                _forget_runs(src)
             runs[label].append(_run(src, scenario, seed, out, tmp / f"{scenario}-{label}-{k}.log", b4_cache,
                                     task))
             outs[label] = out
         identical = identical and all(
             (outs["before"] / f).read_bytes() == (outs["after"] / f).read_bytes() for f in DETERMINISTIC)
     row: dict[str, Any] = {"scenario": scenario, "seed": seed, "rounds": rounds,
-                           "outputs_identical": identical, "b4_cache": b4_cache}
+                           "outputs_identical": identical, "b4_cache": b4_cache, "first_run": first_run}
     if task:
         row["task"] = task
     for label in ("before", "after"):
@@ -175,6 +189,8 @@ def markdown(out: dict[str, Any]) -> str:
     lines.append("")
     cache = out.get("b4_cache", "")
     flag = f" --b4-cache {cache}" if cache else ""
+    if out.get("first_run"):
+        flag += " --first-run"
     how = {"cold": "; B4 run by both (cold)",
            "warm": "; this tree's B4 read from the refined-plan cache (warm)"}.get(cache, "")
     seed = out["scenarios"][0]["seed"] if out["scenarios"] else ""
@@ -196,6 +212,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--b4-cache", choices=("cold", "warm"), default="cold",
                     help="cold (default): B4 runs in every command; warm: this tree reads the refined plan "
                          "its `kbplanner plan` kept before the rounds (planning/refine_cache.py)")
+    ap.add_argument("--first-run", action="store_true",
+                    help="before every timed run remove what earlier simulate runs kept in the tree's "
+                         f"project cache ({', '.join(KEPT_BY_RUNS)}): a user's first simulate of a scenario")
     args = ap.parse_args(argv)
     if args.markdown_from:
         sys.stdout.write(markdown(json.loads(args.markdown_from.read_text())))
@@ -205,10 +224,10 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as tmp_name:
         tmp = Path(tmp_name)
         before_src = _export(args.before, tmp)
-        rows = [bench(before_src, REPO / "src", s, args.seed, args.rounds, tmp, args.b4_cache, args.task)
-                for s in scenarios]
+        rows = [bench(before_src, REPO / "src", s, args.seed, args.rounds, tmp, args.b4_cache, args.task,
+                      args.first_run) for s in scenarios]
     out = {"machine": machine_info(("python", "cpus", "platform")), "before": args.before,
-           "b4_cache": args.b4_cache, "task": args.task,
+           "b4_cache": args.b4_cache, "task": args.task, "first_run": args.first_run,
            "load_average_start": load_before, "load_average_end": list(os.getloadavg()), "scenarios": rows}
     write_json(args.out, out)
     w = sys.stdout.write
