@@ -238,12 +238,14 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
                 from kbplanner.scale.task_runs import TASK_COLUMNS
 
                 task_tables[summary.name] = (list(TASK_COLUMNS), truns.rows())
-        later.close()  # the worker processes end here
+        if ahead is not None:
+            ahead.run.release()  # the spawned processes end (and free their memory) beside the report
         if sims:
             with clock.stage("comparison and report"):
                 result.comparison = write_outputs(project_dir, [sims[n] for n in names if n in sims], stage,
                                                   requirements=req, selection=sel_rows, project=bare,
                                                   task_tables=task_tables or None, loaded=loaded)
+        later.close()  # the worker processes have ended here
         result.timings = clock.timings
         result.seconds = round(time.perf_counter() - t_start, 3)
         write_json(stage / "run_timings.json", {  # wall clock: not deterministic, unlike metrics.json

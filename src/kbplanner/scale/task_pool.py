@@ -56,6 +56,7 @@ class TaskPool:
         self.project_dir, self.names = project_dir, names
         self.children = max(0, workers - 1)
         self.executor: ProcessPoolExecutor | None = None
+        self.ending: threading.Thread | None = None  # :meth:`release`: the processes are ending
         if self.children:
             self.executor = ProcessPoolExecutor(max_workers=self.children,
                                                 mp_context=multiprocessing.get_context("spawn"),
@@ -71,6 +72,14 @@ class TaskPool:
             for _ in range(self.children):  # one per process: each idle one takes the next
                 self.executor.submit(warm, self.project_dir, self.names)
 
+    def release(self) -> None:
+        """No more jobs: the processes are told to end, and end (each freeing what it loaded: seconds
+        on a whole building) while the caller goes on (the pipeline: its report); leaving the pool
+        then waits for them. Nothing a job wrote depends on it: every job has returned."""
+        if self.executor is not None and self.ending is None:
+            self.ending = threading.Thread(target=self.executor.shutdown, name="task-pool-end", daemon=True)
+            self.ending.start()
+
     def __enter__(self) -> TaskPool:
         return self
 
@@ -78,11 +87,14 @@ class TaskPool:
         if self.executor is None:
             return
         if exc_type is not None:  # an error: do not wait for a process still loading the project
-            procs = list(getattr(self.executor, "_processes", {}).values())
+            procs = list((getattr(self.executor, "_processes", None) or {}).values())
             for proc in procs:
                 proc.terminate()
             for proc in procs:  # ended before the caller removes the folder it may be writing into
                 proc.join(timeout=10.0)
+        elif self.ending is not None:  # released: the processes are ending
+            self.ending.join()
+            return
         self.executor.shutdown(wait=exc_type is None, cancel_futures=True)
 
 

@@ -364,6 +364,12 @@ class SimulationRun:
         self.dispatch.settle(scenario)
         self.parts = [p for p in self.parts if p.scenario != scenario]
 
+    def release(self) -> None:
+        """The stage is over: the spawned processes of ``pool`` end while the caller goes on
+        (:meth:`TaskPool.release`; leaving the pool waits for them)."""
+        if self.pool is not None:
+            self.pool.release()
+
     def finish(self) -> SimulationStage:
         """This process takes jobs too until none is left; every scenario's tables written, the costs
         recorded; the stage's figures (its wall time from :meth:`begin`)."""
