@@ -186,3 +186,22 @@ def test_an_unconfirmed_scenario_s_error_is_held_until_it_is_confirmed_or_droppe
             run.settle("no-such-scenario")
             assert run.wait() == {} and not run.held
     assert told == []
+
+
+def test_a_released_pool_s_process_ends_while_the_caller_goes_on_and_leaving_waits_for_it(
+        tmp_path: Path) -> None:
+    import os
+
+    from kbplanner.scale.task_pool import TaskPool
+
+    with TaskPool(tmp_path, None, 2, load=False) as pool:
+        assert pool.executor is not None
+        child = pool.executor.submit(os.getpid).result()
+        assert child != os.getpid()
+        pool.release()  # returns at once: the process ends beside the caller's own work
+        pool.release()  # a second call changes nothing
+        with pytest.raises(RuntimeError):  # no job after the release
+            pool.executor.submit(os.getpid)
+    assert pool.ending is not None and not pool.ending.is_alive()
+    with pytest.raises(ProcessLookupError):  # ended and reaped when the pool was left
+        os.kill(child, 0)
