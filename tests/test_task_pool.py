@@ -205,3 +205,21 @@ def test_a_released_pool_s_process_ends_while_the_caller_goes_on_and_leaving_wai
     assert pool.ending is not None and not pool.ending.is_alive()
     with pytest.raises(ProcessLookupError):  # ended and reaped when the pool was left
         os.kill(child, 0)
+
+
+def test_an_error_after_the_release_leaves_the_pool_at_once_and_its_process_ends(tmp_path: Path) -> None:
+    import os
+
+    from kbplanner.scale.task_pool import TaskPool
+
+    with pytest.raises(ValueError, match="the report failed"), \
+            TaskPool(tmp_path, None, 2, load=False) as pool:
+        assert pool.executor is not None
+        child = pool.executor.submit(os.getpid).result()
+        pool.release()
+        raise ValueError("the report failed")
+    assert pool.ending is not None
+    pool.ending.join(timeout=60.0)
+    assert not pool.ending.is_alive()
+    with pytest.raises(ProcessLookupError):
+        os.kill(child, 0)

@@ -92,10 +92,13 @@ class TaskPool:
                 proc.terminate()
             for proc in procs:  # ended before the caller removes the folder it may be writing into
                 proc.join(timeout=10.0)
-        elif self.ending is not None:  # released: the processes are ending
+            if self.ending is None:  # else released: its thread shuts the executor down
+                self.executor.shutdown(wait=False, cancel_futures=True)
+            return
+        if self.ending is not None:  # released: the processes are ending
             self.ending.join()
             return
-        self.executor.shutdown(wait=exc_type is None, cancel_futures=True)
+        self.executor.shutdown(wait=True, cancel_futures=True)
 
 
 Tell = Callable[[_Job, Outcome], None]
