@@ -1,5 +1,5 @@
 """``python -m kbplanner.cli``: the same as the ``kbplanner`` console script."""
 
-from kbplanner.cli import main
+from kbplanner.cli import command_line
 
-raise SystemExit(main())
+command_line()
