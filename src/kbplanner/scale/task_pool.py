@@ -13,12 +13,15 @@ most elements.
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import dataclasses
 import functools
 import json
 import logging
 import multiprocessing
+import os
+import sys
 import threading
 import time
 from collections import deque
@@ -36,6 +39,25 @@ COSTS_FILE = "task_costs.json"
 
 def _started() -> None:
     """Nothing: submitted once per worker process so that each starts (and warms up) at once."""
+
+
+def _quick_exit() -> None:
+    """A spawned process's last step (at its exit, after the pool's own clean-up: every result sent):
+    end without the interpreter's teardown, which frees the loaded scenarios object by object."""
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(OSError, ValueError, AttributeError):
+            stream.flush()
+    os._exit(0)
+
+
+def _begin(project_dir: Path, names: Sequence[str | None], load: bool) -> None:
+    """A spawned process's start: its quick exit registered, then :func:`warm` (``load``) or
+    :func:`imports`."""
+    atexit.register(_quick_exit)
+    if load:
+        warm(project_dir, names)
+    else:
+        imports()
 
 
 class TaskPool:
@@ -58,10 +80,9 @@ class TaskPool:
         self.executor: ProcessPoolExecutor | None = None
         self.ending: threading.Thread | None = None  # :meth:`release`: the processes are ending
         if self.children:
-            self.executor = ProcessPoolExecutor(max_workers=self.children,
-                                                mp_context=multiprocessing.get_context("spawn"),
-                                                initializer=functools.partial(warm, project_dir, names)
-                                                if load else imports)
+            self.executor = ProcessPoolExecutor(
+                max_workers=self.children, mp_context=multiprocessing.get_context("spawn"),
+                initializer=functools.partial(_begin, project_dir, names, load))
             for _ in range(self.children):  # the pool starts a process per submission while none is idle
                 self.executor.submit(_started)
 
