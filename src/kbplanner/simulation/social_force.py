@@ -56,7 +56,7 @@ from kbplanner.simulation.separation import (
     points_rects_offsets,
     rects_distance,
 )
-from kbplanner.simulation.social_force_few import Frame, accelerations_few, same_people_terms
+from kbplanner.simulation.social_force_few import Frame, accelerations_few, robot_push, same_people_terms
 from kbplanner.world.footprint import Rect
 
 FloatArray = npt.NDArray[np.float64]
@@ -310,22 +310,8 @@ def _accelerations_of_any(xs: list[float], ys: list[float], vxs: list[float], vy
         ay = [ay[i] + sums[n + i] for i in range(n)]
     if seen is not None:
         assert near is not None
-        px, py = seen.pose[0], seen.pose[1]
-        a_over_b_r = c["a_over_b_r"]
-        off = n * n if n > 1 else 0
-        for i in range(n):
-            _, ux, uy = near[i]
-            if ux == 0 and uy == 0:  # inside the footprint: away from the robot's centre
-                cx, cy = xs[i] - px, ys[i] - py
-                cn = max(float(_hypot(cx, cy)), 1e-9)
-                ux, uy = cx / cn, cy / cn
-            mag = a_over_b_r[i] * e[off + i]
-            if -(ux * vxs[i] + uy * vys[i]) > 0:
-                ax[i] += mag * (_COS_R * ux - _SIN_R * uy)
-                ay[i] += mag * (_SIN_R * ux + _COS_R * uy)
-            else:
-                ax[i] += mag * ux
-                ay[i] += mag * uy
+        robot_push(ax, ay, near, xs, ys, vxs, vys, seen.pose[0], seen.pose[1], c["a_over_b_r"], e,
+                   n * n if n > 1 else 0)
     return ax, ay
 
 

@@ -147,19 +147,27 @@ def accelerations_few(xs: list[float], ys: list[float], vxs: list[float], vys: l
             ax[i] += tx
             ay[i] += ty
     if pose is not None:
-        px, py = pose[0], pose[1]
-        a_over_b_r = c["a_over_b_r"]
-        for i in range(n):
-            _, ux, uy = near[i]
-            if ux == 0 and uy == 0:  # inside the footprint: away from the robot's centre
-                cx, cy_ = xs[i] - px, ys[i] - py
-                cn = max(float(_hypot(cx, cy_)), 1e-9)
-                ux, uy = cx / cn, cy_ / cn
-            mag = a_over_b_r[i] * e_all[off + i]
-            if -(ux * vxs[i] + uy * vys[i]) > 0:
-                ax[i] += mag * (_COS_R * ux - _SIN_R * uy)
-                ay[i] += mag * (_SIN_R * ux + _COS_R * uy)
-            else:
-                ax[i] += mag * ux
-                ay[i] += mag * uy
+        robot_push(ax, ay, near, xs, ys, vxs, vys, pose[0], pose[1], c["a_over_b_r"], e_all, off)
     return ax, ay
+
+
+def robot_push(ax: list[float], ay: list[float], near: Sequence[tuple[float, float, float]],
+               xs: Sequence[float], ys: Sequence[float], vxs: Sequence[float], vys: Sequence[float],
+               px: float, py: float, a_over_b_r: Sequence[float], e: Sequence[float], off: int) -> None:
+    """Adds the robot's repulsion to each worker's acceleration (``ax``, ``ay`` in place): along the
+    unit vector from the footprint's nearest point ``near[i]`` (from the robot's centre ``px, py`` when
+    inside it), of magnitude ``a_over_b_r[i] * e[off + i]``, turned to the right when the worker walks
+    towards the robot. Shared by the few-worker and the array forms."""
+    for i in range(len(ax)):
+        _, ux, uy = near[i]
+        if ux == 0 and uy == 0:  # inside the footprint: away from the robot's centre
+            cx, cy = xs[i] - px, ys[i] - py
+            cn = max(float(_hypot(cx, cy)), 1e-9)
+            ux, uy = cx / cn, cy / cn
+        mag = a_over_b_r[i] * e[off + i]
+        if -(ux * vxs[i] + uy * vys[i]) > 0:
+            ax[i] += mag * (_COS_R * ux - _SIN_R * uy)
+            ay[i] += mag * (_SIN_R * ux + _COS_R * uy)
+        else:
+            ax[i] += mag * ux
+            ay[i] += mag * uy
