@@ -32,6 +32,7 @@ import hashlib
 import io
 import logging
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -94,19 +95,25 @@ def _paths(free: npt.NDArray[np.bool_], map_key: str | None
     return got
 
 
-def _read(path: Path) -> tuple[dict[Ends, Cells], dict[LengthKey, float]]:
+def _arrays(path: Path, fields: dict[str, type], what: str) -> list[npt.NDArray[Any]] | None:
+    """The named arrays of a kept ``.npz`` (no pickle), in ``fields``' order with their dtypes; None
+    where the file is missing or damaged (then searched again and replaced; ``what`` names it)."""
     try:
         with np.load(path, allow_pickle=False) as data:
-            ends = np.asarray(data["ends"], dtype=np.int64)
-            starts = np.asarray(data["starts"], dtype=np.int64)
-            cells = np.asarray(data["cells"], dtype=np.int64)
-            length_keys = np.asarray(data["length_keys"], dtype=np.float64)
-            lengths = np.asarray(data["lengths"], dtype=np.float64)
+            return [np.asarray(data[name], dtype=dtype) for name, dtype in fields.items()]
     except FileNotFoundError:
+        return None
+    except (OSError, ValueError, KeyError, EOFError) as exc:
+        log.warning("ignoring the kept %s %s: %s", what, path.name, exc)
+        return None
+
+
+def _read(path: Path) -> tuple[dict[Ends, Cells], dict[LengthKey, float]]:
+    got = _arrays(path, {"ends": np.int64, "starts": np.int64, "cells": np.int64,
+                         "length_keys": np.float64, "lengths": np.float64}, "cell paths")
+    if got is None:
         return {}, {}
-    except (OSError, ValueError, KeyError, EOFError) as exc:  # a damaged file: searched again and replaced
-        log.warning("ignoring the kept cell paths %s: %s", path.name, exc)
-        return {}, {}
+    ends, starts, cells, length_keys, lengths = got
     if ends.ndim != 2 or ends.shape[1] != 4 or starts.shape != (len(ends) + 1,) or cells.ndim != 2 \
             or cells.shape[1] != 2 or int(starts[-1]) != len(cells) or int(starts[0]) != 0 \
             or length_keys.ndim != 2 or length_keys.shape[1] != 7 or lengths.shape != (len(length_keys),):
@@ -193,17 +200,11 @@ def _routes(space: str) -> tuple[dict[CorridorEnds, Route], list[bool]] | None:
 
 
 def _read_routes(path: Path) -> dict[CorridorEnds, Route]:
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            ends = np.asarray(data["ends"], dtype=np.int64)
-            radii = np.asarray(data["radii"], dtype=np.float64)
-            starts = np.asarray(data["starts"], dtype=np.int64)
-            cells = np.asarray(data["cells"], dtype=np.int64)
-    except FileNotFoundError:
+    got = _arrays(path, {"ends": np.int64, "radii": np.float64, "starts": np.int64, "cells": np.int64},
+                  "corridor routes")
+    if got is None:
         return {}
-    except (OSError, ValueError, KeyError, EOFError) as exc:  # a damaged file: searched again and replaced
-        log.warning("ignoring the kept corridor routes %s: %s", path.name, exc)
-        return {}
+    ends, radii, starts, cells = got
     if ends.ndim != 2 or ends.shape[1] != 6 or radii.shape != (len(ends),) \
             or starts.shape != (len(ends) + 1,) or cells.ndim != 2 or cells.shape[1] != 3 \
             or int(starts[0]) != 0 or int(starts[-1]) != len(cells):
