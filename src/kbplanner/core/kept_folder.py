@@ -1,13 +1,20 @@
-"""Results kept on disk (all steps that keep them: configuration spaces, storey maps): the folder a block
+"""Results kept on disk (all steps that keep them: configuration spaces, storey maps, cell paths, walking legs): the folder a block
 reads and writes, and the digest of the code whose results are kept (a change of that code is a new key)."""
 
 from __future__ import annotations
 
 import contextlib
 import hashlib
+import logging
 import os
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+log = logging.getLogger(__name__)
 
 
 class KeptFolder:
@@ -39,3 +46,24 @@ def code_digest(prefix: str, here: Path, names: Sequence[str]) -> bytes:
     for name in names:
         h.update(name.encode() + b"\0" + (here / name).read_bytes() + b"\0")
     return h.digest()
+
+
+def read_arrays(path: Path, fields: Mapping[str, Any], what: str) -> list[npt.NDArray[Any]] | None:
+    """The named arrays of a kept ``.npz`` file (no pickle), in ``fields``' order, each as the dtype
+    given (None: as stored); None where the file is missing or damaged (a damaged one is logged, made
+    again and replaced by its writer; ``what`` names it in the message)."""
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return [np.asarray(data[name], dtype=dtype) for name, dtype in fields.items()]
+    except FileNotFoundError:
+        return None
+    except (OSError, ValueError, KeyError, EOFError) as exc:
+        log.warning("ignoring the kept %s %s: %s", what, path.name, exc)
+        return None
+
+
+def keep_newest(folder: Path, keep: int) -> None:
+    """Remove all but the ``keep`` newest ``.npz`` files of a kept folder (kbplanner's own files)."""
+    kept = sorted(folder.glob("*.npz"), key=lambda p: (p.stat().st_mtime_ns, p.name), reverse=True)
+    for old in kept[keep:]:
+        old.unlink(missing_ok=True)

@@ -32,12 +32,11 @@ import hashlib
 import io
 import logging
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
-from kbplanner.core.kept_folder import code_digest
+from kbplanner.core.kept_folder import code_digest, keep_newest, read_arrays
 from kbplanner.core.outputs import atomic_write_bytes
 from kbplanner.world import cspace_store
 
@@ -95,21 +94,8 @@ def _paths(free: npt.NDArray[np.bool_], map_key: str | None
     return got
 
 
-def _arrays(path: Path, fields: dict[str, type], what: str) -> list[npt.NDArray[Any]] | None:
-    """The named arrays of a kept ``.npz`` (no pickle), in ``fields``' order with their dtypes; None
-    where the file is missing or damaged (then searched again and replaced; ``what`` names it)."""
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            return [np.asarray(data[name], dtype=dtype) for name, dtype in fields.items()]
-    except FileNotFoundError:
-        return None
-    except (OSError, ValueError, KeyError, EOFError) as exc:
-        log.warning("ignoring the kept %s %s: %s", what, path.name, exc)
-        return None
-
-
 def _read(path: Path) -> tuple[dict[Ends, Cells], dict[LengthKey, float]]:
-    got = _arrays(path, {"ends": np.int64, "starts": np.int64, "cells": np.int64,
+    got = read_arrays(path, {"ends": np.int64, "starts": np.int64, "cells": np.int64,
                          "length_keys": np.float64, "lengths": np.float64}, "cell paths")
     if got is None:
         return {}, {}
@@ -200,7 +186,7 @@ def _routes(space: str) -> tuple[dict[CorridorEnds, Route], list[bool]] | None:
 
 
 def _read_routes(path: Path) -> dict[CorridorEnds, Route]:
-    got = _arrays(path, {"ends": np.int64, "radii": np.float64, "starts": np.int64, "cells": np.int64},
+    got = read_arrays(path, {"ends": np.int64, "radii": np.float64, "starts": np.int64, "cells": np.int64},
                   "corridor routes")
     if got is None:
         return {}
@@ -289,6 +275,4 @@ def flush() -> None:
         new[0] = False
         wrote = True
     if wrote:
-        kept = sorted(folder.glob("*.npz"), key=lambda p: (p.stat().st_mtime_ns, p.name), reverse=True)
-        for old in kept[KEEP:]:
-            old.unlink(missing_ok=True)
+        keep_newest(folder, KEEP)

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from kbplanner.core.kept_folder import code_digest
+from kbplanner.core.kept_folder import code_digest, keep_newest, read_arrays
 from kbplanner.core.outputs import atomic_write_bytes
 from kbplanner.simulation.workers import _Router
 from kbplanner.world import cspace_store
@@ -75,16 +75,10 @@ def read_into(router: _Router) -> int:
     path = _path(router)
     if path is None:
         return 0
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            cells = np.asarray(data["cells"], dtype=np.int64)
-            starts = np.asarray(data["starts"], dtype=np.int64)
-            points = np.asarray(data["points"], dtype=np.float64)
-    except FileNotFoundError:
+    got = read_arrays(path, {"cells": np.int64, "starts": np.int64, "points": np.float64}, "walking routes")
+    if got is None:
         return 0
-    except (OSError, ValueError, KeyError, EOFError) as exc:  # a damaged file: searched again and replaced
-        log.warning("ignoring the kept walking routes %s: %s", path.name, exc)
-        return 0
+    cells, starts, points = got
     if cells.ndim != 2 or cells.shape[1] != 4 or starts.shape != (len(cells) + 1,) or points.ndim != 2 \
             or points.shape[1] != 2 or (len(cells) and int(starts[-1]) != len(points)):
         log.warning("ignoring the kept walking routes %s: not a set of legs", path.name)
@@ -116,8 +110,6 @@ def write_from(router: _Router) -> None:
         atomic_write_bytes(path, buf.getvalue())
         counts["written"] += 1
         router.kept_legs = frozenset(memo)
-        kept = sorted(path.parent.glob("*.npz"), key=lambda p: (p.stat().st_mtime_ns, p.name), reverse=True)
-        for old in kept[KEEP:]:
-            old.unlink(missing_ok=True)
+        keep_newest(path.parent, KEEP)
     except OSError as exc:
         log.warning("could not keep the walking routes in %s: %s", path.parent, exc)

@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from kbplanner.core.kept_folder import KeptFolder, code_digest
+from kbplanner.core.kept_folder import KeptFolder, code_digest, keep_newest, read_arrays
 from kbplanner.core.outputs import atomic_write_bytes, versions
 from kbplanner.world.map_settings import MapSettings
 from kbplanner.world.occupancy import OccupancyGrid
@@ -99,16 +99,12 @@ def read(world: World, storey: StoreyInfo, settings: MapSettings) -> tuple[Occup
     path = _path(world, storey, settings)
     if path is None:
         return None
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            occupied = np.asarray(data["occupied"])
-            meta = json.loads(str(data["meta"]))
-    except FileNotFoundError:
+    got = read_arrays(path, {"occupied": None, "meta": None}, "map")
+    if got is None:
         return None
-    except (OSError, ValueError, KeyError, EOFError) as exc:  # a damaged file: made again and replaced
-        log.warning("ignoring the kept map %s: %s", path.name, exc)
-        return None
+    occupied = got[0]
     try:
+        meta = json.loads(str(got[1]))
         band = meta["band"]
         grid = OccupancyGrid(occupied=occupied.astype(bool, copy=False),
                              origin=(_float(meta["origin"][0]), _float(meta["origin"][1])),
@@ -137,8 +133,6 @@ def write(world: World, storey: StoreyInfo, settings: MapSettings, grid: Occupan
     try:
         atomic_write_bytes(path, buf.getvalue())
         counts["written"] += 1
-        kept = sorted(path.parent.glob("*.npz"), key=lambda p: (p.stat().st_mtime_ns, p.name), reverse=True)
-        for old in kept[KEEP:]:
-            old.unlink(missing_ok=True)
+        keep_newest(path.parent, KEEP)
     except OSError as exc:
         log.warning("could not keep the map in %s: %s", path.parent, exc)
