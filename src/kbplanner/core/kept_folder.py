@@ -1,5 +1,6 @@
-"""Results kept on disk (all steps that keep them: configuration spaces, storey maps, cell paths, walking legs): the folder a block
-reads and writes, and the digest of the code whose results are kept (a change of that code is a new key)."""
+"""Results kept on disk (all steps that keep them: configuration spaces, storey maps, cell paths, walking
+legs): the folder a block reads and writes, the digest of the code whose results are kept (a change of that
+code is a new key), reading a kept ``.npz`` and keeping only the newest files."""
 
 from __future__ import annotations
 
