@@ -44,26 +44,26 @@ def _read(path: Path | None) -> dict[str, Any] | None:
     try:
         data = json.loads(path.read_text())
     except (OSError, json.JSONDecodeError) as exc:
-        raise SystemExit(f"{path}: cannot read it as JSON ({exc}); give a file the benchmark script wrote") from None
+        raise SystemExit(f"{path}: cannot read it as JSON ({exc}); give a file the benchmark script "
+                         "wrote") from None
     if not isinstance(data, dict):
-        raise SystemExit(f"{path}: not a benchmark result (a JSON object); give a file the benchmark script wrote")
+        raise SystemExit(f"{path}: not a benchmark result (a JSON object); give a file the benchmark "
+                         "script wrote")
     return data
 
 
 def _row(item: str, aim: str, measured: float | None, limit: float, *, below: bool, unit: str,
          source: Path | None, note: str = "") -> Row:
     """One aim: ``measured`` against ``limit`` (``below``: measured must be under it, else at least it)."""
-    if measured is None:
-        met = None
-    else:
-        met = measured < limit if below else measured >= limit
+    met = None if measured is None else (measured < limit if below else measured >= limit)
     return {"item": item, "aim": aim, "measured": measured, "unit": unit, "met": met,
             "source": str(source) if source else None, "note": note}
 
 
 def startup_rows(path: Path | None) -> list[Row]:
     data = _read(path)
-    aims = (("--version", "`kbplanner --version` < 0.3 s", 0.3), ("--help", "`kbplanner --help` < 0.3 s", 0.3),
+    aims = (("--version", "`kbplanner --version` < 0.3 s", 0.3),
+            ("--help", "`kbplanner --help` < 0.3 s", 0.3),
             ("info (cached)", "`info` on a cached project < 1.5 s", 1.5),
             ("query storeys (cached)", "`query` on a cached project < 1.5 s", 1.5))
     rows = {r["command"]: r for r in (data or {}).get("rows", [])}
@@ -86,7 +86,8 @@ def simspeed_rows(path: Path | None, run: str) -> list[Row]:
                         after.get("x_real_time_simulation_cpu"), 300.0, below=False, unit="x", source=path,
                         note=note))
         out.append(_row(f"{run} `simulate` {name}: command", "`simulate` command >= 100x real time (wall)",
-                        after.get("x_real_time_command"), 100.0, below=False, unit="x", source=path, note=note))
+                        after.get("x_real_time_command"), 100.0, below=False, unit="x", source=path,
+                        note=note))
     return out
 
 
@@ -118,8 +119,8 @@ def study_rows(folder: Path | None) -> list[Row]:
         raise SystemExit(f"{folder}: no such folder; give the --out folder of `kbplanner compare --seeds`")
     runs = study_runs(folder)
     if not runs:
-        raise SystemExit(f"{folder}: no run with monitoring on and path quality (metrics.json); give the --out "
-                         "folder of `kbplanner compare --seeds`")
+        raise SystemExit(f"{folder}: no run with monitoring on and path quality (metrics.json); give "
+                         "the --out folder of `kbplanner compare --seeds`")
     out = []
     for scenario, quality in sorted(runs.items()):
         n = len(quality)
@@ -129,8 +130,9 @@ def study_rows(folder: Path | None) -> list[Row]:
             maxima = [q[key]["max"] for q in quality if q.get(key, {}).get("count")]
             over = sum(1 for v in maxima if v > 1.3)
             out.append(_row(f"{scenario}: {label}, median", "median <= 1.15",
-                            round(statistics.median(medians), 3) if medians else None, 1.15 + 1e-9, below=True,
-                            unit="", source=folder, note=f"median of {len(medians)} runs' medians"))
+                            round(statistics.median(medians), 3) if medians else None, 1.15 + 1e-9,
+                            below=True, unit="", source=folder,
+                            note=f"median of {len(medians)} runs' medians"))
             out.append(_row(f"{scenario}: {label}, max", "max <= 1.3", max(maxima) if maxima else None,
                             1.3 + 1e-9, below=True, unit="", source=folder,
                             note=f"largest of {n} runs; {over} run(s) over 1.3"))
