@@ -128,12 +128,17 @@ def ur_structure(arm: DhArm) -> UrStructure | None:
 
 def dh_matrix(theta: float, d: float, a: float, alpha: float) -> Matrix:
     """``Rz(theta) Tz(d) Tx(a) Rx(alpha)`` as a 4x4 matrix."""
+    return np.array(_dh_entries(theta, d, a, alpha)).reshape(4, 4)
+
+
+def _dh_entries(theta: float, d: float, a: float, alpha: float) -> tuple[float, ...]:
+    """The 16 entries of :func:`dh_matrix`, row by row."""
     ct, st = math.cos(theta), math.sin(theta)
     ca, sa = math.cos(alpha), math.sin(alpha)
-    return np.array([[ct, -st * ca, st * sa, a * ct],
-                     [st, ct * ca, -ct * sa, a * st],
-                     [0.0, sa, ca, d],
-                     [0.0, 0.0, 0.0, 1.0]])
+    return (ct, -st * ca, st * sa, a * ct,
+            st, ct * ca, -ct * sa, a * st,
+            0.0, sa, ca, d,
+            0.0, 0.0, 0.0, 1.0)
 
 
 def forward_kinematics(arm: DhArm, q: Sequence[float]) -> Matrix:
@@ -144,11 +149,36 @@ def forward_kinematics(arm: DhArm, q: Sequence[float]) -> Matrix:
     return t
 
 
+def forward_kinematics_many(arm: DhArm, qs: Sequence[Sequence[float]]) -> npt.NDArray[np.float64]:
+    """:func:`forward_kinematics` of each of ``qs`` (n x 4 x 4): the same products, bit for bit (numpy's
+    matmul of a stack multiplies each pair of 4 x 4 matrices as it does two lone ones), in six
+    stacked products instead of six per joint vector (tests/test_arm_analytic_ik.py compares)."""
+    n = len(qs)
+    t = np.tile(np.eye(4), (n, 1, 1))
+    for i in range(6):
+        d, a, alpha = arm.d[i], arm.a[i], arm.alpha[i]
+        rows = [_dh_entries(float(q[i]), d, a, alpha) for q in qs]
+        t = t @ np.array(rows).reshape(n, 4, 4)
+    return t
+
+
+_LAST_ROW = np.array((0.0, 0.0, 0.0, 1.0))
+
+
 def _inv(t: Matrix) -> Matrix:
-    out = np.eye(4)
+    out = np.empty((4, 4))
     r = t[:3, :3].T
     out[:3, :3] = r
     out[:3, 3] = -r @ t[:3, 3]
+    out[3] = _LAST_ROW
+    return out
+
+
+@functools.lru_cache(maxsize=64)
+def _flange_strip(arm: DhArm) -> Matrix:
+    """``inv(Tx(a6) Rx(alpha6))``, constant per arm (memoised, read-only)."""
+    out = _inv(dh_matrix(0.0, 0.0, arm.a[5], arm.alpha[5]))
+    out.setflags(write=False)
     return out
 
 
@@ -183,7 +213,7 @@ def _raw_solutions(arm: DhArm, ur: UrStructure, target: Matrix, seed: Sequence[f
     """Closed-form candidates (angles in (-pi, pi]); ``clamp`` stretches towards unreachable poses."""
     d1, d5, d6 = arm.d[0], arm.d[4], arm.d[5]
     # strip the constant Tx(a6) Rx(alpha6) so that the flange is Rz(q6) Tz(d6) from frame 5
-    t06 = target @ _inv(dh_matrix(0.0, 0.0, arm.a[5], arm.alpha[5]))
+    t06 = target @ _flange_strip(arm)
     z6 = t06[:3, 2]
     p5 = t06[:3, 3] - d6 * z6
     r = math.hypot(p5[0], p5[1])
@@ -208,15 +238,19 @@ def _raw_solutions(arm: DhArm, ur: UrStructure, target: Matrix, seed: Sequence[f
         z1 = np.array([ur.s1 * s1q, -ur.s1 * c1, 0.0])
         c5 = -float(z6 @ z1) / (ur.s4 * ur.s5)
         acos5 = math.acos(max(-1.0, min(1.0, c5)))
+        # frame 6 in frame 1, and joint 2's axis seen from the flange: the same for both wrists
+        t16 = _inv(dh_matrix(q1, d1, arm.a[0], arm.alpha[0])) @ t06
+        v: Matrix | None = None
         for q5 in (acos5, -acos5):
             sin5 = math.sin(q5)
             if abs(sin5) < _SINGULAR:
                 q6 = float(seed[5])  # wrist singular: joints 4 and 6 aligned, q6 free
             else:
-                v = t06[:3, :3].T @ z1  # joint 2's axis seen from the flange
+                if v is None:
+                    v = t06[:3, :3].T @ z1
                 q6 = math.atan2(-ur.s4 * v[1] / sin5, ur.s4 * v[0] / sin5)
             t46 = dh_matrix(q5, d5, 0.0, arm.alpha[4]) @ dh_matrix(q6, d6, 0.0, 0.0)
-            t14 = _inv(dh_matrix(q1, d1, arm.a[0], arm.alpha[0])) @ t06 @ _inv(t46)
+            t14 = t16 @ _inv(t46)
             x4 = t14[:3, 0]
             sum234 = math.atan2(x4[1], x4[0])
             px = t14[0, 3] - arm.a[3] * x4[0]
@@ -278,14 +312,19 @@ def closed_form(arm: DhArm, target: Matrix, seed: Sequence[float] | None = None)
         return []
     s = tuple(seed) if seed is not None else (0.0,) * 6
     target = np.asarray(target, dtype=float)
-    good: list[tuple[float, ...]] = []
+    distinct: list[tuple[float, ...]] = []
     seen: set[tuple[float, ...]] = set()
     for q in _raw_solutions(arm, ur, target, s, clamp=False):
         key = tuple(round(v, 9) for v in q)
         if key in seen:
             continue
         seen.add(key)
-        pe, re = pose_error(forward_kinematics(arm, q), target)
+        distinct.append(q)
+    if not distinct:
+        return []
+    good: list[tuple[float, ...]] = []
+    for q, reached in zip(distinct, forward_kinematics_many(arm, distinct), strict=True):
+        pe, re = pose_error(reached, target)
         if pe < _FK_TOL_M and re < _FK_TOL_M:
             good.append(q)
     return good
@@ -431,7 +470,7 @@ def _near_branch(arm: DhArm, tool: Matrix, tool_in_flange: Matrix, seed: Sequenc
 
 def wrist_centre(arm: DhArm, target: Matrix) -> npt.NDArray[np.float64]:
     """Origin of DH frame 5 (where joints 5 and 6 meet the tool axis) for a flange pose ``target``."""
-    t06 = np.asarray(target, dtype=float) @ _inv(dh_matrix(0.0, 0.0, arm.a[5], arm.alpha[5]))
+    t06 = np.asarray(target, dtype=float) @ _flange_strip(arm)
     return np.asarray(t06[:3, 3] - arm.d[5] * t06[:3, 2], dtype=float)
 
 
