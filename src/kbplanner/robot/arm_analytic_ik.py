@@ -57,6 +57,9 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from kbplanner.robot.arm_ik_matrices import dh_chain_many, dh_matrix, dh_stack, rigid_inverse_many
+from kbplanner.robot.arm_ik_matrices import rigid_inverse as _inv
+
 Matrix = npt.NDArray[np.float64]
 
 TWO_PI = 2.0 * math.pi
@@ -126,21 +129,6 @@ def ur_structure(arm: DhArm) -> UrStructure | None:
     return UrStructure(signs[0], signs[1], signs[2], arm.d[1] + arm.d[2] + arm.d[3], arm.a[1], arm.a[2])
 
 
-def dh_matrix(theta: float, d: float, a: float, alpha: float) -> Matrix:
-    """``Rz(theta) Tz(d) Tx(a) Rx(alpha)`` as a 4x4 matrix."""
-    return np.array(_dh_entries(theta, d, a, alpha)).reshape(4, 4)
-
-
-def _dh_entries(theta: float, d: float, a: float, alpha: float) -> tuple[float, ...]:
-    """The 16 entries of :func:`dh_matrix`, row by row."""
-    ct, st = math.cos(theta), math.sin(theta)
-    ca, sa = math.cos(alpha), math.sin(alpha)
-    return (ct, -st * ca, st * sa, a * ct,
-            st, ct * ca, -ct * sa, a * st,
-            0.0, sa, ca, d,
-            0.0, 0.0, 0.0, 1.0)
-
-
 def forward_kinematics(arm: DhArm, q: Sequence[float]) -> Matrix:
     """DH frame 6 (the flange) in DH frame 0 (the arm base) for joint angles ``q``."""
     t = np.eye(4)
@@ -150,28 +138,8 @@ def forward_kinematics(arm: DhArm, q: Sequence[float]) -> Matrix:
 
 
 def forward_kinematics_many(arm: DhArm, qs: Sequence[Sequence[float]]) -> npt.NDArray[np.float64]:
-    """:func:`forward_kinematics` of each of ``qs`` (n x 4 x 4): the same products, bit for bit (numpy's
-    matmul of a stack multiplies each pair of 4 x 4 matrices as it does two lone ones), in six
-    stacked products instead of six per joint vector (tests/test_arm_analytic_ik.py compares)."""
-    n = len(qs)
-    t = np.tile(np.eye(4), (n, 1, 1))
-    for i in range(6):
-        d, a, alpha = arm.d[i], arm.a[i], arm.alpha[i]
-        rows = [_dh_entries(float(q[i]), d, a, alpha) for q in qs]
-        t = t @ np.array(rows).reshape(n, 4, 4)
-    return t
-
-
-_LAST_ROW = np.array((0.0, 0.0, 0.0, 1.0))
-
-
-def _inv(t: Matrix) -> Matrix:
-    out = np.empty((4, 4))
-    r = t[:3, :3].T
-    out[:3, :3] = r
-    out[:3, 3] = -r @ t[:3, 3]
-    out[3] = _LAST_ROW
-    return out
+    """:func:`forward_kinematics` of each of ``qs`` (n x 4 x 4), the same floats in six stacked products."""
+    return dh_chain_many(arm.d, arm.a, arm.alpha, qs)
 
 
 @functools.lru_cache(maxsize=64)
@@ -232,15 +200,14 @@ def _raw_solutions(arm: DhArm, ur: UrStructure, target: Matrix, seed: Sequence[f
         phi = math.atan2(p5[1], p5[0])
         s = math.asin(ratio)
         q1s = [phi + s, phi + math.pi - s]
-    out: list[tuple[float, ...]] = []
-    for q1 in q1s:
+    # each shoulder's two wrists (q5, q6): (shoulder, q5, q6)
+    wrists: list[tuple[int, float, float]] = []
+    for i, q1 in enumerate(q1s):
         c1, s1q = math.cos(q1), math.sin(q1)
         z1 = np.array([ur.s1 * s1q, -ur.s1 * c1, 0.0])
         c5 = -float(z6 @ z1) / (ur.s4 * ur.s5)
         acos5 = math.acos(max(-1.0, min(1.0, c5)))
-        # frame 6 in frame 1, and joint 2's axis seen from the flange: the same for both wrists
-        t16 = _inv(dh_matrix(q1, d1, arm.a[0], arm.alpha[0])) @ t06
-        v: Matrix | None = None
+        v: Matrix | None = None  # joint 2's axis seen from the flange
         for q5 in (acos5, -acos5):
             sin5 = math.sin(q5)
             if abs(sin5) < _SINGULAR:
@@ -249,22 +216,29 @@ def _raw_solutions(arm: DhArm, ur: UrStructure, target: Matrix, seed: Sequence[f
                 if v is None:
                     v = t06[:3, :3].T @ z1
                 q6 = math.atan2(-ur.s4 * v[1] / sin5, ur.s4 * v[0] / sin5)
-            t46 = dh_matrix(q5, d5, 0.0, arm.alpha[4]) @ dh_matrix(q6, d6, 0.0, 0.0)
-            t14 = t16 @ _inv(t46)
-            x4 = t14[:3, 0]
-            sum234 = math.atan2(x4[1], x4[0])
-            px = t14[0, 3] - arm.a[3] * x4[0]
-            py = t14[1, 3] - arm.a[3] * x4[1]
-            c3 = (px * px + py * py - ur.a2 * ur.a2 - ur.a3 * ur.a3) / (2.0 * ur.a2 * ur.a3)
-            if abs(c3) > 1.0:
-                if not clamp and abs(c3) > 1.0 + 1e-9:
-                    continue
-                c3 = max(-1.0, min(1.0, c3))
-            acos3 = math.acos(c3)
-            for q3 in (acos3, -acos3):
-                q2 = math.atan2(py, px) - math.atan2(ur.a3 * math.sin(q3), ur.a2 + ur.a3 * math.cos(q3))
-                q4 = sum234 - q2 - q3
-                out.append(tuple((v + math.pi) % TWO_PI - math.pi for v in (q1, q2, q3, q4, q5, q6)))
+            wrists.append((i, q5, q6))
+    # frame 4 in frame 1 of each wrist: inv(T01) T06 inv(T46), as stacks (the same floats)
+    t16 = rigid_inverse_many(dh_stack(q1s, d1, arm.a[0], arm.alpha[0])) @ t06
+    t46 = (dh_stack([w[1] for w in wrists], d5, 0.0, arm.alpha[4])
+           @ dh_stack([w[2] for w in wrists], d6, 0.0, 0.0))
+    t14s = (t16[[w[0] for w in wrists]] @ rigid_inverse_many(t46)).tolist()
+    out: list[tuple[float, ...]] = []
+    for (i, q5, q6), t14 in zip(wrists, t14s, strict=True):
+        q1 = q1s[i]
+        x4 = (t14[0][0], t14[1][0])
+        sum234 = math.atan2(x4[1], x4[0])
+        px = t14[0][3] - arm.a[3] * x4[0]
+        py = t14[1][3] - arm.a[3] * x4[1]
+        c3 = (px * px + py * py - ur.a2 * ur.a2 - ur.a3 * ur.a3) / (2.0 * ur.a2 * ur.a3)
+        if abs(c3) > 1.0:
+            if not clamp and abs(c3) > 1.0 + 1e-9:
+                continue
+            c3 = max(-1.0, min(1.0, c3))
+        acos3 = math.acos(c3)
+        for q3 in (acos3, -acos3):
+            q2 = math.atan2(py, px) - math.atan2(ur.a3 * math.sin(q3), ur.a2 + ur.a3 * math.cos(q3))
+            q4 = sum234 - q2 - q3
+            out.append(tuple((w + math.pi) % TWO_PI - math.pi for w in (q1, q2, q3, q4, q5, q6)))
     return out
 
 
