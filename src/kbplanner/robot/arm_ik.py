@@ -34,7 +34,7 @@ import logging
 import math
 import weakref
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
@@ -220,6 +220,8 @@ class _Analytic:
     stretched: list[tuple[float, ...]]
     tried: set[tuple[float, ...]]
     target: Matrix  # the flange pose asked for, in DH frame 0
+    #: ``place_nearest(exact, seed)`` per seed (the local and the second pass ask the same seeds)
+    placed: dict[tuple[float, ...], list[tuple[float, ...]]] = field(default_factory=dict)
 
     @classmethod
     def start(cls, robot: RobotModel, model: AnalyticArm, target_xyz: Vec3, orn: Sequence[float],
@@ -275,7 +277,7 @@ class _Analytic:
         """
         best: IkResult | None = None
         for seed in seeds:
-            sols = place_nearest(self.model.arm, self.exact, seed) if self.exact else self.stretched
+            sols = self._placed(seed) if self.exact else self.stretched
             for q in sols:
                 if local and not _near_seed(q, seed):
                     continue
@@ -288,6 +290,15 @@ class _Analytic:
                     return result
                 best = _better(best, result)
         return best
+
+
+    def _placed(self, seed: Sequence[float]) -> list[tuple[float, ...]]:
+        """:func:`place_nearest` of the exact solutions for ``seed``, once per seed (the same list)."""
+        key = tuple(float(v) for v in seed)
+        out = self.placed.get(key)
+        if out is None:
+            out = self.placed[key] = place_nearest(self.model.arm, self.exact, seed)
+        return out
 
 
 def _quat_angle(q1: Sequence[float], q2: Sequence[float]) -> float:
