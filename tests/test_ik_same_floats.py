@@ -176,3 +176,11 @@ def test_inverse_and_dh_matrix_are_the_reference_floats() -> None:
         assert m.tobytes() == _dh_ref(theta, d, a, alpha).tobytes()
         t = _fk_ref(DhArm((d,) * 6, (a,) * 6, (alpha,) * 6), rng.uniform(-3, 3, 6))
         assert ak._inv(t).tobytes() == _inv_ref(t).tobytes()
+
+
+def test_cross3_is_numpys_cross_bit_for_bit() -> None:
+    rng = np.random.default_rng(9)
+    vectors = [rng.standard_normal(3) * 10.0 ** float(rng.integers(-8, 8)) for _ in range(3000)]
+    vectors += [np.array([0.0, -0.0, 1.0]), np.array([-0.0, 0.0, -0.0]), np.array([1e-300, -1e300, 3.0])]
+    for a, b in zip(vectors, vectors[1:] + vectors[:1], strict=True):
+        assert ak.cross3(a, b).tobytes() == np.cross(a, b).tobytes()

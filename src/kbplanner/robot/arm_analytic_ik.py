@@ -57,7 +57,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from kbplanner.robot.arm_ik_matrices import dh_chain_many, dh_matrix, dh_stack, rigid_inverse_many
+from kbplanner.robot.arm_ik_matrices import cross3, dh_chain_many, dh_matrix, dh_stack, rigid_inverse_many
 from kbplanner.robot.arm_ik_matrices import rigid_inverse as _inv
 
 Matrix = npt.NDArray[np.float64]
@@ -433,7 +433,7 @@ def _near_branch(arm: DhArm, tool: Matrix, tool_in_flange: Matrix, seed: Sequenc
         if size < 1e-12:
             break
         along = gap / size
-        axis = np.cross(want - moved[:3, 3], along)
+        axis = cross3(want - moved[:3, 3], along)
         lever = float(np.linalg.norm(axis))
         reach = a_max + b_max * lever
         if size > give_up * reach:

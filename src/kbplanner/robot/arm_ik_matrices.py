@@ -74,3 +74,11 @@ def rigid_inverse_many(t: Matrix) -> Matrix:
     out[:, :3, 3] = (-r @ t[:, :3, 3:4])[:, :, 0]
     out[:, 3] = _LAST_ROW
     return out
+
+
+def cross3(a: npt.ArrayLike, b: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    """``np.cross`` of two 3-vectors, the same floats (its ``a1 * b2 - a2 * b1``, ... one float at a time)
+    without its axis handling: a tenth of the time."""
+    a0, a1, a2 = (float(v) for v in np.asarray(a, dtype=float).tolist())
+    b0, b1, b2 = (float(v) for v in np.asarray(b, dtype=float).tolist())
+    return np.array((a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0))
