@@ -178,7 +178,32 @@ def wrap_to_limits(theta: float, lower: float, upper: float, near: float) -> flo
 
 def _raw_solutions(arm: DhArm, ur: UrStructure, target: Matrix, seed: Sequence[float],
                    clamp: bool) -> list[tuple[float, ...]]:
-    """Closed-form candidates (angles in (-pi, pi]); ``clamp`` stretches towards unreachable poses."""
+    """Closed-form candidates (angles in (-pi, pi]); ``clamp`` stretches towards unreachable poses.
+
+    Both kinds come from one pass (:func:`_raw_both`), kept for the last pose asked: a query out of
+    reach asks the closed form and then the stretched arm of the same pose."""
+    key = (arm, target.tobytes(), tuple(float(v) for v in seed))
+    if _LAST_RAW and _LAST_RAW[0][0] == key:
+        both = _LAST_RAW[0][1]
+    else:
+        both = _raw_both(arm, ur, target, seed)
+        _LAST_RAW[:] = [(key, both)]
+    stretched, exact, reachable = both
+    if clamp:
+        return list(stretched)
+    return [q for q, ok in zip(stretched, exact, strict=True) if ok] if reachable else []
+
+
+#: the last :func:`_raw_both` asked: ((arm, target's bytes, seed), its answer)
+_LAST_RAW: list[tuple[tuple[DhArm, bytes, tuple[float, ...]],
+                      tuple[list[tuple[float, ...]], list[bool], bool]]] = []
+
+
+def _raw_both(arm: DhArm, ur: UrStructure, target: Matrix, seed: Sequence[float]
+              ) -> tuple[list[tuple[float, ...]], list[bool], bool]:
+    """The clamped candidates (``clamp=True``), whether each is also one of the unclamped ones, and whether
+    the unclamped form has any: the unclamped candidates are the clamped ones whose elbow was not clamped
+    (by more than 1e-9), the very same floats, unless the pose is off the shoulder's reach."""
     d1, d5, d6 = arm.d[0], arm.d[4], arm.d[5]
     # strip the constant Tx(a6) Rx(alpha6) so that the flange is Rz(q6) Tz(d6) from frame 5
     t06 = target @ _flange_strip(arm)
@@ -187,15 +212,16 @@ def _raw_solutions(arm: DhArm, ur: UrStructure, target: Matrix, seed: Sequence[f
     r = math.hypot(p5[0], p5[1])
     big_d = ur.shoulder_m
     # q1: s1 * (p5x sin q1 - p5y cos q1) = D, i.e. r sin(q1 - phi) = s1 D
+    reachable = True
     if r < 1e-12:
-        if abs(big_d) > 1e-12 and not clamp:
-            return []
+        if abs(big_d) > 1e-12:
+            reachable = False
         q1s = [float(seed[0])]  # on the shoulder axis: q1 is free
     else:
         ratio = ur.s1 * big_d / r
         if abs(ratio) > 1.0:
-            if not clamp and abs(ratio) > 1.0 + 1e-12:
-                return []
+            if abs(ratio) > 1.0 + 1e-12:
+                reachable = False
             ratio = max(-1.0, min(1.0, ratio))
         phi = math.atan2(p5[1], p5[0])
         s = math.asin(ratio)
@@ -223,6 +249,7 @@ def _raw_solutions(arm: DhArm, ur: UrStructure, target: Matrix, seed: Sequence[f
            @ dh_stack([w[2] for w in wrists], d6, 0.0, 0.0))
     t14s = (t16[[w[0] for w in wrists]] @ rigid_inverse_many(t46)).tolist()
     out: list[tuple[float, ...]] = []
+    exact: list[bool] = []
     for (i, q5, q6), t14 in zip(wrists, t14s, strict=True):
         q1 = q1s[i]
         x4 = (t14[0][0], t14[1][0])
@@ -230,16 +257,16 @@ def _raw_solutions(arm: DhArm, ur: UrStructure, target: Matrix, seed: Sequence[f
         px = t14[0][3] - arm.a[3] * x4[0]
         py = t14[1][3] - arm.a[3] * x4[1]
         c3 = (px * px + py * py - ur.a2 * ur.a2 - ur.a3 * ur.a3) / (2.0 * ur.a2 * ur.a3)
+        elbow = abs(c3) <= 1.0 + 1e-9  # the unclamped form skips the others
         if abs(c3) > 1.0:
-            if not clamp and abs(c3) > 1.0 + 1e-9:
-                continue
             c3 = max(-1.0, min(1.0, c3))
         acos3 = math.acos(c3)
         for q3 in (acos3, -acos3):
             q2 = math.atan2(py, px) - math.atan2(ur.a3 * math.sin(q3), ur.a2 + ur.a3 * math.cos(q3))
             q4 = sum234 - q2 - q3
             out.append(tuple((w + math.pi) % TWO_PI - math.pi for w in (q1, q2, q3, q4, q5, q6)))
-    return out
+            exact.append(elbow)
+    return out, exact, reachable
 
 
 def _place(arm: DhArm, raw: Sequence[tuple[float, ...]], seed: Sequence[float],
