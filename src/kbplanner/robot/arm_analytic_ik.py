@@ -57,6 +57,9 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from kbplanner.robot.arm_ik_joints import joint_distance as joint_distance
+from kbplanner.robot.arm_ik_joints import nearest_first, place_in_limits
+from kbplanner.robot.arm_ik_joints import wrap_to_limits as wrap_to_limits
 from kbplanner.robot.arm_ik_matrices import cross3, dh_chain_many, dh_matrix, dh_stack, rigid_inverse_many
 from kbplanner.robot.arm_ik_matrices import rigid_inverse as _inv
 
@@ -157,25 +160,6 @@ def pose_error(a: Matrix, b: Matrix) -> tuple[float, float]:
     return pos, math.acos(max(-1.0, min(1.0, c)))
 
 
-def wrap_to_limits(theta: float, lower: float, upper: float, near: float) -> float | None:
-    """``theta`` plus whole turns, within ``[lower, upper]`` and nearest ``near``; ``None`` if none fits.
-
-    Example:
-        >>> round(wrap_to_limits(3.0, -6.3, 6.3, -2.0), 4)
-        -3.2832
-        >>> wrap_to_limits(3.0, -1.0, 1.0, 0.0) is None
-        True
-    """
-    eps = 1e-9
-    k_lo = math.ceil((lower - eps - theta) / TWO_PI)
-    k_hi = math.floor((upper + eps - theta) / TWO_PI)
-    if k_hi < k_lo:
-        return None
-    # the whole-turn shift nearest the seed, clamped into the feasible range of shifts
-    k = min(max(round((near - theta) / TWO_PI), k_lo), k_hi)
-    return min(max(theta + k * TWO_PI, lower), upper)
-
-
 def _raw_solutions(arm: DhArm, ur: UrStructure, target: Matrix, seed: Sequence[float],
                    clamp: bool) -> list[tuple[float, ...]]:
     """Closed-form candidates (angles in (-pi, pi]); ``clamp`` stretches towards unreachable poses.
@@ -269,38 +253,6 @@ def _raw_both(arm: DhArm, ur: UrStructure, target: Matrix, seed: Sequence[float]
     return out, exact, reachable
 
 
-def _place(arm: DhArm, raw: Sequence[tuple[float, ...]], seed: Sequence[float],
-           clip: bool = False) -> list[tuple[float, ...]]:
-    """Each candidate moved by whole turns into the limits nearest the seed (as :func:`wrap_to_limits`).
-
-    A candidate with a joint that fits no whole-turn shift is dropped (``clip``: clipped into the
-    limits instead); duplicates are dropped.
-    """
-    if not raw:
-        return []
-    q = np.asarray(raw, dtype=float)
-    lo, hi = np.asarray(arm.lower, dtype=float), np.asarray(arm.upper, dtype=float)
-    k_lo = np.ceil((lo - 1e-9 - q) / TWO_PI)
-    k_hi = np.floor((hi + 1e-9 - q) / TWO_PI)
-    k = np.minimum(np.maximum(np.round((np.asarray(seed, dtype=float) - q) / TWO_PI), k_lo), k_hi)
-    placed = np.minimum(np.maximum(q + k * TWO_PI, lo), hi)
-    fits = (k_hi >= k_lo).all(axis=1)
-    if clip:
-        placed = np.where(k_hi >= k_lo, placed, np.minimum(np.maximum(q, lo), hi))
-        fits[:] = True
-    out: list[tuple[float, ...]] = []
-    seen: set[tuple[float, ...]] = set()
-    for row, ok in zip(placed.tolist(), fits.tolist(), strict=True):
-        if not ok:
-            continue
-        sol = tuple(float(v) for v in row)
-        key = tuple(round(v, 9) for v in sol)
-        if key not in seen:
-            seen.add(key)
-            out.append(sol)
-    return out
-
-
 def closed_form(arm: DhArm, target: Matrix, seed: Sequence[float] | None = None) -> list[tuple[float, ...]]:
     """The distinct closed-form solutions for ``target`` (4x4, DH frame 6 in DH frame 0), angles in (-pi, pi].
 
@@ -346,8 +298,8 @@ def place_nearest(arm: DhArm, solutions: Sequence[tuple[float, ...]],
 
     A solution none of whose whole-turn equivalents fits the limits is dropped.
     """
-    out = _place(arm, solutions, seed)
-    out.sort(key=lambda q: (joint_distance(q, seed), q))
+    out = place_in_limits(arm.lower, arm.upper, solutions, seed)
+    out.sort(key=nearest_first(seed))
     return out
 
 
@@ -372,8 +324,9 @@ def ik_best_effort(arm: DhArm, target: Matrix,
     if ur is None:
         return []
     s = tuple(seed) if seed is not None else (0.0,) * 6
-    out = _place(arm, _raw_solutions(arm, ur, np.asarray(target, dtype=float), s, clamp=True), s, clip=True)
-    out.sort(key=lambda q: (joint_distance(q, s), q))
+    raw = _raw_solutions(arm, ur, np.asarray(target, dtype=float), s, clamp=True)
+    out = place_in_limits(arm.lower, arm.upper, raw, s, clip=True)
+    out.sort(key=nearest_first(s))
     return out
 
 
@@ -501,8 +454,3 @@ def beyond_reach_m(arm: DhArm, target: Matrix) -> float:
     out = float(np.linalg.norm(p5 - np.array([0.0, 0.0, arm.d[0]]))) - far
     inside = abs(ur.shoulder_m) - math.hypot(float(p5[0]), float(p5[1]))
     return max(out, inside)
-
-
-def joint_distance(q: Sequence[float], seed: Sequence[float]) -> float:
-    """Euclidean distance between two joint vectors (rad)."""
-    return math.sqrt(sum((float(x) - float(y)) ** 2 for x, y in zip(q, seed, strict=True)))
