@@ -184,3 +184,24 @@ def test_cross3_is_numpys_cross_bit_for_bit() -> None:
     vectors += [np.array([0.0, -0.0, 1.0]), np.array([-0.0, 0.0, -0.0]), np.array([1e-300, -1e300, 3.0])]
     for a, b in zip(vectors, vectors[1:] + vectors[:1], strict=True):
         assert ak.cross3(a, b).tobytes() == np.cross(a, b).tobytes()
+
+
+def test_distinct_drops_the_rows_the_rounding_to_9_decimals_drops() -> None:
+    from kbplanner.robot.arm_ik_joints import distinct
+
+    rng = np.random.default_rng(11)
+    for trial in range(2000):
+        base = [tuple(float(v) for v in rng.uniform(-3.0, 3.0, 6)) for _ in range(int(rng.integers(1, 9)))]
+        rows = list(base)
+        for _ in range(int(rng.integers(0, 4))):  # near copies: within, at and beyond the rounding
+            src = rows[int(rng.integers(0, len(rows)))]
+            step = float(rng.choice([0.0, 1e-12, 4e-10, 1e-9, 1.5e-9, 3e-9]))
+            rows.insert(int(rng.integers(0, len(rows) + 1)), tuple(v + step for v in src))
+        want: list[tuple[float, ...]] = []
+        seen: set[tuple[float, ...]] = set()
+        for r in rows:
+            key = tuple(round(v, 9) for v in r)
+            if key not in seen:
+                seen.add(key)
+                want.append(r)
+        assert distinct(rows, np.array(rows)) == want, trial

@@ -57,8 +57,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from kbplanner.robot.arm_ik_joints import distinct, nearest_first, place_in_limits
 from kbplanner.robot.arm_ik_joints import joint_distance as joint_distance
-from kbplanner.robot.arm_ik_joints import nearest_first, place_in_limits
 from kbplanner.robot.arm_ik_joints import wrap_to_limits as wrap_to_limits
 from kbplanner.robot.arm_ik_matrices import cross3, dh_chain_many, dh_matrix, dh_stack, rigid_inverse_many
 from kbplanner.robot.arm_ik_matrices import rigid_inverse as _inv
@@ -265,24 +265,18 @@ def closed_form(arm: DhArm, target: Matrix, seed: Sequence[float] | None = None)
         return []
     s = tuple(seed) if seed is not None else (0.0,) * 6
     target = np.asarray(target, dtype=float)
-    distinct: list[tuple[float, ...]] = []
-    seen: set[tuple[float, ...]] = set()
-    for q in _raw_solutions(arm, ur, target, s, clamp=False):
-        key = tuple(round(v, 9) for v in q)
-        if key in seen:
-            continue
-        seen.add(key)
-        distinct.append(q)
-    if not distinct:
+    raw = _raw_solutions(arm, ur, target, s, clamp=False)
+    if not raw:
         return []
-    reached = forward_kinematics_many(arm, distinct)
+    found = distinct(raw, np.array(raw))
+    reached = forward_kinematics_many(arm, found)
     # every solution's errors at once; a value within 1 % of the tolerance is decided by pose_error (the
     # stacked sums differ from its own by far less: ~1e-15 m, ~1e-10 rad near 1e-6 rad)
     pos = np.sqrt(((reached[:, :3, 3] - target[:3, 3]) ** 2).sum(axis=1)).tolist()
     cos = ((np.einsum("nij,ij->n", reached[:, :3, :3], target[:3, :3]) - 1.0) / 2.0).clip(-1.0, 1.0)
     rot = np.arccos(cos).tolist()
     good: list[tuple[float, ...]] = []
-    for k, q in enumerate(distinct):
+    for k, q in enumerate(found):
         if pos[k] < 0.99 * _FK_TOL_M and rot[k] < 0.99 * _FK_TOL_M:
             good.append(q)
         elif pos[k] <= 1.01 * _FK_TOL_M and rot[k] <= 1.01 * _FK_TOL_M:

@@ -16,6 +16,7 @@ import math
 from collections.abc import Callable, Sequence
 
 import numpy as np
+import numpy.typing as npt
 
 TWO_PI = 2.0 * math.pi
 
@@ -58,12 +59,26 @@ def place_in_limits(lower: Sequence[float], upper: Sequence[float], raw: Sequenc
     if clip:
         placed = np.where(k_hi >= k_lo, placed, np.minimum(np.maximum(q, lo), hi))
         fits[:] = True
+    rows = [tuple(row) for row, ok in zip(placed.tolist(), fits.tolist(), strict=True) if ok]
+    return distinct(rows, placed[fits])
+
+
+def distinct(rows: list[tuple[float, ...]], values: npt.NDArray[np.float64]) -> list[tuple[float, ...]]:
+    """``rows`` (``values`` as an n x m array) without those whose angles rounded to 9 decimals are those
+    of an earlier row, in order.
+
+    Rows that all differ pairwise by more than 2e-9 in some angle have distinct roundings (two values
+    rounded to the same multiple of 1e-9 lie within 1e-9 of each other): then no rounding is done.
+    """
+    if len(rows) < 2:
+        return list(rows)
+    apart = np.abs(values[:, None, :] - values[None, :, :]).max(axis=2) > 2e-9
+    np.fill_diagonal(apart, True)
+    if apart.all():
+        return list(rows)
     out: list[tuple[float, ...]] = []
     seen: set[tuple[float, ...]] = set()
-    for row, ok in zip(placed.tolist(), fits.tolist(), strict=True):
-        if not ok:
-            continue
-        sol = tuple(row)  # Python floats (tolist)
+    for sol in rows:
         key = tuple(round(v, 9) for v in sol)
         if key not in seen:
             seen.add(key)
