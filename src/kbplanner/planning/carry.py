@@ -411,6 +411,7 @@ def carry_modes(
     robot.set_base_pose(0.0, 0.0, 0.0)
     probe = ElementProbe(robot, bounds)
     named = [robot.spec.poses[k] for k in ("carry", "pre_grasp", "stow") if k in robot.spec.poses]
+    element_in_tool = np.linalg.inv(tool_in_element)  # the same for every target
     try:
         modes: dict[str, CarryMode] = {}
         for name in MODES:
@@ -424,7 +425,7 @@ def carry_modes(
                 tool = np.eye(4)
                 tool[:3, :3] = tool_rot
                 tool[:3, 3] = tool_pos
-                elem = tool @ np.linalg.inv(tool_in_element)
+                elem = tool @ element_in_tool
                 ik = solve_ik(robot, tool_pos, rpy_of(tool), seeds=[*seeds, *named], refinements=refinements,
                               method=method)
                 if not ik.reachable:

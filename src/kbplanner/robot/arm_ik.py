@@ -30,6 +30,7 @@ Example:
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 import weakref
@@ -111,6 +112,11 @@ class AnalyticArm:
     arm: DhArm
     base_in_arm_base: Matrix
     tool_in_flange: Matrix
+
+    @functools.cached_property
+    def flange_in_tool(self) -> Matrix:
+        """``_rigid_inv(tool_in_flange)``, once per arm (the same floats)."""
+        return _rigid_inv(self.tool_in_flange)
 
 
 _ANALYTIC: weakref.WeakKeyDictionary[RobotModel, AnalyticArm | None] = weakref.WeakKeyDictionary()
@@ -228,7 +234,7 @@ class _Analytic:
               seeds: Sequence[Sequence[float]]) -> _Analytic:
         ab = _matrix(*robot.link_pose(robot.links["arm_base_link"]))
         target = (_rigid_inv(ab @ model.base_in_arm_base) @ _matrix(target_xyz, orn)
-                  @ _rigid_inv(model.tool_in_flange))
+                  @ model.flange_in_tool)
         exact = closed_form(model.arm, target, seeds[0]) if seeds else []
         stretched = ik_best_effort(model.arm, target, seeds[0]) if seeds and not exact else []
         return cls(model, exact, stretched, set(), target)
