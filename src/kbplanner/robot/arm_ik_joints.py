@@ -67,18 +67,21 @@ def distinct(rows: list[tuple[float, ...]], values: npt.NDArray[np.float64]) -> 
     """``rows`` (``values`` as an n x m array) without those whose angles rounded to 9 decimals are those
     of an earlier row, in order.
 
-    Rows that all differ pairwise by more than 2e-9 in some angle have distinct roundings (two values
-    rounded to the same multiple of 1e-9 lie within 1e-9 of each other): then no rounding is done.
+    Two rows that differ by more than 2e-9 in some angle have distinct roundings (two values rounded to
+    the same multiple of 1e-9 lie within 1e-9 of each other): a row that far from every other row is
+    kept without rounding, and only the others are rounded and compared among themselves.
     """
     if len(rows) < 2:
         return list(rows)
     apart = np.abs(values[:, None, :] - values[None, :, :]).max(axis=2) > 2e-9
     np.fill_diagonal(apart, True)
-    if apart.all():
-        return list(rows)
+    alone = apart.all(axis=1).tolist()
     out: list[tuple[float, ...]] = []
     seen: set[tuple[float, ...]] = set()
-    for sol in rows:
+    for sol, lone in zip(rows, alone, strict=True):
+        if lone:
+            out.append(sol)
+            continue
         key = tuple(round(v, 9) for v in sol)
         if key not in seen:
             seen.add(key)
