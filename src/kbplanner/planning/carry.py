@@ -55,6 +55,7 @@ import shapely
 from scipy.spatial.transform import Rotation
 
 from kbplanner.planning.rotation_numbers import quat_of_matrix, rpy_of_matrix
+from kbplanner.robot.arm_ik_matrices import cross3
 from kbplanner.robot.robot_model import RobotModel
 from kbplanner.world.footprint import Footprint, Rect
 from kbplanner.world.world_types import Bounds
@@ -145,7 +146,7 @@ def _frame(x_axis: npt.NDArray[np.float64], z_axis: npt.NDArray[np.float64]) -> 
     x = x_axis / np.linalg.norm(x_axis)
     z = z_axis - np.dot(z_axis, x) * x
     z = z / np.linalg.norm(z)
-    return np.column_stack([x, np.cross(z, x), z])
+    return np.column_stack([x, cross3(z, x), z])
 
 
 # --------------------------------------------------------------------------------------------
@@ -370,7 +371,7 @@ def _mode_targets(robot: RobotModel, name: str, bounds: Bounds) -> list[tuple[Ma
         r[:, long_i] = long_dir
         r[:, thin_i] = thin_dir
         # middle axis completes a right-handed frame
-        r[:, mid_i] = np.cross(r[:, (mid_i + 1) % 3], r[:, (mid_i + 2) % 3])
+        r[:, mid_i] = cross3(r[:, (mid_i + 1) % 3], r[:, (mid_i + 2) % 3])
         m = np.eye(4)
         m[:3, :3] = r
         orientations.append(m)
@@ -410,6 +411,7 @@ def carry_modes(
     robot.set_base_pose(0.0, 0.0, 0.0)
     probe = ElementProbe(robot, bounds)
     named = [robot.spec.poses[k] for k in ("carry", "pre_grasp", "stow") if k in robot.spec.poses]
+    element_in_tool = np.linalg.inv(tool_in_element)  # the same for every target
     try:
         modes: dict[str, CarryMode] = {}
         for name in MODES:
@@ -423,7 +425,7 @@ def carry_modes(
                 tool = np.eye(4)
                 tool[:3, :3] = tool_rot
                 tool[:3, 3] = tool_pos
-                elem = tool @ np.linalg.inv(tool_in_element)
+                elem = tool @ element_in_tool
                 ik = solve_ik(robot, tool_pos, rpy_of(tool), seeds=[*seeds, *named], refinements=refinements,
                               method=method)
                 if not ik.reachable:

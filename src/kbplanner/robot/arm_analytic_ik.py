@@ -57,6 +57,12 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from kbplanner.robot.arm_ik_joints import distinct, nearest_first, place_in_limits
+from kbplanner.robot.arm_ik_joints import joint_distance as joint_distance
+from kbplanner.robot.arm_ik_joints import wrap_to_limits as wrap_to_limits
+from kbplanner.robot.arm_ik_matrices import cross3, dh_chain_many, dh_matrix, dh_stack, rigid_inverse_many
+from kbplanner.robot.arm_ik_matrices import rigid_inverse as _inv
+
 Matrix = npt.NDArray[np.float64]
 
 TWO_PI = 2.0 * math.pi
@@ -126,16 +132,6 @@ def ur_structure(arm: DhArm) -> UrStructure | None:
     return UrStructure(signs[0], signs[1], signs[2], arm.d[1] + arm.d[2] + arm.d[3], arm.a[1], arm.a[2])
 
 
-def dh_matrix(theta: float, d: float, a: float, alpha: float) -> Matrix:
-    """``Rz(theta) Tz(d) Tx(a) Rx(alpha)`` as a 4x4 matrix."""
-    ct, st = math.cos(theta), math.sin(theta)
-    ca, sa = math.cos(alpha), math.sin(alpha)
-    return np.array([[ct, -st * ca, st * sa, a * ct],
-                     [st, ct * ca, -ct * sa, a * st],
-                     [0.0, sa, ca, d],
-                     [0.0, 0.0, 0.0, 1.0]])
-
-
 def forward_kinematics(arm: DhArm, q: Sequence[float]) -> Matrix:
     """DH frame 6 (the flange) in DH frame 0 (the arm base) for joint angles ``q``."""
     t = np.eye(4)
@@ -144,11 +140,16 @@ def forward_kinematics(arm: DhArm, q: Sequence[float]) -> Matrix:
     return t
 
 
-def _inv(t: Matrix) -> Matrix:
-    out = np.eye(4)
-    r = t[:3, :3].T
-    out[:3, :3] = r
-    out[:3, 3] = -r @ t[:3, 3]
+def forward_kinematics_many(arm: DhArm, qs: Sequence[Sequence[float]]) -> npt.NDArray[np.float64]:
+    """:func:`forward_kinematics` of each of ``qs`` (n x 4 x 4), the same floats in six stacked products."""
+    return dh_chain_many(arm.d, arm.a, arm.alpha, qs)
+
+
+@functools.lru_cache(maxsize=64)
+def _flange_strip(arm: DhArm) -> Matrix:
+    """``inv(Tx(a6) Rx(alpha6))``, constant per arm (memoised, read-only)."""
+    out = _inv(dh_matrix(0.0, 0.0, arm.a[5], arm.alpha[5]))
+    out.setflags(write=False)
     return out
 
 
@@ -159,111 +160,97 @@ def pose_error(a: Matrix, b: Matrix) -> tuple[float, float]:
     return pos, math.acos(max(-1.0, min(1.0, c)))
 
 
-def wrap_to_limits(theta: float, lower: float, upper: float, near: float) -> float | None:
-    """``theta`` plus whole turns, within ``[lower, upper]`` and nearest ``near``; ``None`` if none fits.
-
-    Example:
-        >>> round(wrap_to_limits(3.0, -6.3, 6.3, -2.0), 4)
-        -3.2832
-        >>> wrap_to_limits(3.0, -1.0, 1.0, 0.0) is None
-        True
-    """
-    eps = 1e-9
-    k_lo = math.ceil((lower - eps - theta) / TWO_PI)
-    k_hi = math.floor((upper + eps - theta) / TWO_PI)
-    if k_hi < k_lo:
-        return None
-    # the whole-turn shift nearest the seed, clamped into the feasible range of shifts
-    k = min(max(round((near - theta) / TWO_PI), k_lo), k_hi)
-    return min(max(theta + k * TWO_PI, lower), upper)
-
-
 def _raw_solutions(arm: DhArm, ur: UrStructure, target: Matrix, seed: Sequence[float],
                    clamp: bool) -> list[tuple[float, ...]]:
-    """Closed-form candidates (angles in (-pi, pi]); ``clamp`` stretches towards unreachable poses."""
+    """Closed-form candidates (angles in (-pi, pi]); ``clamp`` stretches towards unreachable poses.
+
+    Both kinds come from one pass (:func:`_raw_both`), kept for the last pose asked: a query out of
+    reach asks the closed form and then the stretched arm of the same pose."""
+    key = (arm, target.tobytes(), tuple(float(v) for v in seed))
+    if _LAST_RAW and _LAST_RAW[0][0] == key:
+        both = _LAST_RAW[0][1]
+    else:
+        both = _raw_both(arm, ur, target, seed)
+        _LAST_RAW[:] = [(key, both)]
+    stretched, exact, reachable = both
+    if clamp:
+        return list(stretched)
+    return [q for q, ok in zip(stretched, exact, strict=True) if ok] if reachable else []
+
+
+#: the last :func:`_raw_both` asked: ((arm, target's bytes, seed), its answer)
+_LAST_RAW: list[tuple[tuple[DhArm, bytes, tuple[float, ...]],
+                      tuple[list[tuple[float, ...]], list[bool], bool]]] = []
+
+
+def _raw_both(arm: DhArm, ur: UrStructure, target: Matrix, seed: Sequence[float]
+              ) -> tuple[list[tuple[float, ...]], list[bool], bool]:
+    """The clamped candidates (``clamp=True``), whether each is also one of the unclamped ones, and whether
+    the unclamped form has any: the unclamped candidates are the clamped ones whose elbow was not clamped
+    (by more than 1e-9), the very same floats, unless the pose is off the shoulder's reach."""
     d1, d5, d6 = arm.d[0], arm.d[4], arm.d[5]
     # strip the constant Tx(a6) Rx(alpha6) so that the flange is Rz(q6) Tz(d6) from frame 5
-    t06 = target @ _inv(dh_matrix(0.0, 0.0, arm.a[5], arm.alpha[5]))
+    t06 = target @ _flange_strip(arm)
     z6 = t06[:3, 2]
     p5 = t06[:3, 3] - d6 * z6
     r = math.hypot(p5[0], p5[1])
     big_d = ur.shoulder_m
     # q1: s1 * (p5x sin q1 - p5y cos q1) = D, i.e. r sin(q1 - phi) = s1 D
+    reachable = True
     if r < 1e-12:
-        if abs(big_d) > 1e-12 and not clamp:
-            return []
+        if abs(big_d) > 1e-12:
+            reachable = False
         q1s = [float(seed[0])]  # on the shoulder axis: q1 is free
     else:
         ratio = ur.s1 * big_d / r
         if abs(ratio) > 1.0:
-            if not clamp and abs(ratio) > 1.0 + 1e-12:
-                return []
+            if abs(ratio) > 1.0 + 1e-12:
+                reachable = False
             ratio = max(-1.0, min(1.0, ratio))
         phi = math.atan2(p5[1], p5[0])
         s = math.asin(ratio)
         q1s = [phi + s, phi + math.pi - s]
-    out: list[tuple[float, ...]] = []
-    for q1 in q1s:
+    # each shoulder's two wrists (q5, q6): (shoulder, q5, q6)
+    wrists: list[tuple[int, float, float]] = []
+    for i, q1 in enumerate(q1s):
         c1, s1q = math.cos(q1), math.sin(q1)
         z1 = np.array([ur.s1 * s1q, -ur.s1 * c1, 0.0])
         c5 = -float(z6 @ z1) / (ur.s4 * ur.s5)
         acos5 = math.acos(max(-1.0, min(1.0, c5)))
+        v: Matrix | None = None  # joint 2's axis seen from the flange
         for q5 in (acos5, -acos5):
             sin5 = math.sin(q5)
             if abs(sin5) < _SINGULAR:
                 q6 = float(seed[5])  # wrist singular: joints 4 and 6 aligned, q6 free
             else:
-                v = t06[:3, :3].T @ z1  # joint 2's axis seen from the flange
+                if v is None:
+                    v = t06[:3, :3].T @ z1
                 q6 = math.atan2(-ur.s4 * v[1] / sin5, ur.s4 * v[0] / sin5)
-            t46 = dh_matrix(q5, d5, 0.0, arm.alpha[4]) @ dh_matrix(q6, d6, 0.0, 0.0)
-            t14 = _inv(dh_matrix(q1, d1, arm.a[0], arm.alpha[0])) @ t06 @ _inv(t46)
-            x4 = t14[:3, 0]
-            sum234 = math.atan2(x4[1], x4[0])
-            px = t14[0, 3] - arm.a[3] * x4[0]
-            py = t14[1, 3] - arm.a[3] * x4[1]
-            c3 = (px * px + py * py - ur.a2 * ur.a2 - ur.a3 * ur.a3) / (2.0 * ur.a2 * ur.a3)
-            if abs(c3) > 1.0:
-                if not clamp and abs(c3) > 1.0 + 1e-9:
-                    continue
-                c3 = max(-1.0, min(1.0, c3))
-            acos3 = math.acos(c3)
-            for q3 in (acos3, -acos3):
-                q2 = math.atan2(py, px) - math.atan2(ur.a3 * math.sin(q3), ur.a2 + ur.a3 * math.cos(q3))
-                q4 = sum234 - q2 - q3
-                out.append(tuple((v + math.pi) % TWO_PI - math.pi for v in (q1, q2, q3, q4, q5, q6)))
-    return out
-
-
-def _place(arm: DhArm, raw: Sequence[tuple[float, ...]], seed: Sequence[float],
-           clip: bool = False) -> list[tuple[float, ...]]:
-    """Each candidate moved by whole turns into the limits nearest the seed (as :func:`wrap_to_limits`).
-
-    A candidate with a joint that fits no whole-turn shift is dropped (``clip``: clipped into the
-    limits instead); duplicates are dropped.
-    """
-    if not raw:
-        return []
-    q = np.asarray(raw, dtype=float)
-    lo, hi = np.asarray(arm.lower, dtype=float), np.asarray(arm.upper, dtype=float)
-    k_lo = np.ceil((lo - 1e-9 - q) / TWO_PI)
-    k_hi = np.floor((hi + 1e-9 - q) / TWO_PI)
-    k = np.minimum(np.maximum(np.round((np.asarray(seed, dtype=float) - q) / TWO_PI), k_lo), k_hi)
-    placed = np.minimum(np.maximum(q + k * TWO_PI, lo), hi)
-    fits = (k_hi >= k_lo).all(axis=1)
-    if clip:
-        placed = np.where(k_hi >= k_lo, placed, np.minimum(np.maximum(q, lo), hi))
-        fits[:] = True
+            wrists.append((i, q5, q6))
+    # frame 4 in frame 1 of each wrist: inv(T01) T06 inv(T46), as stacks (the same floats)
+    t16 = rigid_inverse_many(dh_stack(q1s, d1, arm.a[0], arm.alpha[0])) @ t06
+    t46 = (dh_stack([w[1] for w in wrists], d5, 0.0, arm.alpha[4])
+           @ dh_stack([w[2] for w in wrists], d6, 0.0, 0.0))
+    t14s = (t16[[w[0] for w in wrists]] @ rigid_inverse_many(t46)).tolist()
     out: list[tuple[float, ...]] = []
-    seen: set[tuple[float, ...]] = set()
-    for row, ok in zip(placed.tolist(), fits.tolist(), strict=True):
-        if not ok:
-            continue
-        sol = tuple(float(v) for v in row)
-        key = tuple(round(v, 9) for v in sol)
-        if key not in seen:
-            seen.add(key)
-            out.append(sol)
-    return out
+    exact: list[bool] = []
+    for (i, q5, q6), t14 in zip(wrists, t14s, strict=True):
+        q1 = q1s[i]
+        x4 = (t14[0][0], t14[1][0])
+        sum234 = math.atan2(x4[1], x4[0])
+        px = t14[0][3] - arm.a[3] * x4[0]
+        py = t14[1][3] - arm.a[3] * x4[1]
+        c3 = (px * px + py * py - ur.a2 * ur.a2 - ur.a3 * ur.a3) / (2.0 * ur.a2 * ur.a3)
+        elbow = abs(c3) <= 1.0 + 1e-9  # the unclamped form skips the others
+        if abs(c3) > 1.0:
+            c3 = max(-1.0, min(1.0, c3))
+        acos3 = math.acos(c3)
+        for q3 in (acos3, -acos3):
+            q2 = math.atan2(py, px) - math.atan2(ur.a3 * math.sin(q3), ur.a2 + ur.a3 * math.cos(q3))
+            q4 = sum234 - q2 - q3
+            out.append(tuple((w + math.pi) % TWO_PI - math.pi for w in (q1, q2, q3, q4, q5, q6)))
+            exact.append(elbow)
+    return out, exact, reachable
 
 
 def closed_form(arm: DhArm, target: Matrix, seed: Sequence[float] | None = None) -> list[tuple[float, ...]]:
@@ -278,16 +265,24 @@ def closed_form(arm: DhArm, target: Matrix, seed: Sequence[float] | None = None)
         return []
     s = tuple(seed) if seed is not None else (0.0,) * 6
     target = np.asarray(target, dtype=float)
+    raw = _raw_solutions(arm, ur, target, s, clamp=False)
+    if not raw:
+        return []
+    found = distinct(raw, np.array(raw))
+    reached = forward_kinematics_many(arm, found)
+    # every solution's errors at once; a value within 1 % of the tolerance is decided by pose_error (the
+    # stacked sums differ from its own by far less: ~1e-15 m, ~1e-10 rad near 1e-6 rad)
+    pos = np.sqrt(((reached[:, :3, 3] - target[:3, 3]) ** 2).sum(axis=1)).tolist()
+    cos = ((np.einsum("nij,ij->n", reached[:, :3, :3], target[:3, :3]) - 1.0) / 2.0).clip(-1.0, 1.0)
+    rot = np.arccos(cos).tolist()
     good: list[tuple[float, ...]] = []
-    seen: set[tuple[float, ...]] = set()
-    for q in _raw_solutions(arm, ur, target, s, clamp=False):
-        key = tuple(round(v, 9) for v in q)
-        if key in seen:
-            continue
-        seen.add(key)
-        pe, re = pose_error(forward_kinematics(arm, q), target)
-        if pe < _FK_TOL_M and re < _FK_TOL_M:
+    for k, q in enumerate(found):
+        if pos[k] < 0.99 * _FK_TOL_M and rot[k] < 0.99 * _FK_TOL_M:
             good.append(q)
+        elif pos[k] <= 1.01 * _FK_TOL_M and rot[k] <= 1.01 * _FK_TOL_M:
+            pe, re = pose_error(reached[k], target)
+            if pe < _FK_TOL_M and re < _FK_TOL_M:
+                good.append(q)
     return good
 
 
@@ -297,8 +292,8 @@ def place_nearest(arm: DhArm, solutions: Sequence[tuple[float, ...]],
 
     A solution none of whose whole-turn equivalents fits the limits is dropped.
     """
-    out = _place(arm, solutions, seed)
-    out.sort(key=lambda q: (joint_distance(q, seed), q))
+    out = place_in_limits(arm.lower, arm.upper, solutions, seed)
+    out.sort(key=nearest_first(seed))
     return out
 
 
@@ -323,8 +318,9 @@ def ik_best_effort(arm: DhArm, target: Matrix,
     if ur is None:
         return []
     s = tuple(seed) if seed is not None else (0.0,) * 6
-    out = _place(arm, _raw_solutions(arm, ur, np.asarray(target, dtype=float), s, clamp=True), s, clip=True)
-    out.sort(key=lambda q: (joint_distance(q, s), q))
+    raw = _raw_solutions(arm, ur, np.asarray(target, dtype=float), s, clamp=True)
+    out = place_in_limits(arm.lower, arm.upper, raw, s, clip=True)
+    out.sort(key=nearest_first(s))
     return out
 
 
@@ -411,7 +407,7 @@ def _near_branch(arm: DhArm, tool: Matrix, tool_in_flange: Matrix, seed: Sequenc
         if size < 1e-12:
             break
         along = gap / size
-        axis = np.cross(want - moved[:3, 3], along)
+        axis = cross3(want - moved[:3, 3], along)
         lever = float(np.linalg.norm(axis))
         reach = a_max + b_max * lever
         if size > give_up * reach:
@@ -431,7 +427,7 @@ def _near_branch(arm: DhArm, tool: Matrix, tool_in_flange: Matrix, seed: Sequenc
 
 def wrist_centre(arm: DhArm, target: Matrix) -> npt.NDArray[np.float64]:
     """Origin of DH frame 5 (where joints 5 and 6 meet the tool axis) for a flange pose ``target``."""
-    t06 = np.asarray(target, dtype=float) @ _inv(dh_matrix(0.0, 0.0, arm.a[5], arm.alpha[5]))
+    t06 = np.asarray(target, dtype=float) @ _flange_strip(arm)
     return np.asarray(t06[:3, 3] - arm.d[5] * t06[:3, 2], dtype=float)
 
 
@@ -452,8 +448,3 @@ def beyond_reach_m(arm: DhArm, target: Matrix) -> float:
     out = float(np.linalg.norm(p5 - np.array([0.0, 0.0, arm.d[0]]))) - far
     inside = abs(ur.shoulder_m) - math.hypot(float(p5[0]), float(p5[1]))
     return max(out, inside)
-
-
-def joint_distance(q: Sequence[float], seed: Sequence[float]) -> float:
-    """Euclidean distance between two joint vectors (rad)."""
-    return math.sqrt(sum((float(x) - float(y)) ** 2 for x, y in zip(q, seed, strict=True)))

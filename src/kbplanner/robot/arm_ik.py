@@ -30,11 +30,12 @@ Example:
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 import weakref
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
@@ -111,6 +112,11 @@ class AnalyticArm:
     arm: DhArm
     base_in_arm_base: Matrix
     tool_in_flange: Matrix
+
+    @functools.cached_property
+    def flange_in_tool(self) -> Matrix:
+        """``_rigid_inv(tool_in_flange)``, once per arm (the same floats)."""
+        return _rigid_inv(self.tool_in_flange)
 
 
 _ANALYTIC: weakref.WeakKeyDictionary[RobotModel, AnalyticArm | None] = weakref.WeakKeyDictionary()
@@ -220,13 +226,15 @@ class _Analytic:
     stretched: list[tuple[float, ...]]
     tried: set[tuple[float, ...]]
     target: Matrix  # the flange pose asked for, in DH frame 0
+    #: ``place_nearest(exact, seed)`` per seed (the local and the second pass ask the same seeds)
+    placed: dict[tuple[float, ...], list[tuple[float, ...]]] = field(default_factory=dict)
 
     @classmethod
     def start(cls, robot: RobotModel, model: AnalyticArm, target_xyz: Vec3, orn: Sequence[float],
               seeds: Sequence[Sequence[float]]) -> _Analytic:
         ab = _matrix(*robot.link_pose(robot.links["arm_base_link"]))
         target = (_rigid_inv(ab @ model.base_in_arm_base) @ _matrix(target_xyz, orn)
-                  @ _rigid_inv(model.tool_in_flange))
+                  @ model.flange_in_tool)
         exact = closed_form(model.arm, target, seeds[0]) if seeds else []
         stretched = ik_best_effort(model.arm, target, seeds[0]) if seeds and not exact else []
         return cls(model, exact, stretched, set(), target)
@@ -275,7 +283,7 @@ class _Analytic:
         """
         best: IkResult | None = None
         for seed in seeds:
-            sols = place_nearest(self.model.arm, self.exact, seed) if self.exact else self.stretched
+            sols = self._placed(seed) if self.exact else self.stretched
             for q in sols:
                 if local and not _near_seed(q, seed):
                     continue
@@ -288,6 +296,15 @@ class _Analytic:
                     return result
                 best = _better(best, result)
         return best
+
+
+    def _placed(self, seed: Sequence[float]) -> list[tuple[float, ...]]:
+        """:func:`place_nearest` of the exact solutions for ``seed``, once per seed (the same list)."""
+        key = tuple(float(v) for v in seed)
+        out = self.placed.get(key)
+        if out is None:
+            out = self.placed[key] = place_nearest(self.model.arm, self.exact, seed)
+        return out
 
 
 def _quat_angle(q1: Sequence[float], q2: Sequence[float]) -> float:

@@ -78,11 +78,13 @@ def label_runs(free: npt.NDArray[np.bool_], diagonal: bool) -> tuple[npt.NDArray
     np.minimum.at(first, comp, np.arange(n))
     rank = np.empty(n_comp, dtype=np.int32)
     rank[np.argsort(first, kind="stable")] = np.arange(1, n_comp + 1, dtype=np.int32)
-    # the padded cells as segments: a gap, a run, a gap, ..., a run, a gap
+    # the cells as segments: a gap, a run, a gap, ..., a run, a gap, painted straight into the unpadded
+    # cells (a run's cells are never padding: its padded cell (line, c) is cell (line, c - 1); gaps
+    # across a line's end may be empty)
     bounds = np.empty(2 * n + 2, dtype=np.int64)
-    bounds[0], bounds[-1] = 0, len(flat)
-    bounds[1:-1:2], bounds[2:-1:2] = starts, ends
+    bounds[0], bounds[-1] = 0, nb * ny * nx
+    shift = line * (width - nx) + 1  # padded flat index - unpadded flat index, per run
+    bounds[1:-1:2], bounds[2:-1:2] = starts - shift, ends - shift
     values = np.zeros(2 * n + 1, dtype=np.int32)
     values[1::2] = rank[comp]
-    cells = np.repeat(values, np.diff(bounds)).reshape(nb * ny, width)[:, 1:nx + 1]
-    return np.ascontiguousarray(cells).reshape(nb, ny, nx), int(n_comp)
+    return np.repeat(values, np.diff(bounds)).reshape(nb, ny, nx), int(n_comp)
