@@ -1,0 +1,114 @@
+"""Navigation (B5), a path's backward start or end made short: back out straight, turn, drive forwards.
+
+A loaded base that stands facing the storage stack at its pickup cannot turn on the spot there; the
+planner's SE(2) path backs it out diagonally (and :func:`~kbplanner.simulation.turn_around.turned_round`
+turns it round only where a whole turn is free, often metres away), into the laser scanner's blind sector
+behind it. :func:`backed_out` instead backs the base out straight along its yaw, ``STEP_M`` at a time,
+only until it can turn to face a later waypoint of the path and drive there forwards (the farthest such
+waypoint at the first distance where there is one); :func:`backed_in` does the same at the goal (it drives
+forwards to a pose in front of the goal, turns there and backs in straight), as :func:`backed_out` of the
+path reversed with the yaws turned round. Every motion checked exactly in the leg's configuration space
+(:class:`~kbplanner.simulation.motion_check.ExactMotion`); no random numbers.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Sequence
+
+from kbplanner.simulation.motion_check import ExactMotion, backward_m
+from kbplanner.simulation.nav_path import Pose2D, wrap
+from kbplanner.world.footprint import ConfigurationSpace
+
+STEP_M = 0.1  # spacing of the poses tried behind the start
+MAX_BACK_M = 3.0  # no farther back than this
+STOP_S = 1.0  # a turn on the spot: speeding up and slowing down its turn and the drives round it, roughly
+REVERSE_S_PER_M = 3.0  # a metre driven backwards (or slid over 60 degrees off the yaw) is worth this long
+
+
+def estimate_s(poses: Sequence[Pose2D], speed_mps: float, yaw_rate_rps: float) -> float:
+    """A rough drive time of a path (each straight SE(2) motion at top speed or yaw rate, whichever takes
+    longer, and ``STOP_S`` per turn on the spot) plus ``REVERSE_S_PER_M`` per metre driven backwards or
+    slid sideways: the cost by which rewrites of one path are compared."""
+    s = 0.0
+    for a, b in itertools.pairwise(poses):
+        d = math.hypot(b[0] - a[0], b[1] - a[1])
+        turn = abs(wrap(b[2] - a[2]))
+        s += max(d / speed_mps, turn / yaw_rate_rps)
+        if d <= 1e-9:
+            s += STOP_S if turn > 1e-9 else 0.0
+            continue
+        way = math.atan2(b[1] - a[1], b[0] - a[0])
+        off = max(abs(wrap(way - a[2])), abs(wrap(way - b[2])))
+        if off > math.radians(60.0):
+            s += REVERSE_S_PER_M * (backward_m([a, b]) if off > math.pi / 2 else d)
+    return s
+
+
+def _turn_free(exact: ExactMotion, p: Pose2D, yaw: float) -> list[Pose2D] | None:
+    """The poses of a free turn on the spot at ``p`` to ``yaw`` (the short way first, else the long way
+    round in quarter-turn-or-less motions), None where both are blocked."""
+    d = wrap(yaw - p[2])
+    if abs(d) < 1e-9:
+        return [p]
+    for way in (d, d - math.copysign(2 * math.pi, d)):
+        n = max(1, math.ceil(abs(way) / (math.pi / 2)))
+        seq = [(p[0], p[1], wrap(p[2] + k / n * way)) for k in range(n + 1)]
+        if exact.path_free(seq):
+            return seq
+    return None
+
+
+def backed_out(cs: ConfigurationSpace, poses: Sequence[Pose2D], speed_mps: float, yaw_rate_rps: float
+               ) -> list[Pose2D] | None:
+    """``poses`` with the start rewritten (module doc): straight back from the start by a multiple of
+    ``STEP_M`` (0 included, less than the planner's first motion backs up and at most ``MAX_BACK_M``) to
+    a pose from which a turn on the spot to face a later waypoint and the straight drive to it are free;
+    the path goes on from there as planned. Of these, the one of least :func:`estimate_s` (the farthest
+    waypoint first, the least distance back first among equals). None where the path is too short or
+    none is found."""
+    if len(poses) < 3:
+        return None
+    exact = ExactMotion(cs)
+    x0, y0, t0 = poses[0]
+    c, s = math.cos(t0), math.sin(t0)
+    limit = min(backward_m(poses[:2]), MAX_BACK_M + 1e-9)
+    n = len(poses)
+    r = 0.0
+    prev: Pose2D = poses[0]
+    best: tuple[float, list[Pose2D]] | None = None
+    while r < limit - 1e-9:
+        m = (x0 - r * c, y0 - r * s, t0)
+        if r > 0 and not exact.motion_free(prev, m):
+            break
+        prev = m
+        for j in range(n - 1, 0, -1):
+            q = poses[j]
+            if math.hypot(q[0] - m[0], q[1] - m[1]) <= 1e-6:
+                continue
+            way = math.atan2(q[1] - m[1], q[0] - m[0])
+            turn = _turn_free(exact, m, way)
+            if turn is None or not exact.motion_free(turn[-1], (q[0], q[1], way)):
+                continue
+            head = [poses[0], m] if r > 0 else [poses[0]]
+            out = [*head, *turn[1:], (q[0], q[1], way), *poses[j:]]
+            out = [p for k, p in enumerate(out) if k == 0 or p != out[k - 1]]
+            cost = estimate_s(out, speed_mps, yaw_rate_rps)
+            if best is None or cost < best[0] - 1e-9:
+                best = (cost, out)
+            break
+        r = round(r + STEP_M, 9)
+    return None if best is None else best[1]
+
+
+def _reversed(poses: Sequence[Pose2D]) -> list[Pose2D]:
+    """The path driven the other way, the base turned round: forwards stays forwards."""
+    return [(p[0], p[1], wrap(p[2] + math.pi)) for p in reversed(poses)]
+
+
+def backed_in(cs: ConfigurationSpace, poses: Sequence[Pose2D], speed_mps: float, yaw_rate_rps: float
+              ) -> list[Pose2D] | None:
+    """``poses`` with the end rewritten as :func:`backed_out` rewrites the start (module doc)."""
+    got = backed_out(cs, _reversed(poses), speed_mps, yaw_rate_rps)
+    return None if got is None else _reversed(got)
