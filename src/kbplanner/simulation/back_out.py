@@ -23,8 +23,9 @@ from kbplanner.world.footprint import ConfigurationSpace
 
 STEP_M = 0.1  # spacing of the poses tried behind the start
 MAX_BACK_M = 3.0  # no farther back than this
+KEEP = 3  # rewrites kept per end, the quickest by the estimate
+REVERSE_S_PER_M = 8.0  # in the estimate, a metre driven backwards (or slid over 60 degrees off) is worth this
 STOP_S = 1.0  # a turn on the spot: speeding up and slowing down its turn and the drives round it, roughly
-REVERSE_S_PER_M = 3.0  # a metre driven backwards (or slid over 60 degrees off the yaw) is worth this long
 
 
 def estimate_s(poses: Sequence[Pose2D], speed_mps: float, yaw_rate_rps: float) -> float:
@@ -60,24 +61,23 @@ def _turn_free(exact: ExactMotion, p: Pose2D, yaw: float) -> list[Pose2D] | None
     return None
 
 
-def backed_out(cs: ConfigurationSpace, poses: Sequence[Pose2D], speed_mps: float, yaw_rate_rps: float
-               ) -> list[Pose2D] | None:
+def backed_out(cs: ConfigurationSpace, poses: Sequence[Pose2D], speed_mps: float, yaw_rate_rps: float,
+               limit_m: float = MAX_BACK_M) -> list[list[Pose2D]]:
     """``poses`` with the start rewritten (module doc): straight back from the start by a multiple of
-    ``STEP_M`` (0 included, less than the planner's first motion backs up and at most ``MAX_BACK_M``) to
-    a pose from which a turn on the spot to face a later waypoint and the straight drive to it are free;
-    the path goes on from there as planned. Of these, the one of least :func:`estimate_s` (the farthest
-    waypoint first, the least distance back first among equals). None where the path is too short or
-    none is found."""
+    ``STEP_M`` (0 included, less than ``limit_m``, at most ``MAX_BACK_M``) to a pose from which a turn on
+    the spot to face a later waypoint (the farthest) and the straight drive to it are free; the path goes
+    on from there as planned. Up to ``KEEP`` of them (one per distance back), least :func:`estimate_s`
+    first; none where the path is too short or none is found."""
     if len(poses) < 3:
-        return None
+        return []
     exact = ExactMotion(cs)
     x0, y0, t0 = poses[0]
     c, s = math.cos(t0), math.sin(t0)
-    limit = min(backward_m(poses[:2]), MAX_BACK_M + 1e-9)
+    limit = min(limit_m, MAX_BACK_M + 1e-9)
     n = len(poses)
     r = 0.0
     prev: Pose2D = poses[0]
-    best: tuple[float, list[Pose2D]] | None = None
+    found: list[tuple[float, float, list[Pose2D]]] = []
     while r < limit - 1e-9:
         m = (x0 - r * c, y0 - r * s, t0)
         if r > 0 and not exact.motion_free(prev, m):
@@ -94,12 +94,11 @@ def backed_out(cs: ConfigurationSpace, poses: Sequence[Pose2D], speed_mps: float
             head = [poses[0], m] if r > 0 else [poses[0]]
             out = [*head, *turn[1:], (q[0], q[1], way), *poses[j:]]
             out = [p for k, p in enumerate(out) if k == 0 or p != out[k - 1]]
-            cost = estimate_s(out, speed_mps, yaw_rate_rps)
-            if best is None or cost < best[0] - 1e-9:
-                best = (cost, out)
+            found.append((estimate_s(out, speed_mps, yaw_rate_rps), r, out))
             break
         r = round(r + STEP_M, 9)
-    return None if best is None else best[1]
+    found.sort(key=lambda f: (round(f[0], 9), f[1]))
+    return [f[2] for f in found[:KEEP]]
 
 
 def _reversed(poses: Sequence[Pose2D]) -> list[Pose2D]:
@@ -107,8 +106,7 @@ def _reversed(poses: Sequence[Pose2D]) -> list[Pose2D]:
     return [(p[0], p[1], wrap(p[2] + math.pi)) for p in reversed(poses)]
 
 
-def backed_in(cs: ConfigurationSpace, poses: Sequence[Pose2D], speed_mps: float, yaw_rate_rps: float
-              ) -> list[Pose2D] | None:
+def backed_in(cs: ConfigurationSpace, poses: Sequence[Pose2D], speed_mps: float, yaw_rate_rps: float,
+              limit_m: float = MAX_BACK_M) -> list[list[Pose2D]]:
     """``poses`` with the end rewritten as :func:`backed_out` rewrites the start (module doc)."""
-    got = backed_out(cs, _reversed(poses), speed_mps, yaw_rate_rps)
-    return None if got is None else _reversed(got)
+    return [_reversed(p) for p in backed_out(cs, _reversed(poses), speed_mps, yaw_rate_rps, limit_m)]

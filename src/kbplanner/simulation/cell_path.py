@@ -147,7 +147,7 @@ def cell_route(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: Na
     else:
         key = (float(cs.grid.origin[0]), float(cs.grid.origin[1]), float(cs.grid.resolution),
                tuple(start), tuple(goal), settings.base_motion, settings.allow_reverse,
-               settings.base_speed_mps, settings.base_yaw_rate_rps)
+               settings.base_limits, settings.reverse_s_per_m)
         kept = _kept_routes(cs)
         found = kept.get(key) if kept is not None else None
         if found is None:
@@ -172,7 +172,7 @@ def cell_route(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: Na
 
 _CellPoses = tuple[tuple[Pose2D, ...], int | None] | str
 # Per read-only free map (by id, dropped with the map): cell paths by (origin, resolution, start, goal,
-# base motion, reversing, speed and yaw rate).
+# base motion, reversing, the base's limits).
 _ROUTES: dict[int, dict[tuple[object, ...], _CellPoses]] = {}
 
 
@@ -208,5 +208,5 @@ def _poses_of_cells(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, setting
     mixed: int | None = None
     if settings.base_motion == "turn_drive_turn":
         poses, mixed = skid_steer(cs, poses, allow_reverse=settings.allow_reverse,
-                                  speed_mps=settings.base_speed_mps, yaw_rate_rps=settings.base_yaw_rate_rps)
+                                  limits=settings.base_limits, reverse_s_per_m=settings.reverse_s_per_m)
     return tuple(poses), mixed

@@ -17,7 +17,8 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from kbplanner.simulation.back_out import backed_in, backed_out, estimate_s
+from kbplanner.simulation.back_out import backed_in, backed_out
+from kbplanner.simulation.base_trajectory import time_parameterize
 from kbplanner.simulation.motion_check import ExactMotion, backward_m, turn_drive_turn
 from kbplanner.simulation.nav_path import Pose2D, wrap
 from kbplanner.world.footprint import ConfigurationSpace
@@ -106,34 +107,39 @@ def turned_round(cs: ConfigurationSpace, poses: Sequence[Pose2D]) -> list[Pose2D
 
 
 def skid_steer(cs: ConfigurationSpace, poses: Sequence[Pose2D], *, allow_reverse: bool = True,
-               speed_mps: float = 0.5, yaw_rate_rps: float = 2.0,
-               trace: list[tuple[str, float]] | None = None) -> tuple[list[Pose2D], int]:
+               limits: tuple[float, float, float, float] = (0.5, 2.0, 1.0, 2.0),
+               reverse_s_per_m: float = 8.0, trace: list[tuple[str, float]] | None = None
+               ) -> tuple[list[Pose2D], int]:
     """:func:`~kbplanner.simulation.motion_check.turn_drive_turn`; without ``allow_reverse``, where that
     drives backwards over ``REVERSE_TOLERANCE_M``, rewrites that drive backwards less (by over
     ``REVERSE_TOLERANCE_M``) are tried, each turn-drive-turn and free: the path :func:`turned_round`, and
     the planner's path and that one with their start backed out and their end backed in straight
-    (:mod:`~kbplanner.simulation.back_out`, at ``speed_mps`` and ``yaw_rate_rps``); the quickest of them
-    by :func:`~kbplanner.simulation.back_out.estimate_s` (backward driving counted) is taken (``trace``
-    then gets ``("turned round", backward_m)`` or ``("backed out", backward_m)``)."""
+    (:mod:`~kbplanner.simulation.back_out`); the one of least drive time (``limits``: the base's top speed,
+    yaw rate, acceleration and yaw acceleration, :func:`~kbplanner.simulation.base_trajectory.
+    time_parameterize`) plus ``reverse_s_per_m`` per metre backwards is taken (``trace`` then gets
+    ``("turned round", backward_m)`` or ``("backed out", backward_m)``)."""
     got = turn_drive_turn(cs, poses, allow_reverse=allow_reverse, trace=trace)
     if allow_reverse or len(poses) < 2 or backward_m(got[0]) <= REVERSE_TOLERANCE_M:
         return got
     exact = ExactMotion(cs)
     limit = backward_m(got[0]) - REVERSE_TOLERANCE_M
+    speed, yaw_rate = limits[0], limits[1]
     best: tuple[float, tuple[list[Pose2D], int], str] | None = None
     flipped = turned_round(cs, poses)
     bases = [(list(poses), False)] + ([(flipped, True)] if flipped is not None else [])
     for base, turned in bases:
-        out = backed_out(cs, base, speed_mps, yaw_rate_rps)
-        both = None if out is None else backed_in(cs, out, speed_mps, yaw_rate_rps)
+        outs = backed_out(cs, base, speed, yaw_rate, limit)
         ways = [(base, "turned round")] if turned else []
-        ways += [(w, "backed out") for w in (out, backed_in(cs, base, speed_mps, yaw_rate_rps), both)
-                 if w is not None]
+        ways += [(w, "backed out") for w in outs]
+        ways += [(w, "backed out") for w in backed_in(cs, base, speed, yaw_rate, limit)]
+        if outs:
+            ways += [(w, "backed out") for w in backed_in(cs, outs[0], speed, yaw_rate, limit)]
         for way, why in ways:
             other = turn_drive_turn(cs, way, allow_reverse=allow_reverse)
-            if backward_m(other[0]) >= limit:
+            back = backward_m(other[0])
+            if back >= limit:
                 continue
-            cost = estimate_s(other[0], speed_mps, yaw_rate_rps)
+            cost = time_parameterize(other[0], *limits, space=cs).duration_s + reverse_s_per_m * back
             if (best is None or cost < best[0] - 1e-9) and exact.path_free(other[0]):
                 best = (cost, other, why)
     if best is None:

@@ -186,11 +186,12 @@ class NavigationSkill(Skill):
 
     def _settings(self) -> NavSettings:
         seed = zlib.crc32(f"{self.c.seed}/{self.step.step}/{self.replans}".encode()) % (2**31 - 1) + 1
+        base = self.c.env.robot.spec.base
         return NavSettings(time_limit_s=self.c.settings.nav_time_limit_s, seed=seed,
                            allow_reverse=self.c.settings.monitoring == "off",
                            carry_cells_first=self.c.settings.carry_cells_first,
-                           base_speed_mps=self.max_speed,
-                           base_yaw_rate_rps=self.c.env.robot.spec.base.max_yaw_rate_rps)
+                           base_limits=(self.max_speed, base.max_yaw_rate_rps, base.max_accel_mps2,
+                                        base.max_yaw_accel_rps2))
 
     def _leg(self, grid: OccupancyGrid, start: Pose2D, goal: Pose2D, fp: Footprint,
              narrow: Footprint | None) -> Route | str:
