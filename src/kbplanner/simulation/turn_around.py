@@ -111,39 +111,45 @@ def skid_steer(cs: ConfigurationSpace, poses: Sequence[Pose2D], *, allow_reverse
                reverse_s_per_m: float = 8.0, trace: list[tuple[str, float]] | None = None
                ) -> tuple[list[Pose2D], int]:
     """:func:`~kbplanner.simulation.motion_check.turn_drive_turn`; without ``allow_reverse``, where that
-    drives backwards over ``REVERSE_TOLERANCE_M``, rewrites that drive backwards less (by over
-    ``REVERSE_TOLERANCE_M``) are tried, each turn-drive-turn and free: the path :func:`turned_round`, and
-    the planner's path and that one with their start backed out and their end backed in straight
-    (:mod:`~kbplanner.simulation.back_out`); the one of least drive time (``limits``: the base's top speed,
-    yaw rate, acceleration and yaw acceleration, :func:`~kbplanner.simulation.base_trajectory.
-    time_parameterize`) plus ``reverse_s_per_m`` per metre backwards is taken (``trace`` then gets
-    ``("turned round", backward_m)`` or ``("backed out", backward_m)``)."""
+    drives backwards over ``REVERSE_TOLERANCE_M``: the path :func:`turned_round`, turn-drive-turn, if it is
+    free and drives backwards less (by over ``REVERSE_TOLERANCE_M``; ``trace`` then gets ``("turned
+    round", backward_m)``). Then the planner's path and that one with their start backed out and their
+    end backed in straight (:mod:`~kbplanner.simulation.back_out`), each turn-drive-turn and free, that
+    drive backwards no more than that choice: the one of least drive time (``limits``: the base's top
+    speed, yaw rate, acceleration and yaw acceleration, :func:`~kbplanner.simulation.base_trajectory.
+    time_parameterize`) plus ``reverse_s_per_m`` per metre backwards is taken, that choice included
+    (``trace`` then gets ``("backed out", backward_m)``); with ``reverse_s_per_m`` 0, none of them."""
     got = turn_drive_turn(cs, poses, allow_reverse=allow_reverse, trace=trace)
     if allow_reverse or len(poses) < 2 or backward_m(got[0]) <= REVERSE_TOLERANCE_M:
         return got
     exact = ExactMotion(cs)
-    limit = backward_m(got[0]) - REVERSE_TOLERANCE_M
-    speed, yaw_rate = limits[0], limits[1]
-    best: tuple[float, tuple[list[Pose2D], int], str] | None = None
+    best_back = backward_m(got[0])
+    choice, why = got, ""
     flipped = turned_round(cs, poses)
-    bases = [(list(poses), False)] + ([(flipped, True)] if flipped is not None else [])
-    for base, turned in bases:
-        outs = backed_out(cs, base, speed, yaw_rate, limit)
-        ways = [(base, "turned round")] if turned else []
-        ways += [(w, "backed out") for w in outs]
-        ways += [(w, "backed out") for w in backed_in(cs, base, speed, yaw_rate, limit)]
-        if outs:
-            ways += [(w, "backed out") for w in backed_in(cs, outs[0], speed, yaw_rate, limit)]
-        for way, why in ways:
-            other = turn_drive_turn(cs, way, allow_reverse=allow_reverse)
-            back = backward_m(other[0])
-            if back >= limit:
-                continue
-            cost = time_parameterize(other[0], *limits, space=cs).duration_s + reverse_s_per_m * back
-            if (best is None or cost < best[0] - 1e-9) and exact.path_free(other[0]):
-                best = (cost, other, why)
-    if best is None:
-        return got
-    if trace is not None:
-        trace.append((best[2], backward_m(best[1][0])))
-    return best[1]
+    if flipped is not None:
+        other = turn_drive_turn(cs, flipped, allow_reverse=allow_reverse)
+        if backward_m(other[0]) < best_back - REVERSE_TOLERANCE_M and exact.path_free(other[0]):
+            choice, why, best_back = other, "turned round", backward_m(other[0])
+    if reverse_s_per_m > 0:
+        limit = min(best_back + 1e-9, backward_m(got[0]) - REVERSE_TOLERANCE_M)
+
+        def cost(way: list[Pose2D]) -> float:
+            return time_parameterize(way, *limits, space=cs).duration_s + reverse_s_per_m * backward_m(way)
+
+        best = cost(choice[0])
+        speed, yaw_rate = limits[0], limits[1]
+        for base in [list(poses)] + ([flipped] if flipped is not None else []):
+            outs = backed_out(cs, base, speed, yaw_rate, limit)
+            ways = [*outs, *backed_in(cs, base, speed, yaw_rate, limit)]
+            if outs:
+                ways += backed_in(cs, outs[0], speed, yaw_rate, limit)
+            for way in ways:
+                other = turn_drive_turn(cs, way, allow_reverse=allow_reverse)
+                if backward_m(other[0]) > limit:
+                    continue
+                c = cost(other[0])
+                if c < best - 1e-9 and exact.path_free(other[0]):
+                    choice, why, best = other, "backed out", c
+    if why and trace is not None:
+        trace.append((why, backward_m(choice[0])))
+    return choice
