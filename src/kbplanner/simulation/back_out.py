@@ -47,13 +47,31 @@ def estimate_s(poses: Sequence[Pose2D], speed_mps: float, yaw_rate_rps: float) -
     return s
 
 
-def _turn_free(exact: ExactMotion, p: Pose2D, yaw: float) -> list[Pose2D] | None:
-    """The poses of a free turn on the spot at ``p`` to ``yaw`` (the short way first, else the long way
-    round in quarter-turn-or-less motions), None where both are blocked."""
+def _turn_span(exact: ExactMotion, p: Pose2D) -> tuple[float, float]:
+    """How far the base at ``p`` can turn on the spot: counter-clockwise and clockwise (radians, up to a
+    whole turn), from its yaw bins free at its cell (a turn on the spot is free exactly where every bin
+    it passes is)."""
+    w = exact.w
+    spans = []
+    for sign in (1, -1):
+        k = 1
+        edge = (math.floor(p[2] / w + 0.5) + sign * 0.5) * w  # the border of the bin it stands in
+        while k <= exact.n_bins and exact.pose_free(p[0], p[1], edge + sign * (k - 0.5) * w):
+            k += 1
+        spans.append(min(2 * math.pi, abs(edge - p[2]) + (k - 1) * w) - 1e-6)
+    return spans[0], spans[1]
+
+
+def _turn_free(exact: ExactMotion, p: Pose2D, yaw: float, span: tuple[float, float]) -> list[Pose2D] | None:
+    """The poses of a free turn on the spot at ``p`` to ``yaw`` within ``span`` (:func:`_turn_span`: the
+    short way first, else the long way round, in quarter-turn-or-less motions), None where both are
+    blocked."""
     d = wrap(yaw - p[2])
     if abs(d) < 1e-9:
         return [p]
     for way in (d, d - math.copysign(2 * math.pi, d)):
+        if (way > span[0]) if way > 0 else (-way > span[1]):
+            continue
         n = max(1, math.ceil(abs(way) / (math.pi / 2)))
         seq = [(p[0], p[1], wrap(p[2] + k / n * way)) for k in range(n + 1)]
         if exact.path_free(seq):
@@ -83,12 +101,13 @@ def backed_out(cs: ConfigurationSpace, poses: Sequence[Pose2D], speed_mps: float
         if r > 0 and not exact.motion_free(prev, m):
             break
         prev = m
+        span = _turn_span(exact, m)
         for j in range(n - 1, 0, -1):
             q = poses[j]
             if math.hypot(q[0] - m[0], q[1] - m[1]) <= 1e-6:
                 continue
             way = math.atan2(q[1] - m[1], q[0] - m[0])
-            turn = _turn_free(exact, m, way)
+            turn = _turn_free(exact, m, way, span)
             if turn is None or not exact.motion_free(turn[-1], (q[0], q[1], way)):
                 continue
             head = [poses[0], m] if r > 0 else [poses[0]]

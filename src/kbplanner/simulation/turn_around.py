@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from kbplanner.simulation.back_out import backed_in, backed_out
+from kbplanner.simulation.back_out import backed_in, backed_out, estimate_s
 from kbplanner.simulation.base_trajectory import time_parameterize
 from kbplanner.simulation.motion_check import ExactMotion, backward_m, turn_drive_turn
 from kbplanner.simulation.nav_path import Pose2D, wrap
@@ -26,6 +26,7 @@ from kbplanner.world.footprint import ConfigurationSpace
 STEP_M = 0.1  # spacing of the poses tried along the path
 REVERSE_TOLERANCE_M = 0.05  # backward driving below this is not worth turning round for
 SPIN_PARTS = 8  # a whole turn checked as this many motions (each under half a turn)
+TIMED = 2  # backed-out rewrites timed exactly, the quickest by the estimate
 
 
 def _starts(poses: Sequence[Pose2D]) -> list[int]:
@@ -117,7 +118,8 @@ def skid_steer(cs: ConfigurationSpace, poses: Sequence[Pose2D], *, allow_reverse
     end backed in straight (:mod:`~kbplanner.simulation.back_out`), each turn-drive-turn and free, that
     drive backwards no more than that choice: the one of least drive time (``limits``: the base's top
     speed, yaw rate, acceleration and yaw acceleration, :func:`~kbplanner.simulation.base_trajectory.
-    time_parameterize`) plus ``reverse_s_per_m`` per metre backwards is taken, that choice included
+    time_parameterize`) plus ``reverse_s_per_m`` per metre backwards is taken, that choice included (of
+    the rewrites, the ``TIMED`` quickest by :func:`~kbplanner.simulation.back_out.estimate_s` are timed)
     (``trace`` then gets ``("backed out", backward_m)``); with ``reverse_s_per_m`` 0, none of them."""
     got = turn_drive_turn(cs, poses, allow_reverse=allow_reverse, trace=trace)
     if allow_reverse or len(poses) < 2 or backward_m(got[0]) <= REVERSE_TOLERANCE_M:
@@ -136,8 +138,8 @@ def skid_steer(cs: ConfigurationSpace, poses: Sequence[Pose2D], *, allow_reverse
         def cost(way: list[Pose2D]) -> float:
             return time_parameterize(way, *limits, space=cs).duration_s + reverse_s_per_m * backward_m(way)
 
-        best = cost(choice[0])
         speed, yaw_rate = limits[0], limits[1]
+        found: list[tuple[float, int, tuple[list[Pose2D], int]]] = []
         for base in [list(poses)] + ([flipped] if flipped is not None else []):
             outs = backed_out(cs, base, speed, yaw_rate, limit)
             ways = [*outs, *backed_in(cs, base, speed, yaw_rate, limit)]
@@ -145,11 +147,13 @@ def skid_steer(cs: ConfigurationSpace, poses: Sequence[Pose2D], *, allow_reverse
                 ways += backed_in(cs, outs[0], speed, yaw_rate, limit)
             for way in ways:
                 other = turn_drive_turn(cs, way, allow_reverse=allow_reverse)
-                if backward_m(other[0]) > limit:
-                    continue
-                c = cost(other[0])
-                if c < best - 1e-9 and exact.path_free(other[0]):
-                    choice, why, best = other, "backed out", c
+                if backward_m(other[0]) <= limit:
+                    found.append((estimate_s(other[0], speed, yaw_rate), len(found), other))
+        best = cost(choice[0]) if found else 0.0
+        for _, _, other in sorted(found, key=lambda f: (round(f[0], 9), f[1]))[:TIMED]:
+            c = cost(other[0])
+            if c < best - 1e-9 and exact.path_free(other[0]):
+                choice, why, best = other, "backed out", c
     if why and trace is not None:
         trace.append((why, backward_m(choice[0])))
     return choice
