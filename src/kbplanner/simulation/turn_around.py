@@ -20,13 +20,14 @@ from collections.abc import Sequence
 from kbplanner.simulation.back_out import backed_in, backed_out, estimate_s
 from kbplanner.simulation.base_trajectory import time_parameterize
 from kbplanner.simulation.motion_check import ExactMotion, backward_m, turn_drive_turn
-from kbplanner.simulation.nav_path import Pose2D, wrap
+from kbplanner.simulation.nav_path import Pose2D, path_length, wrap
 from kbplanner.world.footprint import ConfigurationSpace
 
 STEP_M = 0.1  # spacing of the poses tried along the path
 REVERSE_TOLERANCE_M = 0.05  # backward driving below this is not worth turning round for
 SPIN_PARTS = 8  # a whole turn checked as this many motions (each under half a turn)
 TIMED = 2  # backed-out rewrites timed exactly, the quickest by the estimate
+LONGER = 1.1  # a backed-out rewrite drives at most this times as far as the path it replaces
 
 
 def _starts(poses: Sequence[Pose2D]) -> list[int]:
@@ -139,6 +140,7 @@ def skid_steer(cs: ConfigurationSpace, poses: Sequence[Pose2D], *, allow_reverse
             return time_parameterize(way, *limits, space=cs).duration_s + reverse_s_per_m * backward_m(way)
 
         speed, yaw_rate = limits[0], limits[1]
+        length = path_length(choice[0])
         found: list[tuple[float, int, tuple[list[Pose2D], int]]] = []
         for base in [list(poses)] + ([flipped] if flipped is not None else []):
             outs = backed_out(cs, base, speed, yaw_rate, limit)
@@ -147,7 +149,7 @@ def skid_steer(cs: ConfigurationSpace, poses: Sequence[Pose2D], *, allow_reverse
                 ways += backed_in(cs, outs[0], speed, yaw_rate, limit)
             for way in ways:
                 other = turn_drive_turn(cs, way, allow_reverse=allow_reverse)
-                if backward_m(other[0]) <= limit:
+                if backward_m(other[0]) <= limit and path_length(other[0]) <= LONGER * length:
                     found.append((estimate_s(other[0], speed, yaw_rate), len(found), other))
         best = cost(choice[0]) if found else 0.0
         for _, _, other in sorted(found, key=lambda f: (round(f[0], 9), f[1]))[:TIMED]:
