@@ -10,7 +10,7 @@ import math
 
 from kbplanner.simulation.back_out import backed_in, backed_out, estimate_s
 from kbplanner.simulation.motion_check import backward_m, path_is_free, turn_drive_turn
-from kbplanner.simulation.turn_around import skid_steer
+from kbplanner.simulation.turn_around import skid_steer, turned_round
 from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect
 from kbplanner.world.occupancy import Box, occupancy_from_meshes
 from test_navigation import box
@@ -71,11 +71,24 @@ def test_skid_steer_under_monitoring_backs_up_less_and_with_reversing_allowed_is
     poses = [(5.0, 0.9, -math.pi / 2), (5.0, 3.0, -math.pi / 2), (9.0, 4.5, 0.0)]
     plain, _ = turn_drive_turn(cs, poses, allow_reverse=False)
     trace: list[tuple[str, float]] = []
-    got, _ = skid_steer(cs, poses, allow_reverse=False, limits=LIMITS, trace=trace)
+    got, _ = skid_steer(cs, poses, allow_reverse=False, limits=LIMITS, reverse_s_per_m=8.0, trace=trace)
     assert path_is_free(cs, got) and got[0] == poses[0] and got[-1] == poses[-1]
     assert backward_m(got) < backward_m(plain) - 0.05
     assert trace[-1][0] in ("backed out", "turned round")
-    assert skid_steer(cs, poses, allow_reverse=True, limits=LIMITS) == turn_drive_turn(cs, poses)
+    assert skid_steer(cs, poses, allow_reverse=True, limits=LIMITS, reverse_s_per_m=8.0) == turn_drive_turn(
+        cs, poses)
+
+
+def test_with_no_time_for_a_backward_metre_the_rewrites_are_not_tried() -> None:
+    """``reverse_s_per_m`` 0 (NavSettings' default): turn-drive-turn or the path turned round, as before."""
+    cs = _room_and_pocket()
+    poses = [(5.0, 0.9, -math.pi / 2), (5.0, 3.0, -math.pi / 2), (9.0, 4.5, 0.0)]
+    trace: list[tuple[str, float]] = []
+    got, _ = skid_steer(cs, poses, allow_reverse=False, limits=LIMITS, trace=trace)
+    flipped = turned_round(cs, poses)
+    assert flipped is not None
+    assert got == turn_drive_turn(cs, flipped, allow_reverse=False)[0]
+    assert all(how != "backed out" for how, _ in trace)
 
 
 def test_nothing_to_back_out_of_gives_no_rewrite() -> None:

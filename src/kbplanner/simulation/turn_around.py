@@ -110,7 +110,7 @@ def turned_round(cs: ConfigurationSpace, poses: Sequence[Pose2D]) -> list[Pose2D
 
 def skid_steer(cs: ConfigurationSpace, poses: Sequence[Pose2D], *, allow_reverse: bool = True,
                limits: tuple[float, float, float, float] = (0.5, 2.0, 1.0, 2.0),
-               reverse_s_per_m: float = 8.0, trace: list[tuple[str, float]] | None = None
+               reverse_s_per_m: float = 0.0, trace: list[tuple[str, float]] | None = None
                ) -> tuple[list[Pose2D], int]:
     """:func:`~kbplanner.simulation.motion_check.turn_drive_turn`; without ``allow_reverse``, where that
     drives backwards over ``REVERSE_TOLERANCE_M``: the path :func:`turned_round`, turn-drive-turn, if it is
