@@ -10,7 +10,7 @@ from kbplanner.simulation.base_trajectory import time_parameterize
 from kbplanner.simulation.carry_paths import cell_alternatives
 from kbplanner.simulation.motion_check import path_is_free
 from kbplanner.simulation.nav_path import NavSettings, Pose2D, wrap
-from kbplanner.simulation.spin_merge import MAX_OFF_HEADING_RAD, turn_while_driving
+from kbplanner.simulation.spin_merge import DRIVEN_OFF_HEADING_RAD, MAX_OFF_HEADING_RAD, turn_while_driving
 from kbplanner.world.footprint import ConfigurationSpace
 from test_carry_route import rooms
 from test_navigation import BASE, GOAL, START, two_rooms
@@ -86,3 +86,18 @@ def test_cell_routes_keep_their_drives_and_ends_and_stay_free_and_forwards() -> 
                 assert (a, b) in own or _never_backwards([a, b])
             changed += got != poses
         assert changed or start != START  # in the wide door's rooms a turn is taken while driving
+
+
+def test_with_a_smaller_off_heading_a_turn_is_taken_into_its_drive_only_that_far() -> None:
+    """heading14: every route driven takes its turns into its drives within ``DRIVEN_OFF_HEADING_RAD``
+    (45 degrees) of the yaw: a quarter turn before a drive is taken half (45 degrees) into it."""
+    cs = ConfigurationSpace.build(two_rooms(1.2), BASE)
+    poses = [(1.5, 1.5, 0.0), (1.5, 1.5, math.pi / 2), (1.5, 3.0, math.pi / 2)]  # turn left, drive north
+    got = turn_while_driving(cs, poses, DRIVEN_OFF_HEADING_RAD)
+    assert got == [poses[0], (1.5, 1.5, math.pi / 4), poses[2]]
+    for a, b in _drives(got):
+        heading = math.atan2(b[1] - a[1], b[0] - a[0])
+        assert max(abs(wrap(heading - a[2])), abs(wrap(heading - b[2]))) <= DRIVEN_OFF_HEADING_RAD + 1e-9
+    assert path_is_free(cs, got)
+    assert _time(cs, got) < _time(cs, poses)
+    assert turn_while_driving(cs, poses) == [poses[0], poses[2]]  # the default: up to 90 degrees off

@@ -146,7 +146,8 @@ def cell_route(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: Na
         got: _CellPoses = _poses_of_cells(cs, start, goal, settings, cells)
     else:
         key = (float(cs.grid.origin[0]), float(cs.grid.origin[1]), float(cs.grid.resolution),
-               tuple(start), tuple(goal), settings.base_motion, settings.allow_reverse)
+               tuple(start), tuple(goal), settings.base_motion, settings.allow_reverse,
+               settings.base_limits, settings.reverse_s_per_m)
         kept = _kept_routes(cs)
         found = kept.get(key) if kept is not None else None
         if found is None:
@@ -171,7 +172,7 @@ def cell_route(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: Na
 
 _CellPoses = tuple[tuple[Pose2D, ...], int | None] | str
 # Per read-only free map (by id, dropped with the map): cell paths by (origin, resolution, start, goal,
-# base motion, reversing).
+# base motion, reversing, the base's limits).
 _ROUTES: dict[int, dict[tuple[object, ...], _CellPoses]] = {}
 
 
@@ -206,5 +207,6 @@ def _poses_of_cells(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, setting
     poses = shortcut(motion, poses, cs.grid.resolution * 5)
     mixed: int | None = None
     if settings.base_motion == "turn_drive_turn":
-        poses, mixed = skid_steer(cs, poses, allow_reverse=settings.allow_reverse)
+        poses, mixed = skid_steer(cs, poses, allow_reverse=settings.allow_reverse,
+                                  limits=settings.base_limits, reverse_s_per_m=settings.reverse_s_per_m)
     return tuple(poses), mixed

@@ -64,6 +64,13 @@ class NavSettings:
     check_step_m: float | None = None  # motion check step; default: a quarter of a grid cell
     base_motion: str = "turn_drive_turn"  # or "holonomic": keep OMPL's SE(2) segments as they are
     allow_reverse: bool = True  # turn_drive_turn may drive backwards when that turns less
+    # the base's top speed, yaw rate, acceleration and yaw acceleration, by which rewrites of a path that
+    # drives backwards are timed (without ``allow_reverse``, :func:`~.turn_around.skid_steer`)
+    base_limits: tuple[float, float, float, float] = (0.5, 2.0, 1.0, 2.0)
+    # ... and how many seconds of drive time a metre less driven backwards is worth there (0: the start
+    # backed out and the end backed in straight, :mod:`kbplanner.simulation.back_out`, are not tried; 0, 4
+    # and 8 measured in docs/scale.md "Session 14: heading-aware carry legs")
+    reverse_s_per_m: float = 8.0
     # where free cells certainly join start and goal and OMPL finds no path within its (then smaller)
     # budget, take the cell path (breadth-first over face-adjacent free cells, shortened)
     cell_fallback: bool = True

@@ -397,7 +397,8 @@ def _solve(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, settings: NavSet
         poses = shortcut(motion, poses, grid.resolution * 5)
     elapsed = time.perf_counter() - t0
     if settings.base_motion == "turn_drive_turn":
-        poses, kept = skid_steer(cs, poses, allow_reverse=settings.allow_reverse)
+        poses, kept = skid_steer(cs, poses, allow_reverse=settings.allow_reverse,
+                                 limits=settings.base_limits, reverse_s_per_m=settings.reverse_s_per_m)
         how += "; turn-drive-turn" + (f" ({kept} segment(s) partly turning while driving)" if kept else "")
         elapsed = time.perf_counter() - t0
     return NavPath(poses=tuple(poses), length_m=path_length(poses), planning_time_s=elapsed,

@@ -29,32 +29,35 @@ from kbplanner.world.footprint import ConfigurationSpace
 
 FRACTIONS = (1.0, 0.75, 0.5, 0.25)  # share of a turn on the spot moved into the drive next to it, tried
 MAX_OFF_HEADING_RAD = math.pi / 2  # direction of travel against the base's yaw, at most (no reversing)
+DRIVEN_OFF_HEADING_RAD = math.radians(45.0)  # the same, for every route driven (NavigationSkill._enqueue)
 EPS_M = 1e-9
 
 
-def _forward(a: Pose2D, c: Pose2D) -> bool:
+def _forward(a: Pose2D, c: Pose2D, max_off_rad: float = MAX_OFF_HEADING_RAD) -> bool:
     """Whether the straight motion a -> c (yaw linear, the short way) never travels backwards: the angle
     between the direction of travel and the yaw changes linearly, so its two ends decide."""
     heading = math.atan2(c[1] - a[1], c[0] - a[0])
     off = wrap(heading - a[2])
     end = off - wrap(c[2] - a[2])
-    return abs(off) <= MAX_OFF_HEADING_RAD + 1e-9 and abs(end) <= MAX_OFF_HEADING_RAD + 1e-9
+    return abs(off) <= max_off_rad + 1e-9 and abs(end) <= max_off_rad + 1e-9
 
 
 def _is_spin(a: Pose2D, b: Pose2D) -> bool:
     return math.hypot(b[0] - a[0], b[1] - a[1]) <= EPS_M
 
 
-def turn_while_driving(cs: ConfigurationSpace, poses: Sequence[Pose2D]) -> list[Pose2D]:
+def turn_while_driving(cs: ConfigurationSpace, poses: Sequence[Pose2D],
+                       max_off_rad: float = MAX_OFF_HEADING_RAD) -> list[Pose2D]:
     """``poses`` with each turn on the spot next to a drive taken into the drive as far as it may (module
-    doc); the first and last pose unchanged. Returns the poses as they were where nothing moved."""
+    doc; the direction of travel within ``max_off_rad`` of the yaw); the first and last pose unchanged.
+    Returns the poses as they were where nothing moved."""
     out = list(poses)
     if len(out) < 3:
         return out
     exact = ExactMotion(cs)
 
     def fits(a: Pose2D, c: Pose2D) -> bool:
-        return _forward(a, c) and exact.motion_free(a, c)
+        return _forward(a, c, max_off_rad) and exact.motion_free(a, c)
 
     i = 1
     while i < len(out) - 1:

@@ -17,13 +17,17 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+from kbplanner.simulation.back_out import backed_in, backed_out, estimate_s
+from kbplanner.simulation.base_trajectory import time_parameterize
 from kbplanner.simulation.motion_check import ExactMotion, backward_m, turn_drive_turn
-from kbplanner.simulation.nav_path import Pose2D, wrap
+from kbplanner.simulation.nav_path import Pose2D, path_length, wrap
 from kbplanner.world.footprint import ConfigurationSpace
 
 STEP_M = 0.1  # spacing of the poses tried along the path
 REVERSE_TOLERANCE_M = 0.05  # backward driving below this is not worth turning round for
 SPIN_PARTS = 8  # a whole turn checked as this many motions (each under half a turn)
+TIMED = 2  # backed-out rewrites timed exactly, the quickest by the estimate
+LONGER = 1.1  # a backed-out rewrite drives at most this times as far as the path it replaces
 
 
 def _starts(poses: Sequence[Pose2D]) -> list[int]:
@@ -105,20 +109,53 @@ def turned_round(cs: ConfigurationSpace, poses: Sequence[Pose2D]) -> list[Pose2D
 
 
 def skid_steer(cs: ConfigurationSpace, poses: Sequence[Pose2D], *, allow_reverse: bool = True,
-               trace: list[tuple[str, float]] | None = None) -> tuple[list[Pose2D], int]:
+               limits: tuple[float, float, float, float] = (0.5, 2.0, 1.0, 2.0),
+               reverse_s_per_m: float = 0.0, trace: list[tuple[str, float]] | None = None
+               ) -> tuple[list[Pose2D], int]:
     """:func:`~kbplanner.simulation.motion_check.turn_drive_turn`; without ``allow_reverse``, where that
-    drives backwards over ``REVERSE_TOLERANCE_M``, the path :func:`turned_round` rewritten so, if it is
-    free and drives backwards less (``trace`` then gets ``("turned round", backward_m)``)."""
+    drives backwards over ``REVERSE_TOLERANCE_M``: the path :func:`turned_round`, turn-drive-turn, if it is
+    free and drives backwards less (by over ``REVERSE_TOLERANCE_M``; ``trace`` then gets ``("turned
+    round", backward_m)``). Then the planner's path and that one with their start backed out and their
+    end backed in straight (:mod:`~kbplanner.simulation.back_out`), each turn-drive-turn and free, that
+    drive backwards no more than that choice: the one of least drive time (``limits``: the base's top
+    speed, yaw rate, acceleration and yaw acceleration, :func:`~kbplanner.simulation.base_trajectory.
+    time_parameterize`) plus ``reverse_s_per_m`` per metre backwards is taken, that choice included (of
+    the rewrites, the ``TIMED`` quickest by :func:`~kbplanner.simulation.back_out.estimate_s` are timed)
+    (``trace`` then gets ``("backed out", backward_m)``); with ``reverse_s_per_m`` 0, none of them."""
     got = turn_drive_turn(cs, poses, allow_reverse=allow_reverse, trace=trace)
     if allow_reverse or len(poses) < 2 or backward_m(got[0]) <= REVERSE_TOLERANCE_M:
         return got
+    exact = ExactMotion(cs)
+    best_back = backward_m(got[0])
+    choice, why = got, ""
     flipped = turned_round(cs, poses)
-    if flipped is None:
-        return got
-    other = turn_drive_turn(cs, flipped, allow_reverse=allow_reverse)
-    less = backward_m(other[0]) < backward_m(got[0]) - REVERSE_TOLERANCE_M
-    if less and ExactMotion(cs).path_free(other[0]):
-        if trace is not None:
-            trace.append(("turned round", backward_m(other[0])))
-        return other
-    return got
+    if flipped is not None:
+        other = turn_drive_turn(cs, flipped, allow_reverse=allow_reverse)
+        if backward_m(other[0]) < best_back - REVERSE_TOLERANCE_M and exact.path_free(other[0]):
+            choice, why, best_back = other, "turned round", backward_m(other[0])
+    if reverse_s_per_m > 0:
+        limit = min(best_back + 1e-9, backward_m(got[0]) - REVERSE_TOLERANCE_M)
+
+        def cost(way: list[Pose2D]) -> float:
+            return time_parameterize(way, *limits, space=cs).duration_s + reverse_s_per_m * backward_m(way)
+
+        speed, yaw_rate = limits[0], limits[1]
+        length = path_length(choice[0])
+        found: list[tuple[float, int, tuple[list[Pose2D], int]]] = []
+        for base in [list(poses)] + ([flipped] if flipped is not None else []):
+            outs = backed_out(cs, base, speed, yaw_rate, limit)
+            ways = [*outs, *backed_in(cs, base, speed, yaw_rate, limit)]
+            if outs:
+                ways += backed_in(cs, outs[0], speed, yaw_rate, limit)
+            for way in ways:
+                other = turn_drive_turn(cs, way, allow_reverse=allow_reverse)
+                if backward_m(other[0]) <= limit and path_length(other[0]) <= LONGER * length:
+                    found.append((estimate_s(other[0], speed, yaw_rate), len(found), other))
+        best = cost(choice[0]) if found else 0.0
+        for _, _, other in sorted(found, key=lambda f: (round(f[0], 9), f[1]))[:TIMED]:
+            c = cost(other[0])
+            if c < best - 1e-9 and exact.path_free(other[0]):
+                choice, why, best = other, "backed out", c
+    if why and trace is not None:
+        trace.append((why, backward_m(choice[0])))
+    return choice

@@ -62,7 +62,7 @@ from kbplanner.simulation.skills.load_turn_once import leg_time_bound, one_turn
 from kbplanner.simulation.skills.make_way import ask_way
 from kbplanner.simulation.skills.nav_grid import nearest_free_pose, window
 from kbplanner.simulation.skills.nav_queue import Drive, Route, Turn, route_of
-from kbplanner.simulation.spin_merge import turn_while_driving
+from kbplanner.simulation.spin_merge import DRIVEN_OFF_HEADING_RAD, MAX_OFF_HEADING_RAD, turn_while_driving
 from kbplanner.simulation.workers import WORKER_RADIUS_M
 from kbplanner.world.cspace_cache import configuration_space
 from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect
@@ -186,9 +186,12 @@ class NavigationSkill(Skill):
 
     def _settings(self) -> NavSettings:
         seed = zlib.crc32(f"{self.c.seed}/{self.step.step}/{self.replans}".encode()) % (2**31 - 1) + 1
+        base = self.c.env.robot.spec.base
         return NavSettings(time_limit_s=self.c.settings.nav_time_limit_s, seed=seed,
                            allow_reverse=self.c.settings.monitoring == "off",
-                           carry_cells_first=self.c.settings.carry_cells_first)
+                           carry_cells_first=self.c.settings.carry_cells_first,
+                           base_limits=(self.max_speed, base.max_yaw_rate_rps, base.max_accel_mps2,
+                                        base.max_yaw_accel_rps2))
 
     def _leg(self, grid: OccupancyGrid, start: Pose2D, goal: Pose2D, fp: Footprint,
              narrow: Footprint | None) -> Route | str:
@@ -340,13 +343,14 @@ class NavigationSkill(Skill):
         leg = self._turning(leg)
         return leg, self._drive_s(leg)
 
-    def _turning(self, route: Route) -> Route:
+    def _turning(self, route: Route, max_off_rad: float = MAX_OFF_HEADING_RAD) -> Route:
         """``route`` with each piece's turns on the spot taken into its drives where they fit, never
-        reversing (:func:`~kbplanner.simulation.spin_merge.turn_while_driving`), where that is quicker."""
+        reversing and the direction of travel within ``max_off_rad`` of the yaw
+        (:func:`~kbplanner.simulation.spin_merge.turn_while_driving`), where that is quicker."""
         pieces = []
         for poses, mode, space in route.pieces:
             if space is not None and len(poses) >= 3:
-                turning = turn_while_driving(space, poses)
+                turning = turn_while_driving(space, poses, max_off_rad)
                 if turning != poses and (self._trajectory(turning, space).duration_s
                                          < self._trajectory(poses, space).duration_s - 1e-9):
                     poses = turning
@@ -512,6 +516,7 @@ class NavigationSkill(Skill):
 
     def _enqueue(self, route: Route, *, first: bool) -> None:
         """Queue drives (and carry turns) for a planned route; ``first``: the step's first plan."""
+        route = self._turning(route, DRIVEN_OFF_HEADING_RAD)
         self.details["path_length_m"] += route.length_m
         self.details["narrow_length_m"] += route.narrow_length_m
         mode = self.c.carry_mode
