@@ -216,6 +216,7 @@ class KBP(DefinedNamespace):
     requiresCapability: URIRef
     resumeHoldTime: URIRef
     resumeMargin: URIRef
+    reversingCost: URIRef
     robotArrival: URIRef
     robotStart: URIRef
     robotized: URIRef

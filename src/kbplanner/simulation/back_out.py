@@ -17,6 +17,7 @@ import itertools
 import math
 from collections.abc import Sequence
 
+from kbplanner.core.errors import KbplannerError
 from kbplanner.simulation.motion_check import ExactMotion, backward_m
 from kbplanner.simulation.nav_path import Pose2D, wrap
 from kbplanner.world.footprint import ConfigurationSpace
@@ -26,6 +27,21 @@ MAX_BACK_M = 3.0  # no farther back than this
 KEEP = 3  # rewrites kept per end, the quickest by the estimate
 REVERSE_S_PER_M = 8.0  # in the estimate, a metre driven backwards (or slid over 60 degrees off) is worth this
 STOP_S = 1.0  # a turn on the spot: speeding up and slowing down its turn and the drives round it, roughly
+
+
+def reversing_cost(value: object) -> float:
+    """The navigation skill's ``kbp:reversingCost`` (seconds of drive time a metre less driven backwards is
+    worth; ontology/kb/skills.ttl), checked: none is 0 (no rewrite); a number that is not finite and >= 0 is
+    bad input."""
+    if value is None:
+        return 0.0
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(float(value)) \
+            or float(value) < 0:
+        raise KbplannerError(f"the navigation skill parameter kbp:reversingCost is {value!r}",
+                             element="kbp:reversingCost",
+                             fix="give a finite number of seconds per metre >= 0 (0: off) as its "
+                                 "kbp:defaultValue in the knowledge base")
+    return float(value)
 
 
 def estimate_s(poses: Sequence[Pose2D], speed_mps: float, yaw_rate_rps: float) -> float:

@@ -69,8 +69,9 @@ class NavSettings:
     base_limits: tuple[float, float, float, float] = (0.5, 2.0, 1.0, 2.0)
     # ... and how many seconds of drive time a metre less driven backwards is worth there (0: the start
     # backed out and the end backed in straight, :mod:`kbplanner.simulation.back_out`, are not tried; 0, 4
-    # and 8 measured in docs/scale.md "Session 14: heading-aware carry legs")
-    reverse_s_per_m: float = 8.0
+    # and 8 measured in docs/scale.md "Session 14: heading-aware carry legs"). The navigation skill sets it
+    # from its parameter ``kbp:reversingCost`` (ontology/kb/skills.ttl: 0)
+    reverse_s_per_m: float = 0.0
     # where free cells certainly join start and goal and OMPL finds no path within its (then smaller)
     # budget, take the cell path (breadth-first over face-adjacent free cells, shortened)
     cell_fallback: bool = True

@@ -48,6 +48,7 @@ from kbplanner.planning.plan_model import Pose2
 from kbplanner.planning.pose_frames import as_pose6_list
 from kbplanner.planning.step_kinds import KIND_NAVIGATION, KIND_NAVIGATION_WITH_OBJECT
 from kbplanner.robot.lidar import LidarSpec, lidar_spec
+from kbplanner.simulation.back_out import reversing_cost
 from kbplanner.simulation.base_trajectory import Trajectory, time_parameterize
 from kbplanner.simulation.carry_paths import cell_alternatives, cells_first, plan_with_carry_modes
 from kbplanner.simulation.grid_yardstick import grid_shortest_path_length
@@ -101,6 +102,7 @@ class NavigationSkill(Skill):
         self.max_speed = min(float(params.get("maxSpeed", env.robot.spec.base.max_speed_mps)),
                              env.robot.spec.base.max_speed_mps)
         self.stop_m = float(params.get("safetyStopDistance", s.default_stop_distance_m))
+        self.reverse_s_per_m = reversing_cost(params.get("reversingCost"))
         self.lidar: LidarSpec = lidar_spec(env.robot, s.lidar_step_deg)
         self.monitor = SeparationMonitor(env, self.lidar, params, max_speed=self.max_speed,
                                          enabled=s.monitoring != "off")
@@ -191,7 +193,8 @@ class NavigationSkill(Skill):
                            allow_reverse=self.c.settings.monitoring == "off",
                            carry_cells_first=self.c.settings.carry_cells_first,
                            base_limits=(self.max_speed, base.max_yaw_rate_rps, base.max_accel_mps2,
-                                        base.max_yaw_accel_rps2))
+                                        base.max_yaw_accel_rps2),
+                           reverse_s_per_m=self.reverse_s_per_m)
 
     def _leg(self, grid: OccupancyGrid, start: Pose2D, goal: Pose2D, fp: Footprint,
              narrow: Footprint | None) -> Route | str:
