@@ -51,6 +51,7 @@ from kbplanner.robot.lidar import LidarSpec, lidar_spec
 from kbplanner.simulation.back_out import reversing_cost
 from kbplanner.simulation.base_trajectory import Trajectory, time_parameterize
 from kbplanner.simulation.carry_paths import cell_alternatives, cells_first, plan_with_carry_modes
+from kbplanner.simulation.corner_pull import pull_corners
 from kbplanner.simulation.grid_yardstick import grid_shortest_path_length
 from kbplanner.simulation.nav_path import NavSettings
 from kbplanner.simulation.navigation import WALLED_OFF, is_walled_off, plan_path
@@ -353,6 +354,9 @@ class NavigationSkill(Skill):
         pieces = []
         for poses, mode, space in route.pieces:
             if space is not None and len(poses) >= 3:
+                pulled = pull_corners(space, poses, self._untimed(space))
+                if pulled != poses:
+                    poses = pulled
                 turning = turn_while_driving(space, poses, max_off_rad)
                 if turning != poses and (self._trajectory(turning, space).duration_s
                                          < self._trajectory(poses, space).duration_s - 1e-9):
@@ -361,6 +365,15 @@ class NavigationSkill(Skill):
         if all(a[0] is b[0] for a, b in zip(pieces, route.pieces, strict=True)):
             return route
         return Route(pieces, route.length_m, route.narrow_length_m)
+
+    def _untimed(self, space: ConfigurationSpace | None) -> Callable[[list[Pose2D]], float]:
+        """How long driving a piece on ``space`` takes, timed as :meth:`_trajectory` times it, not kept."""
+        base = self.c.env.robot.spec.base
+
+        def seconds(piece: list[Pose2D]) -> float:
+            return time_parameterize(piece, self.max_speed, base.max_yaw_rate_rps, base.max_accel_mps2,
+                                     base.max_yaw_accel_rps2, self.c.env.control_hz, space).duration_s
+        return seconds
 
     def _drive_s(self, route: Route) -> float:
         """How long driving a route takes (its timed pieces; the load's turns between them left out)."""
