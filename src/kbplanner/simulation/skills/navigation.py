@@ -53,7 +53,7 @@ from kbplanner.simulation.base_trajectory import Trajectory, time_parameterize
 from kbplanner.simulation.carry_paths import cell_alternatives, cells_first, plan_with_carry_modes
 from kbplanner.simulation.corner_pull import pull_corners
 from kbplanner.simulation.grid_yardstick import grid_shortest_path_length
-from kbplanner.simulation.nav_path import NavSettings
+from kbplanner.simulation.nav_path import NavSettings, path_length
 from kbplanner.simulation.navigation import WALLED_OFF, is_walled_off, plan_path
 from kbplanner.simulation.path_quality import YARDSTICK_MARGIN_M, shortest_path_m
 from kbplanner.simulation.separation import reach_m
@@ -350,12 +350,18 @@ class NavigationSkill(Skill):
     def _turning(self, route: Route, max_off_rad: float = MAX_OFF_HEADING_RAD) -> Route:
         """``route`` with each piece's turns on the spot taken into its drives where they fit, never
         reversing and the direction of travel within ``max_off_rad`` of the yaw
-        (:func:`~kbplanner.simulation.spin_merge.turn_while_driving`), where that is quicker."""
+        (:func:`~kbplanner.simulation.spin_merge.turn_while_driving`), where that is quicker; first its
+        needless corners cut out (:func:`~kbplanner.simulation.corner_pull.pull_corners`), the route's
+        length shortened by what they saved."""
         pieces = []
+        saved_m = saved_narrow_m = 0.0
         for poses, mode, space in route.pieces:
             if space is not None and len(poses) >= 3:
                 pulled = pull_corners(space, poses, self._untimed(space))
                 if pulled != poses:
+                    cut = path_length(poses) - path_length(pulled)
+                    saved_m += cut
+                    saved_narrow_m += cut if mode == NARROW else 0.0
                     poses = pulled
                 turning = turn_while_driving(space, poses, max_off_rad)
                 if turning != poses and (self._trajectory(turning, space).duration_s
@@ -364,7 +370,7 @@ class NavigationSkill(Skill):
             pieces.append((poses, mode, space))
         if all(a[0] is b[0] for a, b in zip(pieces, route.pieces, strict=True)):
             return route
-        return Route(pieces, route.length_m, route.narrow_length_m)
+        return Route(pieces, route.length_m - saved_m, route.narrow_length_m - saved_narrow_m)
 
     def _untimed(self, space: ConfigurationSpace | None) -> Callable[[list[Pose2D]], float]:
         """How long driving a piece on ``space`` takes, timed as :meth:`_trajectory` times it, not kept."""
