@@ -8,13 +8,20 @@ frame time over its lower bound (median, max; ``path_quality``), the largest dri
 minimum separation, the simulated time and the backward metres
 (:func:`kbplanner.analysis.reverse_driving.reverse_of`): "a -> b" where they differ.
 
-Usage: python benchmarks/frame_time_compare.py BEFORE AFTER --runs storage-inside:17,storage-outside:7
+With ``--study``, instead one row per scenario over the runs both folders hold (every ``seed-*``
+folder, the ``-monitoring-off`` ones included): runs, installed, collisions, the median of the runs'
+median frame ratios, the largest frame ratio, frames over 1.3, the largest driven / shortest and the
+smallest minimum separation.
+
+Usage: python benchmarks/frame_time_compare.py BEFORE AFTER [--runs storage-inside:17,storage-outside:7]
+       python benchmarks/frame_time_compare.py BEFORE AFTER --study
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import statistics
 from pathlib import Path
 
 from kbplanner.analysis.reverse_driving import reverse_of
@@ -30,6 +37,19 @@ def figures(run: Path) -> dict[str, object]:
             "sim": m["totals"]["sim_time_s"], "back": reverse_of(run)["backward_m"]}
 
 
+def study(folder: Path, scenario: str, names: list[str]) -> dict[str, object]:
+    """One scenario's figures over the runs ``names`` of ``folder``."""
+    ms = [json.loads((folder / scenario / n / "metrics.json").read_text()) for n in names]
+    quality = [m["path_quality"] for m in ms]
+    frames = [f["time_over_lower_bound"] for m in ms for f in m["path_quality"]["per_element"]]
+    return {"runs": len(ms), "inst": sum(m["totals"]["installed"] for m in ms),
+            "coll": sum(m["safety"]["collisions"] for m in ms),
+            "median": round(statistics.median(q["time_over_lower_bound"]["median"] for q in quality), 3),
+            "max": max(frames), "over": sum(1 for f in frames if f > 1.3),
+            "path": max(m["path_quality"]["driven_over_shortest"]["max"] for m in ms),
+            "sep": min(m["safety"]["min_separation_m"] for m in ms)}
+
+
 def _pair(a: object, b: object) -> str:
     return f"{a}" if a == b else f"{a} -> {b}"
 
@@ -40,7 +60,20 @@ def main() -> int:
     ap.add_argument("after", type=Path)
     ap.add_argument("--runs", default="storage-inside:17,storage-inside:11,storage-inside:18,"
                                       "storage-inside:7,storage-outside:7,storage-outside:1")
+    ap.add_argument("--study", action="store_true")
     a = ap.parse_args()
+    if a.study:
+        print("| scenario | runs | installed | collisions | median of the runs' median frame / bound | max | "
+              "frames over 1.3 | driven / shortest, max | min. separation m |")
+        print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+        for scenario in sorted(p.name for p in a.after.iterdir() if p.is_dir()):
+            names = sorted(p.name for p in (a.after / scenario).glob("seed-*")
+                           if (p / "metrics.json").exists()
+                           and (a.before / scenario / p.name / "metrics.json").exists())
+            x, y = study(a.before, scenario, names), study(a.after, scenario, names)
+            keys = ("runs", "inst", "coll", "median", "max", "over", "path", "sep")
+            print(f"| {scenario} | {' | '.join(_pair(x[k], y[k]) for k in keys)} |")
+        return 0
     keys = ("inst", "coll", "median", "max", "path", "sep", "sim", "back")
     print("| scenario | seed | installed | collisions | frame time / bound, median | max | "
           "driven / shortest, max | min. separation m | simulated s | backward m |")
