@@ -157,11 +157,10 @@ class _Router:
         self.grid = grid
         self.free: np.ndarray | None = None
         if grid is not None:
-            free = grid.clearance_m() >= clearance_m
-            k = max(1, math.ceil(math.sqrt(free.size / MAX_ROUTING_CELLS)))
-            if k > 1:  # a big site: route on cells k times coarser, free where all their fine cells are
-                ny, nx = free.shape[0] // k * k, free.shape[1] // k * k
-                free = np.asarray(free[:ny, :nx].reshape(ny // k, k, nx // k, k).all(axis=(1, 3)), dtype=bool)
+            from kbplanner.simulation import walk_store  # (it imports this module)
+
+            free, k = walk_store.walk_cells_kept(grid, clearance_m)  # kept by an earlier run, or made
+            if k > 1:
                 self.grid = OccupancyGrid(~free, origin=grid.origin, resolution=grid.resolution * k)
             self.free = free
         self._memo: dict[tuple[tuple[int, int], tuple[int, int]], np.ndarray] = {}
@@ -249,6 +248,18 @@ class _Router:
             nodes.append(int(pred[nodes[-1]]))
         flat = self._cells[nodes[::-1]]
         return [(int(c % nx), int(c // nx)) for c in flat]
+
+
+def walk_cells(grid: OccupancyGrid, clearance_m: float) -> tuple[np.ndarray, int]:
+    """The cells a person walks on (``clearance_m`` or more from obstacles) and how many times coarser than
+    ``grid``'s they are: on a big site (over :data:`MAX_ROUTING_CELLS`) routes are found on cells ``k`` times
+    coarser, free where all their fine cells are."""
+    free = grid.clearance_m() >= clearance_m
+    k = max(1, math.ceil(math.sqrt(free.size / MAX_ROUTING_CELLS)))
+    if k > 1:
+        ny, nx = free.shape[0] // k * k, free.shape[1] // k * k
+        free = np.asarray(free[:ny, :nx].reshape(ny // k, k, nx // k, k).all(axis=(1, 3)), dtype=bool)
+    return free, k
 
 
 def _line_free(p: np.ndarray, q: np.ndarray, free: np.ndarray, g: OccupancyGrid) -> bool:
