@@ -94,7 +94,7 @@ def test_the_walking_map_is_kept_and_read_back_the_same(tmp_path: Path) -> None:
         (kept,) = (tmp_path / walk_store.SUBDIR / walk_store.MAPS).glob("*.npz")
         read = walk_store.walk_cells_kept(grid, WORKER_RADIUS_M)
         fresh = OccupancyGrid(grid.occupied.copy(), origin=grid.origin, resolution=grid.resolution)
-        router = _Router(fresh, WORKER_RADIUS_M)
+        router = _Router(fresh, WORKER_RADIUS_M, walk_store.walk_cells_kept(fresh, WORKER_RADIUS_M))
         assert "edt" not in fresh._cache  # the map read, no distance transform made
         assert walk_store.walk_cells_kept(grid, 0.5)[0].sum() < made.sum()  # another clearance: another map
         for got in (first, read, (router.free, 1)):
@@ -117,7 +117,7 @@ def test_a_big_site_walking_map_is_coarser_and_kept_so(tmp_path: Path,
     with cspace_store.kept_in(tmp_path / "cspace"):
         walk_store.walk_cells_kept(grid, WORKER_RADIUS_M)
         read, k_read = walk_store.walk_cells_kept(grid, WORKER_RADIUS_M)
-        router = _Router(grid, WORKER_RADIUS_M)
+        router = _Router(grid, WORKER_RADIUS_M, (read, k_read))
     assert k_read == 3 and read.tobytes() == made.tobytes()
     assert router.grid is not None and router.grid.resolution == grid.resolution * 3
     assert router.free is not None and router.free.tobytes() == made.tobytes()

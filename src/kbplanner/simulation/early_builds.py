@@ -130,10 +130,12 @@ def keep_walking_legs(specs: Sequence[WorkerSpec], ground: OccupancyGrid | None,
 def walking_router(ground: OccupancyGrid | None) -> _Router:
     """The reactive workers' router on their walking map (as :class:`kbplanner.simulation.crowd.Crowd`
     makes it)."""
+    from kbplanner.simulation import walk_store
     from kbplanner.simulation.separation import WORKER_RADIUS_M
     from kbplanner.simulation.workers import _Router
 
-    return _Router(ground, WORKER_RADIUS_M)
+    return _Router(ground, WORKER_RADIUS_M,
+                   walk_store.walk_cells_kept(ground, WORKER_RADIUS_M) if ground is not None else None)
 
 
 def route_stops(router: _Router, specs: Sequence[WorkerSpec]) -> int:

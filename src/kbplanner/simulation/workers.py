@@ -153,13 +153,14 @@ MAX_ROUTING_CELLS = 400_000  # worker routes on a coarser grid beyond this (a wh
 class _Router:
     """Shortest walking paths on a grid, with a clearance for a person; memoised per (start, goal) cell."""
 
-    def __init__(self, grid: OccupancyGrid | None, clearance_m: float) -> None:
+    def __init__(self, grid: OccupancyGrid | None, clearance_m: float,
+                 cells: tuple[np.ndarray, int] | None = None) -> None:
+        """``cells``: :func:`walk_cells` of ``grid`` and ``clearance_m`` when known (kept by an earlier run,
+        :func:`kbplanner.simulation.walk_store.walk_cells_kept`), else made here."""
         self.grid = grid
         self.free: np.ndarray | None = None
         if grid is not None:
-            from kbplanner.simulation import walk_store  # (it imports this module)
-
-            free, k = walk_store.walk_cells_kept(grid, clearance_m)  # kept by an earlier run, or made
+            free, k = cells if cells is not None else walk_cells(grid, clearance_m)
             if k > 1:
                 self.grid = OccupancyGrid(~free, origin=grid.origin, resolution=grid.resolution * k)
             self.free = free
