@@ -1,8 +1,9 @@
 """Where a first run's simulation step goes (issue 14, session 14): CPU seconds of the pieces of
 ``executor.simulate`` that build what later runs read from ``PROJECT/.kbplanner-cache`` (configuration
-spaces, grid cell paths and yardstick lengths, corridor routes, the workers' walking legs), on a first
-run (the kept ``cspace``, ``cells`` and ``walks`` folders removed first) with and without the early
-builds' process (``simulation/early_builds.py``), and on a repeated run (everything kept).
+spaces, grid cell paths and yardstick lengths, corridor routes, the workers' walking map and legs, the
+static bodies' triangles), on a first run (the kept ``cspace``, ``cells``, ``walks`` and ``static``
+folders removed first) with and without the early builds' process (``simulation/early_builds.py``), and
+on a repeated run (everything kept).
 
 Each run is ``kbplanner simulate data/case_study --scenario S --seed N --out DIR --force`` in its own
 process with B4 run (its kept plan not read), wrappers round the pieces (``time.process_time``, inclusive,
@@ -34,7 +35,7 @@ from typing import Any
 from _common import REPO, RESULTS_DIR, machine_info, write_json
 
 PROJECT = REPO / "data" / "case_study"
-KEPT = ("cspace", "cells", "walks")
+KEPT = ("cspace", "cells", "walks", "static")
 #: (module, function or Class.method, label): the pieces timed within the step
 PIECES = (
     ("kbplanner.simulation.executor", "_Run.run", "run loop"),
@@ -50,6 +51,10 @@ PIECES = (
     ("kbplanner.simulation.cell_path", "bfs_cells", "breadth-first cell searches"),
     ("kbplanner.simulation.workers", "_Router.path", "walking legs"),
     ("kbplanner.simulation.workers", "_Router._dijkstra", "  of it: searched (Dijkstra)"),
+    ("kbplanner.simulation.walk_store", "walk_cells_kept", "walking map"),
+    ("kbplanner.simulation.workers", "walk_cells", "  of it: made (distance transform)"),
+    ("kbplanner.simulation.sim_world", "static_chunks", "static bodies' triangles"),
+    ("kbplanner.world.meshes", "element_mesh", "  of it: mesh files read"),
     ("kbplanner.simulation.cell_store", "flush", "cells/ written"),
     ("kbplanner.simulation.walk_store", "write_from", "walks/ written"),
 )

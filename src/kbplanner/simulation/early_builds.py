@@ -2,25 +2,31 @@
 the world and its maps only, made while the first process runs B4 (issue 14, a user's first run).
 
 A first ``kbplanner simulate`` of a project builds what later runs read from ``PROJECT/.kbplanner-cache``:
-the configuration spaces, the grid cell paths and corridor routes, and the reactive workers' walking
-legs. Of these only the walking legs are known before B4 ends: every other one is searched on a window
-round B4's base poses, for the footprint of the element as the step grasped it, on the map with the
-elements as the step installed them. The legs depend on the ground map and the workers' routes: the
-case study's four Dijkstra searches over the 520 x 420 cell walking map (about 0.17 s of a first run's
-step). :func:`start` forks a process that routes every worker's stop-to-stop legs (those a worker
-walks from where they stand at a stop: the first of each worker from the very point) with the router
-the crowd uses (:class:`kbplanner.simulation.workers._Router`, the same map, clearance and code) and
-keeps them with :mod:`kbplanner.simulation.walk_store`; the step reads them at its start as it reads
-an earlier run's (:func:`kbplanner.simulation.walk_store.read_into`).
+the configuration spaces, the grid cell paths and corridor routes, the reactive workers' walking map and
+legs, the static bodies' triangles. Of these only the last three are known before B4 ends: every other
+one is searched on a window round B4's base poses, for the footprint of the element as the step grasped
+it, on the map with the elements as the step installed them (a key that differs in one float or one
+cell is another space). :func:`start` forks a process that makes, with the code the step uses:
 
-- Outputs: the same by construction. A kept leg is the very polyline a search in the step gives
-  (``tests/test_walk_store.py``, ``tests/test_early_builds.py``); a leg the early process has not kept
-  yet when the step starts is searched by the step as before.
+- the workers' walking map (:func:`kbplanner.simulation.walk_store.walk_cells_kept`: a distance
+  transform of the ground map, some 0.07 s) and every worker's stop-to-stop legs (those a worker walks
+  from where they stand at a stop, the first of each worker from the very point: the case study's
+  Dijkstra searches over the 520 x 420 cell walking map, about 0.17 s of a first run's step), with the
+  router the crowd uses (:class:`kbplanner.simulation.workers._Router`, the same map, clearance and code),
+  kept by :mod:`kbplanner.simulation.walk_store`;
+- the static bodies' triangles (:func:`kbplanner.simulation.sim_world.static_chunks`: the mesh files
+  read and merged, some 0.1 s), kept by :mod:`kbplanner.simulation.static_store`.
+
+The step reads them at its start as it reads an earlier run's.
+
+- Outputs: the same by construction. What is kept is read back as the very arrays the step makes
+  (``tests/test_walk_store.py``, ``tests/test_static_store.py``, ``tests/test_early_builds.py``); what
+  the early process has not kept yet when the step starts is made by the step as before.
 - Files: written atomically (:func:`kbplanner.core.outputs.atomic_write_bytes`): a process killed
   half-way leaves the file it had or none. Nothing is started without a kept folder (``kbplanner
-  --no-cache``, ``KBPLANNER_NO_CACHE=1``) or ``fork`` (not Linux), nor for scripted workers.
-- A run that kept the legs before: the early process reads them and ends (a few hundredths of a second
-  on the other core).
+  --no-cache``, ``KBPLANNER_NO_CACHE=1``) or ``fork`` (not Linux); no walking legs for scripted workers.
+- A run that kept them before: the early process reads them and ends (a few hundredths of a second on
+  the other core).
 - :meth:`EarlyBuilds.finish` waits for the process: the command calls it once the step has run (its
   CPU is then counted with the command's); after an error the process is left to end by itself.
 
@@ -77,21 +83,27 @@ def possible(folder: Path | None) -> bool:
 
 def start(project: ProjectData, world: World, grid: OccupancyGrid, folder: Path | None,
           *, reactive_workers: bool = True) -> EarlyBuilds:
-    """Fork the process that keeps the workers' walking legs in ``folder``'s kept folders (the
-    configuration spaces' folder, :func:`kbplanner.world.cspace_store.folder_for`); returns at once.
+    """Fork the process that keeps the workers' walking map and legs (``reactive_workers``) and the static
+    bodies' triangles in ``folder``'s kept folders (the configuration spaces' folder,
+    :func:`kbplanner.world.cspace_store.folder_for`); returns at once.
 
     ``grid``: the robot's storey map (the workers walk on :func:`~kbplanner.simulation.floors.walk_grid`
     of it). Call before any thread is started (a progress bar's): the fork copies this process."""
-    if not reactive_workers or not possible(folder):
+    if not possible(folder):
         return EarlyBuilds()
 
-    def legs() -> None:
+    def builds() -> None:
         from kbplanner.simulation.floors import walk_grid
+        from kbplanner.simulation.sim_world import static_chunks
         from kbplanner.simulation.workers import load_workers
+        from kbplanner.world import cspace_store
 
-        keep_walking_legs(load_workers(project.model), walk_grid(world, grid), folder)
+        if reactive_workers:
+            keep_walking_legs(load_workers(project.model), walk_grid(world, grid), folder)
+        with cspace_store.kept_in(folder):
+            static_chunks(world)  # the static bodies' triangles (read, or made and kept)
 
-    return forked(legs)
+    return forked(builds)
 
 
 def forked(work: Callable[[], object]) -> EarlyBuilds:
