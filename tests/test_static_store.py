@@ -1,6 +1,7 @@
 """The static bodies' triangles kept on disk (B5 set-up, simulation/static_store.py): read back, the very
 arrays made from the mesh files, and the same PyBullet world loaded from them (no mesh file read); another
-world, a changed mesh file or a damaged file is not read; nothing is kept without a folder."""
+world, a changed mesh file or a damaged file is not read; nothing is kept without a folder, nor for a big
+world."""
 
 from __future__ import annotations
 
@@ -89,3 +90,15 @@ def test_another_world_a_changed_file_or_a_damaged_file_is_not_read(world: World
         assert static_store.read(world) is None
         again = static_chunks(world)  # made again and kept again
         assert static_store.read(world) is not None and len(again) == len(static_store.read(world) or [])
+
+
+def test_a_big_world_is_not_kept(world: World, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    folder = tmp_path / "cspace"
+    with cspace_store.kept_in(folder):
+        monkeypatch.setattr(static_store, "MAX_ELEMENTS", 1)
+        assert static_store.key(world) is None
+        made = static_chunks(world)
+        monkeypatch.setattr(static_store, "MAX_ELEMENTS", 10_000)
+        monkeypatch.setattr(static_store, "MAX_BYTES", 100)
+        assert static_chunks(world)[0].vertices.tobytes() == made[0].vertices.tobytes()
+    assert not (tmp_path / static_store.SUBDIR).exists()

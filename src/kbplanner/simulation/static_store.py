@@ -19,6 +19,8 @@ the elements' placements only, so a run keeps them in a folder and the next run 
 - Value: ``KEY.npz`` (no pickle): per chunk its group, its members and the merged vertices (float64)
   and triangles (int64) :func:`kbplanner.simulation.sim_world.load_world` hands PyBullet; read back the
   very arrays (``tests/test_static_store.py``), so the bodies and every output of a run are the same.
+- Small worlds only (:data:`MAX_ELEMENTS`, :data:`MAX_BYTES`): a many-storey building's tasks each have
+  another world, whose triangles would be written once and never read.
 - A file that cannot be read is ignored (the meshes read again); one that cannot be written is logged,
   never an error (written atomically). The newest :data:`KEEP` files are kept.
 """
@@ -44,6 +46,11 @@ log = logging.getLogger(__name__)
 FORMAT = "1"
 SUBDIR = "static"
 KEEP = 32  # worlds kept (the newest)
+#: Worlds with more static elements than this are not kept (a building's every task would write its
+#: whole static geometry, tens of megabytes, once: each task's world is another; a process's mesh
+#: cache reads each file once anyway), nor chunks over :data:`MAX_BYTES`.
+MAX_ELEMENTS = 1000
+MAX_BYTES = 16 * 1024 * 1024
 _CODE = ("sim_world.py", "static_store.py")
 
 _code_memo: list[bytes] = []
@@ -73,9 +80,13 @@ def _code_digest() -> bytes:
 
 
 def key(world: World) -> str | None:
-    """The content hash the static chunks of ``world`` are kept under (None: a mesh file is missing)."""
+    """The content hash the static chunks of ``world`` are kept under (None: a mesh file is missing, or
+    more than :data:`MAX_ELEMENTS` static elements)."""
+    groups = world.static_groups()
+    if sum(len(m) for m in groups.values()) > MAX_ELEMENTS:
+        return None
     h = hashlib.sha256(_code_digest())
-    for group, members in world.static_groups().items():
+    for group, members in groups.items():
         h.update(b"group " + group.encode() + b"\0")
         for e in members:
             assert e.mesh_path is not None
@@ -121,7 +132,9 @@ def read(world: World) -> list[Chunk] | None:
 
 
 def write(world: World, chunks: list[Chunk]) -> None:
-    """Keep the chunks of this world (when a folder is given)."""
+    """Keep the chunks of this world (when a folder is given and they are not over :data:`MAX_BYTES`)."""
+    if sum(c.vertices.nbytes + c.faces.nbytes for c in chunks) > MAX_BYTES:
+        return
     path = _path(world)
     if path is None:
         return
