@@ -105,12 +105,14 @@ def _run(src: Path, scenario: str, seed: int, out: Path, log: Path, b4_cache: st
             "path_quality": {k: v for k, v in quality.items() if k != "per_element"} if quality else None}
 
 
-KEPT_BY_RUNS = ("cspace", "cells", "walks")  # what a simulate run keeps in the project's cache folder
+#: what a simulate run keeps in the project's cache folder
+KEPT_BY_RUNS = ("cspace", "cells", "walks", "static")
 
 
 def _forget_runs(src: Path) -> None:
     """A first run: remove what earlier ``simulate`` runs of this tree kept (configuration spaces, cell
-    paths, walking legs; kbplanner's own cache files), keeping the parsed project."""
+    paths, walking legs and map, static bodies' triangles; kbplanner's own cache files), keeping the
+    parsed project."""
     cache = src.parent / "data" / "case_study" / ".kbplanner-cache"
     for sub in KEPT_BY_RUNS:
         shutil.rmtree(cache / sub, ignore_errors=True)

@@ -67,7 +67,8 @@ def test_no_cell_path_is_kept_as_no_path(monkeypatch: pytest.MonkeyPatch) -> Non
     start, goal = (0.8, 0.8, 0.3), (4.2, 2.2, 2.0)
     for _ in range(2):
         assert cell_path.cell_route(cs, start, goal, settings, 0.0, "no path") is None
-    key = (0.0, 0.0, 0.05, start, goal, "turn_drive_turn", True)
+    key = (0.0, 0.0, 0.05, start, goal, "turn_drive_turn", True, settings.base_limits,
+           settings.reverse_s_per_m)
     assert list(cell_path._ROUTES.values()) == [{key: "none"}]  # kept: not searched again
     path = navigation.plan_path(cs, start, goal, settings=settings)
     assert not path.ok and "walled off" in path.reason

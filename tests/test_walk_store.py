@@ -78,3 +78,46 @@ def test_another_map_or_a_damaged_file_is_not_read(tmp_path: Path) -> None:
         fresh = _Router(grid, WORKER_RADIUS_M)
         assert walk_store.read_into(fresh) == 0 and not fresh._memo
         assert walk_store.key(_Router(None, WORKER_RADIUS_M)) is None
+
+
+def test_the_walking_map_is_kept_and_read_back_the_same(tmp_path: Path) -> None:
+    from kbplanner.simulation import workers
+
+    grid = _map()
+    made, k = workers.walk_cells(grid, WORKER_RADIUS_M)
+    assert k == 1 and made.dtype == np.bool_ and 0 < made.sum() < made.size
+    assert walk_store.walk_cells_kept(grid, WORKER_RADIUS_M)[0].tobytes() == made.tobytes()  # no folder
+    assert not list(tmp_path.iterdir())
+    folder = tmp_path / "cspace"
+    with cspace_store.kept_in(folder):
+        first = walk_store.walk_cells_kept(grid, WORKER_RADIUS_M)
+        (kept,) = (tmp_path / walk_store.SUBDIR / walk_store.MAPS).glob("*.npz")
+        read = walk_store.walk_cells_kept(grid, WORKER_RADIUS_M)
+        fresh = OccupancyGrid(grid.occupied.copy(), origin=grid.origin, resolution=grid.resolution)
+        router = _Router(fresh, WORKER_RADIUS_M, walk_store.walk_cells_kept(fresh, WORKER_RADIUS_M))
+        assert "edt" not in fresh._cache  # the map read, no distance transform made
+        assert walk_store.walk_cells_kept(grid, 0.5)[0].sum() < made.sum()  # another clearance: another map
+        for got in (first, read, (router.free, 1)):
+            assert got[1] == 1 and got[0].dtype == np.bool_ and got[0].tobytes() == made.tobytes()
+        assert walk_store.key(router) == walk_store.key(_Router(grid, WORKER_RADIUS_M))
+        kept.write_bytes(b"damaged")
+        again = walk_store.walk_cells_kept(grid, WORKER_RADIUS_M)
+        assert again[0].tobytes() == made.tobytes()
+        assert walk_store.walk_cells_kept(grid, WORKER_RADIUS_M)[0].tobytes() == made.tobytes()
+
+
+def test_a_big_site_walking_map_is_coarser_and_kept_so(tmp_path: Path,
+                                                       monkeypatch: pytest.MonkeyPatch) -> None:
+    from kbplanner.simulation import workers
+
+    monkeypatch.setattr(workers, "MAX_ROUTING_CELLS", 5000)
+    grid = _map()
+    made, k = workers.walk_cells(grid, WORKER_RADIUS_M)
+    assert k == 3 and made.shape == (140 // 3, 180 // 3)
+    with cspace_store.kept_in(tmp_path / "cspace"):
+        walk_store.walk_cells_kept(grid, WORKER_RADIUS_M)
+        read, k_read = walk_store.walk_cells_kept(grid, WORKER_RADIUS_M)
+        router = _Router(grid, WORKER_RADIUS_M, (read, k_read))
+    assert k_read == 3 and read.tobytes() == made.tobytes()
+    assert router.grid is not None and router.grid.resolution == grid.resolution * 3
+    assert router.free is not None and router.free.tobytes() == made.tobytes()

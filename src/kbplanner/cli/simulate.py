@@ -57,6 +57,7 @@ def run(args: argparse.Namespace) -> int:
     from kbplanner.planning.planner import plan_task
     from kbplanner.planning.refine_cache import refine_kept
     from kbplanner.project import Project
+    from kbplanner.simulation import early_builds
     from kbplanner.simulation.executor import INSTALLED, simulate
     from kbplanner.simulation.skills import ExecSettings
     from kbplanner.world import map_store
@@ -85,6 +86,10 @@ def run(args: argparse.Namespace) -> int:
         grid = storey_map(world).grid
     settings = ExecSettings(keyframes=not args.no_keyframes, monitoring=args.monitoring,
                             reactive_workers=not args.scripted_workers)
+    # the workers' walking legs kept by a second process while B4 runs (forked before the progress bar's
+    # thread starts; the step reads them as an earlier run's; left alone on an error, it ends by itself)
+    early = early_builds.start(project, world, grid, folder_for(project.cache_entry),
+                               reactive_workers=settings.reactive_workers)
     columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
     lines = plain_counter(console)  # plain lines where stderr is no terminal (logs, nohup)
     with Progress(*columns, console=console, transient=False, disable=lines is not None) as bar:
@@ -106,6 +111,7 @@ def run(args: argparse.Namespace) -> int:
 
         result = simulate(project, refined, seed=seed, out_dir=args.out, progress=tell, world=world,
                           grid=grid, settings=settings, gui=args.gui)
+    early.finish()  # (ended long before: its CPU counted with the command's)
     table = Table(title=f"{plan.task_id} ({plan.spec_id}) with {plan.robot_label or plan.robot_id}, "
                         f"{project.scenario or 'bare model'}, seed {seed}")
     for col in ("element", "outcome", "time (s)", "placement error", "reason"):

@@ -37,7 +37,7 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
-from kbplanner.simulation import crowd_detours, crowd_make_way, crowd_routes
+from kbplanner.simulation import crowd_detours, crowd_make_way, crowd_routes, walk_store
 from kbplanner.simulation.crowd_agents import (
     ARRIVED_M,
     CONTACT_MARGIN_M,
@@ -90,7 +90,9 @@ class Crowd:
         self, specs: Sequence[WorkerSpec], grid: OccupancyGrid | None, *, seed: int, control_hz: float = 10.0
     ) -> None:
         self.specs = tuple(specs)
-        self.router = _Router(grid, WORKER_RADIUS_M)
+        # (the walking map's cells kept by an earlier run or the early builds, where a folder is given)
+        self.router = _Router(grid, WORKER_RADIUS_M,
+                              walk_store.walk_cells_kept(grid, WORKER_RADIUS_M) if grid is not None else None)
         self.dt = 1.0 / control_hz
         self.agents: list[Agent] = []
         pos = []

@@ -486,12 +486,14 @@ def simulate(
     env = SimEnv(world, robot_name(plan), grid=grid, walk_grid=ground_grid, workers=workers,
                  reactive=reactive, control_hz=settings.control_hz, gui=gui, visuals=settings.keyframes)
     loaded = time.perf_counter()
+    kept = cspace_store.folder_for(project.cache_entry)  # what earlier commands kept (none with --no-cache)
     try:
-        env.reset(seed=seed)
+        with cspace_store.kept_in(kept):  # the workers' walking map, kept (walk_store)
+            env.reset(seed=seed)
         load_s = time.perf_counter() - loaded
         run = _Run(env, plan, settings, seed, progress)
         # configuration spaces of earlier commands, beside the project cache (none with --no-cache)
-        with cspace_store.kept_in(cspace_store.folder_for(project.cache_entry)):
+        with cspace_store.kept_in(kept):
             if env.crowd is not None:  # the workers' route legs of an earlier run on this walking map
                 walk_store.read_into(env.crowd.router)
             elements = run.run()

@@ -37,6 +37,7 @@ import pybullet as p
 import trimesh
 
 from kbplanner.core.errors import KbplannerError
+from kbplanner.simulation import static_store
 from kbplanner.world.meshes import element_local_mesh, element_mesh
 from kbplanner.world.world_types import SiteObject, World, WorldElement
 
@@ -114,7 +115,7 @@ def _chunks(elements: Sequence[WorldElement]) -> list[list[tuple[WorldElement, t
     return [c for c in chunks if c]
 
 
-def _merged(meshes: Sequence[trimesh.Trimesh]) -> tuple[list[list[float]], list[int]]:
+def _merged(meshes: Sequence[trimesh.Trimesh]) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
     vertices: list[np.ndarray] = []
     faces: list[np.ndarray] = []
     offset = 0
@@ -122,7 +123,23 @@ def _merged(meshes: Sequence[trimesh.Trimesh]) -> tuple[list[list[float]], list[
         vertices.append(np.asarray(m.vertices, dtype=np.float64))
         faces.append(np.asarray(m.faces, dtype=np.int64) + offset)
         offset += len(m.vertices)
-    return np.concatenate(vertices).tolist(), np.concatenate(faces).ravel().tolist()
+    return np.concatenate(vertices), np.concatenate(faces)
+
+
+def static_chunks(world: World) -> list[static_store.Chunk]:
+    """The static bodies' triangles: every static group's chunks (:func:`_chunks`), their meshes merged;
+    read from the kept folder given now when an earlier run kept them (:mod:`~.static_store`), else made
+    from the mesh files and kept there."""
+    kept = static_store.read(world)
+    if kept is not None:
+        return kept
+    chunks: list[static_store.Chunk] = []
+    for group, members in world.static_groups().items():
+        for chunk in _chunks(members):
+            vertices, faces = _merged([m for _, m in chunk])
+            chunks.append(static_store.Chunk(group, tuple(e.iri for e, _ in chunk), vertices, faces))
+    static_store.write(world, chunks)
+    return chunks
 
 
 def _check(value: int, what: str, name: str) -> int:
@@ -132,8 +149,8 @@ def _check(value: int, what: str, name: str) -> int:
     return value
 
 
-def _static_body(client: int, name: str, meshes: Sequence[trimesh.Trimesh], visuals: bool) -> int:
-    vertices, indices = _merged(meshes)
+def _static_body(client: int, name: str, chunk: static_store.Chunk, visuals: bool) -> int:
+    vertices, indices = chunk.vertices.tolist(), chunk.faces.ravel().tolist()
     shape = _check(p.createCollisionShape(p.GEOM_MESH, vertices=vertices, indices=indices,
                                           flags=p.GEOM_FORCE_CONCAVE_TRIMESH, physicsClientId=client),
                    "concave mesh shape", name)
@@ -194,16 +211,13 @@ def load_world(world: World, client: int, *, visuals: bool = False, gravity: boo
     ground = p.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=plane,
                                basePosition=[0.0, 0.0, world.ground_z], physicsClientId=client)
     sim = SimWorld(client=client, ground=int(ground))
-    for group, members in world.static_groups().items():
-        bodies: list[int] = []
-        for n, chunk in enumerate(_chunks(members)):
-            body = _static_body(client, f"{group}#{n}", [m for _, m in chunk], visuals)
-            bodies.append(body)
-            sim.triangles += sum(len(m.faces) for _, m in chunk)
-            for e, _ in chunk:
-                sim.element_bodies[e.iri] = body
-        if bodies:
-            sim.static_bodies[group] = tuple(bodies)
+    for chunk in static_chunks(world):  # (in the order of the groups, then of each group's chunks)
+        bodies = sim.static_bodies.get(chunk.group, ())
+        body = _static_body(client, f"{chunk.group}#{len(bodies)}", chunk, visuals)
+        sim.static_bodies[chunk.group] = (*bodies, body)
+        sim.triangles += len(chunk.faces)
+        for iri in chunk.iris:
+            sim.element_bodies[iri] = body
     for e in world.task_elements:
         body = _task_body(client, e, visuals)
         sim.task_bodies[e.iri] = body

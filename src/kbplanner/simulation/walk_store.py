@@ -15,6 +15,10 @@ them instead; a leg not kept (a new start or goal cell) is searched as before an
 - Value: ``KEY.npz`` (no pickle): per leg the start and goal cells and the simplified polyline; read back
   the polylines are the very arrays a search gives (``tests/test_walk_store.py``), so every output of a
   run is byte-identical with or without them.
+- And the walking map itself (:func:`walk_cells_kept`: the cells a person walks on, from a distance
+  transform of the storey's map, some 0.07 s of every run's step on the case study): ``maps/KEY.npz`` by a
+  hash of the format, the code, the map's shape, origin, resolution and cells and the clearance; read back
+  the very cells :func:`kbplanner.simulation.workers.walk_cells` gives.
 - A file that cannot be read is ignored (the legs searched again); one that cannot be written is logged,
   never an error (written atomically). The newest :data:`KEEP` files are kept.
 """
@@ -30,14 +34,16 @@ import numpy as np
 
 from kbplanner.core.kept_folder import code_digest, keep_newest, read_arrays
 from kbplanner.core.outputs import atomic_write_bytes
-from kbplanner.simulation.workers import _Router
+from kbplanner.simulation.workers import _Router, walk_cells
 from kbplanner.world import cspace_store
+from kbplanner.world.occupancy import OccupancyGrid
 
 log = logging.getLogger(__name__)
 
-FORMAT = "1"
+FORMAT = "2"
 SUBDIR = "walks"
-KEEP = 32  # walking maps kept (the newest)
+KEEP = 32  # walking maps kept (the newest), their legs and (in MAPS) their walkable cells
+MAPS = "maps"
 _CODE = ("workers.py", "walk_store.py")
 
 _code_memo: list[bytes] = []
@@ -113,3 +119,37 @@ def write_from(router: _Router) -> None:
         keep_newest(path.parent, KEEP)
     except OSError as exc:
         log.warning("could not keep the walking routes in %s: %s", path.parent, exc)
+
+
+def walk_cells_kept(grid: OccupancyGrid, clearance_m: float) -> tuple[np.ndarray, int]:
+    """:func:`kbplanner.simulation.workers.walk_cells` of the map, read from the folder given now when an
+    earlier run (or the early builds' process) kept it, else made and kept there."""
+    where = cspace_store.folder()
+    if where is None:
+        return walk_cells(grid, clearance_m)
+    h = hashlib.sha256(_code_digest())
+    occupied = np.ascontiguousarray(grid.occupied, dtype=bool)
+    h.update(b"walking map " + repr((tuple(occupied.shape), tuple(float(v) for v in grid.origin),
+                                     float(grid.resolution), float(clearance_m))).encode())
+    h.update(np.packbits(occupied).tobytes())
+    path = where.parent / SUBDIR / MAPS / f"{h.hexdigest()}.npz"
+    got = read_arrays(path, {"cells": np.uint8, "shape": np.int64, "k": np.int64}, "walking map")
+    if got is not None:
+        packed, shape, coarser = got
+        n = int(np.prod(shape)) if shape.shape == (2,) else -1
+        if n >= 0 and coarser.shape == () and int(coarser) >= 1 and packed.ndim == 1 \
+                and packed.size == (n + 7) // 8:
+            counts["read"] += 1
+            kept = np.unpackbits(packed, count=n).astype(bool).reshape(int(shape[0]), int(shape[1]))
+            return kept, int(coarser)
+        log.warning("ignoring the kept walking map %s: not a walking map", path.name)
+    free, k = walk_cells(grid, clearance_m)
+    buf = io.BytesIO()
+    np.savez(buf, cells=np.packbits(free), shape=np.array(free.shape, dtype=np.int64), k=np.array(k))
+    try:
+        atomic_write_bytes(path, buf.getvalue())
+        counts["written"] += 1
+        keep_newest(path.parent, KEEP)
+    except OSError as exc:
+        log.warning("could not keep the walking map in %s: %s", path.parent, exc)
+    return free, k

@@ -153,15 +153,15 @@ MAX_ROUTING_CELLS = 400_000  # worker routes on a coarser grid beyond this (a wh
 class _Router:
     """Shortest walking paths on a grid, with a clearance for a person; memoised per (start, goal) cell."""
 
-    def __init__(self, grid: OccupancyGrid | None, clearance_m: float) -> None:
+    def __init__(self, grid: OccupancyGrid | None, clearance_m: float,
+                 cells: tuple[np.ndarray, int] | None = None) -> None:
+        """``cells``: :func:`walk_cells` of ``grid`` and ``clearance_m`` when known (kept by an earlier run,
+        :func:`kbplanner.simulation.walk_store.walk_cells_kept`), else made here."""
         self.grid = grid
         self.free: np.ndarray | None = None
         if grid is not None:
-            free = grid.clearance_m() >= clearance_m
-            k = max(1, math.ceil(math.sqrt(free.size / MAX_ROUTING_CELLS)))
-            if k > 1:  # a big site: route on cells k times coarser, free where all their fine cells are
-                ny, nx = free.shape[0] // k * k, free.shape[1] // k * k
-                free = np.asarray(free[:ny, :nx].reshape(ny // k, k, nx // k, k).all(axis=(1, 3)), dtype=bool)
+            free, k = cells if cells is not None else walk_cells(grid, clearance_m)
+            if k > 1:
                 self.grid = OccupancyGrid(~free, origin=grid.origin, resolution=grid.resolution * k)
             self.free = free
         self._memo: dict[tuple[tuple[int, int], tuple[int, int]], np.ndarray] = {}
@@ -249,6 +249,18 @@ class _Router:
             nodes.append(int(pred[nodes[-1]]))
         flat = self._cells[nodes[::-1]]
         return [(int(c % nx), int(c // nx)) for c in flat]
+
+
+def walk_cells(grid: OccupancyGrid, clearance_m: float) -> tuple[np.ndarray, int]:
+    """The cells a person walks on (``clearance_m`` or more from obstacles) and how many times coarser than
+    ``grid``'s they are: on a big site (over :data:`MAX_ROUTING_CELLS`) routes are found on cells ``k`` times
+    coarser, free where all their fine cells are."""
+    free = grid.clearance_m() >= clearance_m
+    k = max(1, math.ceil(math.sqrt(free.size / MAX_ROUTING_CELLS)))
+    if k > 1:
+        ny, nx = free.shape[0] // k * k, free.shape[1] // k * k
+        free = np.asarray(free[:ny, :nx].reshape(ny // k, k, nx // k, k).all(axis=(1, 3)), dtype=bool)
+    return free, k
 
 
 def _line_free(p: np.ndarray, q: np.ndarray, free: np.ndarray, g: OccupancyGrid) -> bool:
