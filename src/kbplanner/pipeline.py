@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from kbplanner.analysis.comparison import Comparison, ScenarioRun, simulate_scenario, write_outputs
+from kbplanner.core.heap import frozen, set_aside
 from kbplanner.core.outputs import atomic_write_text, input_hashes, run_directory, versions, write_json
 from kbplanner.project import Project, read_manifest
 
@@ -140,12 +141,13 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
     manifest = read_manifest(project_dir)
     names = scenarios if scenarios is not None else sorted(manifest.scenarios)
     clock = _Clock(say)
-    with run_directory(out_dir) as stage, contextlib.ExitStack() as later:
+    with frozen(), run_directory(out_dir) as stage, contextlib.ExitStack() as later:
         ahead = _tasks_ahead(project_dir, stage, names, clock, later, workers=workers, seed=seed,
                              max_elements=max_elements, previous=out_dir) \
             if simulate and tasks == "all" and workers > 1 else None
         with clock.stage("import and load"):
             bare = Project.load(project_dir)
+            set_aside()  # it lives to the report: not visited by the collector again
         with clock.stage("summary"):
             info = bare.info()
             write_json(stage / "info.json", asdict(info))
@@ -173,6 +175,7 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
             else:
                 with clock.stage("load", name):
                     project = Project.load(project_dir, scenario=name)
+                    set_aside()
             with clock.stage("validation", name):
                 val = project.validate()
                 val.write(sdir / "validation.ttl")
@@ -189,6 +192,7 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
                 world = world_of(project, tables=tables)
                 exported = export_world(world, sdir / "world")
             loaded[name] = (project, tables)  # again for the report's playback
+            set_aside()  # the scenario's tables and validation live to the report
             summary = ScenarioSummary(
                 name=name, conforms=val.conforms, violations=len(val.violations),
                 fit_robots=[a.robot.label for a in sel.fit],
@@ -241,6 +245,7 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
         if ahead is not None:
             ahead.run.release()  # the spawned processes end (and free their memory) beside the report
         if sims:
+            set_aside()  # what the tasks keep in this process
             with clock.stage("comparison and report"):
                 result.comparison = write_outputs(project_dir, [sims[n] for n in names if n in sims], stage,
                                                   requirements=req, selection=sel_rows, project=bare,
@@ -282,6 +287,7 @@ def _tasks_ahead(project_dir: Path, stage: Path, names: list[str], clock: _Clock
         with clock.stage("load", name):
             projects[name] = Project.load(project_dir, scenario=name)
             projects[name].keep_graphs()  # a cold load: the spawned processes unpickle its graphs
+            set_aside()  # it lives to the report: not visited by the collector again
     pool.load()  # from the project cache now
     parts = [ScenarioPart(n, stage / "scenarios" / n / "tasks", stage / "scenarios" / n / "simulation",
                           projects[n], None) for n in names]

@@ -9,6 +9,7 @@ A process keeps every scenario of one project it has loaded, so a pool shared by
 
 from __future__ import annotations
 
+import gc
 import logging
 import time
 from collections.abc import Sequence
@@ -20,6 +21,7 @@ from kbplanner.analysis.comparison import ScenarioRun, simulate_scenario
 from kbplanner.analysis.report import scenario_figures
 from kbplanner.analysis.run_record import RunRecord
 from kbplanner.analysis.work_done import work_done
+from kbplanner.core.heap import set_aside
 from kbplanner.core.output_dirs import output_options
 from kbplanner.model.project_data import ProjectData
 
@@ -109,9 +111,12 @@ def keep(project_dir: Path, scenario: str | None, project: ProjectData,
 
 
 def _forget_other_projects(project: str) -> None:
-    for k in [k for k in _LOADED if k[0] != project]:
+    gone = [k for k in _LOADED if k[0] != project]
+    for k in gone:
         _LOADED.pop(k, None)
         _TABLES.pop(k, None)
+    if gone:  # what warm set aside may be garbage now
+        gc.unfreeze()
 
 
 def _loaded(project_dir: Path, scenario: str | None) -> ProjectData:
@@ -161,6 +166,7 @@ def warm(project_dir: Path, scenarios: Sequence[str | None]) -> None:
             _project(project_dir, scenario)
         except Exception as exc:  # the task raises it again, as a task's error
             log.info("worker process could not load %s (%s): %s", project_dir, scenario, exc)
+    set_aside()  # the scenarios live as long as the process: not visited by the collector again
 
 
 def run_job(job: _Job) -> Outcome:
