@@ -5,7 +5,7 @@ from __future__ import annotations
 import gc
 import weakref
 
-from kbplanner.core.heap import frozen, set_aside
+from kbplanner.core.heap import _after_full, frozen, growing, set_aside
 
 
 class _Node:
@@ -45,3 +45,13 @@ def test_recent_garbage_is_collected_before_it_is_set_aside() -> None:
         del node
         set_aside()
         assert gone() is None
+
+
+def test_a_full_collection_while_growing_sets_the_survivors_aside() -> None:
+    with frozen():
+        with growing():
+            kept = [_Node() for _ in range(10)]
+            gc.collect()  # a full collection: its survivors set aside
+            assert gc.get_freeze_count() >= len(kept)
+        assert _after_full not in gc.callbacks  # only while growing
+    assert gc.get_freeze_count() == 0

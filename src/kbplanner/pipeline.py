@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from kbplanner.analysis.comparison import Comparison, ScenarioRun, simulate_scenario, write_outputs
-from kbplanner.core.heap import frozen, set_aside
+from kbplanner.core.heap import frozen, growing, set_aside
 from kbplanner.core.outputs import atomic_write_text, input_hashes, run_directory, versions, write_json
 from kbplanner.project import Project, read_manifest
 
@@ -44,12 +44,13 @@ def peak_rss_mb() -> float:
 
 @dataclass
 class StageTiming:
-    """Wall time and memory of one pipeline stage."""
+    """Wall time, memory and CPU time (of the command's process) of one pipeline stage."""
 
     stage: str
     scenario: str | None
     seconds: float
     peak_rss_mb: float
+    cpu_s: float | None = None  # None: timed elsewhere (it ran beside the others)
 
 
 @dataclass
@@ -99,10 +100,11 @@ class _Clock:
     def stage(self, name: str, scenario: str | None = None) -> Iterator[None]:
         label = f"{name} [{scenario}]" if scenario else name
         self.say(f"{label} ...")
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         yield
         dt = time.perf_counter() - t0
-        self.timings.append(StageTiming(name, scenario, round(dt, 3), round(peak_rss_mb(), 1)))
+        self.timings.append(StageTiming(name, scenario, round(dt, 3), round(peak_rss_mb(), 1),
+                                        round(time.process_time() - c0, 3)))
         self.say(f"{label} done in {dt:.1f} s")
 
     def add(self, name: str, scenario: str | None, seconds: float) -> None:
@@ -145,9 +147,8 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
         ahead = _tasks_ahead(project_dir, stage, names, clock, later, workers=workers, seed=seed,
                              max_elements=max_elements, previous=out_dir) \
             if simulate and tasks == "all" and workers > 1 else None
-        with clock.stage("import and load"):
+        with clock.stage("import and load"), growing():  # it lives to the report: set aside
             bare = Project.load(project_dir)
-            set_aside()  # it lives to the report: not visited by the collector again
         with clock.stage("summary"):
             info = bare.info()
             write_json(stage / "info.json", asdict(info))
@@ -173,9 +174,8 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
             if ahead is not None:
                 project = ahead.projects[name]  # loaded before the tasks began
             else:
-                with clock.stage("load", name):
+                with clock.stage("load", name), growing():
                     project = Project.load(project_dir, scenario=name)
-                    set_aside()
             with clock.stage("validation", name):
                 val = project.validate()
                 val.write(sdir / "validation.ttl")
@@ -284,10 +284,9 @@ def _tasks_ahead(project_dir: Path, stage: Path, names: list[str], clock: _Clock
     pool = later.enter_context(TaskPool(project_dir, names, workers, load=False))  # imports meanwhile
     projects: dict[str, Project] = {}
     for name in names:
-        with clock.stage("load", name):
+        with clock.stage("load", name), growing():  # it lives to the report: set aside
             projects[name] = Project.load(project_dir, scenario=name)
             projects[name].keep_graphs()  # a cold load: the spawned processes unpickle its graphs
-            set_aside()  # it lives to the report: not visited by the collector again
     pool.load()  # from the project cache now
     parts = [ScenarioPart(n, stage / "scenarios" / n / "tasks", stage / "scenarios" / n / "simulation",
                           projects[n], None) for n in names]

@@ -7,7 +7,9 @@ any later step start now and then: on the generated 10 x 8 building about a seco
 :func:`set_aside` moves what is alive now into the collector's permanent generation (``gc.freeze``):
 later full collections visit only what was made after. Nothing is freed that would have been, and
 nothing is written differently; a cycle among the set-aside objects that becomes garbage is freed
-only once :func:`frozen` ends (``gc.unfreeze``), or when the process ends.
+only once :func:`frozen` ends (``gc.unfreeze``), or when the process ends. :func:`growing` does the
+same during a load, after each full collection (what survives it is alive), so that a cold load's
+collections visit only what was made since the last one instead of the whole, growing heap each time.
 """
 
 from __future__ import annotations
@@ -22,6 +24,23 @@ def set_aside() -> None:
     young generations collected first (so recent garbage is not kept), then frozen."""
     gc.collect(1)
     gc.freeze()
+
+
+def _after_full(phase: str, info: dict[str, int]) -> None:
+    if phase == "stop" and info.get("generation") == 2:
+        gc.freeze()  # the survivors of a full collection: alive, set aside
+
+
+@contextmanager
+def growing() -> Iterator[None]:
+    """A block that makes objects that live on (a load): after each full collection in it, what
+    survived is set aside (as by :func:`set_aside`), and at its end what it made since the last."""
+    gc.callbacks.append(_after_full)
+    try:
+        yield
+    finally:
+        gc.callbacks.remove(_after_full)
+    set_aside()
 
 
 @contextmanager

@@ -21,7 +21,7 @@ from kbplanner.analysis.comparison import ScenarioRun, simulate_scenario
 from kbplanner.analysis.report import scenario_figures
 from kbplanner.analysis.run_record import RunRecord
 from kbplanner.analysis.work_done import work_done
-from kbplanner.core.heap import set_aside
+from kbplanner.core.heap import growing
 from kbplanner.core.output_dirs import output_options
 from kbplanner.model.project_data import ProjectData
 
@@ -160,13 +160,13 @@ def warm(project_dir: Path, scenarios: Sequence[str | None]) -> None:
     from kbplanner.core.named_queries import prepare_all
 
     imports()
-    prepare_all()
-    for scenario in scenarios:
-        try:
-            _project(project_dir, scenario)
-        except Exception as exc:  # the task raises it again, as a task's error
-            log.info("worker process could not load %s (%s): %s", project_dir, scenario, exc)
-    set_aside()  # the scenarios live as long as the process: not visited by the collector again
+    with growing():  # the scenarios live as long as the process: set aside from the collector
+        prepare_all()
+        for scenario in scenarios:
+            try:
+                _project(project_dir, scenario)
+            except Exception as exc:  # the task raises it again, as a task's error
+                log.info("worker process could not load %s (%s): %s", project_dir, scenario, exc)
 
 
 def run_job(job: _Job) -> Outcome:
