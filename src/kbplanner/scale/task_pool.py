@@ -30,7 +30,7 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
-from kbplanner.scale.task_jobs import Outcome, _Job, imports, run_job, warm
+from kbplanner.scale.task_jobs import Outcome, _Job, ready, run_job, warm
 
 log = logging.getLogger(__name__)
 
@@ -52,12 +52,12 @@ def _quick_exit() -> None:
 
 def _begin(project_dir: Path, names: Sequence[str | None], load: bool) -> None:
     """A spawned process's start: its quick exit registered, then :func:`warm` (``load``) or
-    :func:`imports`."""
+    :func:`ready` (the imports and the named queries, while the caller loads the project)."""
     atexit.register(_quick_exit)
     if load:
         warm(project_dir, names)
     else:
-        imports()
+        ready()
 
 
 class TaskPool:
@@ -65,8 +65,8 @@ class TaskPool:
 
     Each process loads the scenarios (one name or several) as soon as it starts, so a caller that has
     other work first (the pipeline: validation, the world) hands over warm processes; with ``load=False``
-    it imports the modules a task uses only, and loads the scenarios when told (:meth:`load`: the
-    caller loads them first, so that they come from the project cache). Processes are
+    it imports the modules a task uses and parses the named queries only, and loads the scenarios when
+    told (:meth:`load`: the caller loads them first, so that they come from the project cache). Processes are
     spawned: a fork of a process that has PyBullet, OMPL and thread pools loaded is not safe, and the
     start-up (imports, the scenario from the project cache) overlaps the caller's own work.
     Use as a context manager; leaving it on an error stops the processes without waiting.
