@@ -175,6 +175,31 @@ def warm(project_dir: Path, scenarios: Sequence[str | None]) -> None:
                 log.info("worker process could not load %s (%s): %s", project_dir, scenario, exc)
 
 
+@dataclass(frozen=True)
+class Verdict:
+    """What :func:`validate_job` found (its report files are written where it was told)."""
+
+    conforms: bool
+    violations: int
+    seconds: float
+
+
+def validate_job(project_dir: Path, scenario: str | None, out_dir: Path) -> Verdict:
+    """A4 of a loaded scenario in a task process: ``validation.ttl`` and ``validation.txt`` written into
+    ``out_dir``, the same files the command's own validation writes (the pipeline hands it to a spawned
+    process, whose first task waits less than the command's, while the command selects the robots and
+    builds the world)."""
+    from kbplanner.core.outputs import atomic_write_text
+    from kbplanner.knowledge.validation import validate_model
+
+    t0 = time.perf_counter()
+    project = _loaded(project_dir, scenario)
+    val = validate_model(project.model, project.kb)  # as Project.validate
+    val.write(out_dir / "validation.ttl")
+    atomic_write_text(out_dir / "validation.txt", val.text())
+    return Verdict(val.conforms, len(val.violations), round(time.perf_counter() - t0, 3))
+
+
 def run_job(job: _Job) -> Outcome:
     """Simulate one task (B1-B5) into its run directory; its figures and wall and CPU seconds."""
     t0, c0 = time.perf_counter(), time.process_time()

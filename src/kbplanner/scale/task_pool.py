@@ -26,7 +26,7 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -92,6 +92,11 @@ class TaskPool:
         if self.executor is not None:
             for _ in range(self.children):  # one per process: each idle one takes the next
                 self.executor.submit(warm, self.project_dir, self.names)
+
+    def submit(self, fn: Callable[..., Any], *args: Any) -> Future[Any] | None:
+        """Run ``fn(*args)`` on the next free process (after what was submitted before it); None
+        without spawned processes."""
+        return None if self.executor is None else self.executor.submit(fn, *args)
 
     def release(self) -> None:
         """No more jobs: the processes are told to end, and end (each freeing what it loaded: seconds
@@ -241,6 +246,14 @@ class Dispatch:
         with self.lock:
             while any(self.jobs[i].scenario == scenario for i in self.running):
                 self.lock.wait()
+
+    def run_one(self) -> bool:
+        """This process takes the next job, if any (False: none was left)."""
+        i = self._take()
+        if i is None:
+            return False
+        self._run(i, 0, None)
+        return True
 
     def run_here(self) -> None:
         """This process takes the next job whenever it is free, until none is left."""
