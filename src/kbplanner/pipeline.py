@@ -297,9 +297,10 @@ def _tasks_ahead(project_dir: Path, stage: Path, names: list[str], clock: _Clock
     """Load every scenario and start the spawned processes on each scenario's validation (A4-A5: they
     are ready for their first task sooner than this process) and then on the tasks (B1-B5 of each
     robotized task), while this process goes on with the requirements, robot selection and world of
-    each scenario, and takes tasks until each validation is done; a scenario that does not conform or has no fit robot is then dropped (its
-    tasks skipped, their outcomes and folders removed), as if never simulated. What is written is the
-    same as when the tasks start after the worlds; only the wall time differs."""
+    each scenario, and takes tasks until each validation is done; a scenario that does not conform or
+    has no fit robot is then dropped (its tasks skipped, their outcomes and folders removed), as if never
+    simulated. What is written is the same as when the tasks start after the worlds (the validation
+    files too, by whichever process); only the wall time differs."""
     from kbplanner.scale.task_jobs import validate_job
     from kbplanner.scale.task_runs import ScenarioPart, SimulationRun, TaskPool
 
