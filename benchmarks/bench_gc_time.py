@@ -5,7 +5,8 @@ For each tree, in a fresh process with its own empty cache (``KBPLANNER_CACHE_DI
 script generates nothing: it runs ``run_pipeline(PROJECT, OUT, tasks="all", workers=W, max_elements=N)``
 (the pipeline of ``kbplanner run --tasks all``) with a ``gc.callbacks`` hook that adds up the full
 (generation 2) collections and their wall seconds, and prints at each stage's end the collections and
-seconds so far. The spawned task processes are not counted (their own collections). Wall seconds of
+seconds so far, and the process's CPU seconds so far. The spawned task processes are not counted
+(their own collections). Wall seconds of
 the collector grow with the machine's load, like every wall time here: compare the two trees in one
 run of this script.
 
@@ -50,7 +51,7 @@ rows = []
 def say(line):
     if " done in " in line:
         rows.append({"stage": line.split(" done in ")[0], "full_collections": full["n"],
-                     "collector_s": round(full["s"], 2)})
+                     "collector_s": round(full["s"], 2), "cpu_s": round(time.process_time(), 1)})
 
 if __name__ == "__main__":
     gc.callbacks.append(hook)
@@ -58,7 +59,8 @@ if __name__ == "__main__":
     t0 = time.perf_counter()
     pl.run_pipeline(Path(sys.argv[1]), Path(sys.argv[2]), tasks="all", workers=int(sys.argv[4]),
                     max_elements=me, say=say)
-    print(json.dumps({"seconds": round(time.perf_counter() - t0, 1), "stages": rows,
+    print(json.dumps({"seconds": round(time.perf_counter() - t0, 1), "cpu_s": round(time.process_time(), 1),
+                      "stages": rows,
                       "full_collections": full["n"], "collector_s": round(full["s"], 2)}))
 """
 
@@ -97,16 +99,17 @@ def main(argv: list[str] | None = None) -> int:
     result["load_average_start"], result["load_average_end"] = load_start, list(os.getloadavg())
     write_json(args.out, result)
     w = sys.stdout.write
-    w(f"full collections in the command's process (count / seconds so far); before = {args.before}\n")
+    w(f"the command's process, so far: full collections / their seconds / CPU s; before = {args.before}\n")
     after = {r["stage"]: r for r in result["after"]["stages"]}
     for row in result["before"]["stages"]:
         a = after.get(row["stage"], {})
-        w(f"  {row['stage'][:44]:44}{row['full_collections']:5} /{row['collector_s']:6.1f} s"
-          f"{a.get('full_collections', 0):7} /{a.get('collector_s', 0.0):6.1f} s\n")
+        w(f"  {row['stage'][:40]:40}{row['full_collections']:5} /{row['collector_s']:6.1f} s"
+          f" /{row['cpu_s']:6.1f}{a.get('full_collections', 0):7} /{a.get('collector_s', 0.0):6.1f} s"
+          f" /{a.get('cpu_s', 0.0):6.1f}\n")
     for label in ("before", "after"):
         r = result[label]
-        w(f"{label}: {r['seconds']} s in all, {r['full_collections']} full collections, "
-          f"{r['collector_s']} s\n")
+        w(f"{label}: {r['seconds']} s in all, {r['cpu_s']} s CPU (the command's process), "
+          f"{r['full_collections']} full collections, {r['collector_s']} s\n")
     w(f"load average {load_start[0]:.2f} -> {result['load_average_end'][0]:.2f}; wrote {args.out}\n")
     return 0
 
