@@ -324,7 +324,9 @@ def _tasks_ahead(project_dir: Path, stage: Path, names: list[str], clock: _Clock
     run = SimulationRun(project_dir, parts, seed=seed, workers=workers, keyframes=True, progress=clock.say,
                         max_elements=max_elements, pool=pool, previous=before, unconfirmed=names)
     later.enter_context(run.dispatch.stack)  # an error before the end stops the spawned processes
-    return _Ahead(projects, run.begin(here=False), checks)
+    # the spawned processes take their first task after the validations: the first tasks (the main task
+    # first, which draws key frames) go to whichever process is free first, this one or a spawned one
+    return _Ahead(projects, run.begin(here=False, gate=list(checks.values())), checks)
 
 
 def _simulate_every_task(project_dir: Path, parts: list[ScenarioPart], clock: _Clock, say: Say, *,

@@ -26,6 +26,7 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Mapping, Sequence
+from concurrent import futures
 from concurrent.futures import Future, ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
@@ -202,13 +203,17 @@ class Dispatch:
         else:
             self._record(i, outcome, None, began, who)
 
-    def _feed(self, executor: ProcessPoolExecutor, who: int) -> None:
+    def _feed(self, executor: ProcessPoolExecutor, who: int, gate: Sequence[Future[Any]]) -> None:
+        if gate:  # the spawned processes' earlier work: no job is handed over before it is done
+            futures.wait(gate)
         while (i := self._take()) is not None:
             self._run(i, who, executor)
 
-    def begin(self, here: bool = True) -> Dispatch:
+    def begin(self, here: bool = True, gate: Sequence[Future[Any]] = ()) -> Dispatch:
         """Start the spawned processes on the jobs (``here``: this process will take jobs from the start
-        too, so one spawned process fewer is needed for a few jobs)."""
+        too, so one spawned process fewer is needed for a few jobs). With ``gate`` (what the spawned
+        processes were given before, e.g. the pipeline's validations), each takes its first job once
+        those are done, not before: the first jobs go to whichever process is free first."""
         if self.workers <= 1 or len(self.jobs) <= (1 if here else 0):
             return self
         scenarios = list(dict.fromkeys(j.scenario for j in self.jobs))
@@ -219,7 +224,7 @@ class Dispatch:
         if executor is None:
             return self
         children = min(tp.children, len(self.jobs) - (1 if here else 0))
-        self.threads = [threading.Thread(target=self._feed, args=(executor, k + 1), daemon=True)
+        self.threads = [threading.Thread(target=self._feed, args=(executor, k + 1, gate), daemon=True)
                         for k in range(children)]
         for t in self.threads:
             t.start()
