@@ -1,6 +1,7 @@
 """The workers' timeline of a ``kbplanner run --tasks all`` folder (issue 14: where the 2 cores wait).
 
-Reads ``RUN/run_timings.json`` (the stages' wall seconds and, per task, its start and end from the
+Reads ``RUN/run_timings.json`` (the stages' wall seconds, the command process's CPU seconds in each
+(since session 14), and, per task, its start and end from the
 simulation stage's start, its CPU seconds and the process that ran it: 0 the command's own) and prints,
 from the run's start: the serial stages, each process's tasks in turn, the time each process waited
 before its first task and after its last one (until the stage's end), and each process's first task's
@@ -22,9 +23,9 @@ from typing import Any
 def timeline(run: Path) -> dict[str, Any]:
     """The figures printed, from a run folder's ``run_timings.json``."""
     data = json.loads((run / "run_timings.json").read_text(encoding="utf-8"))
-    stages = [(s["stage"] + (f" [{s['scenario']}]" if s.get("scenario") else ""), float(s["seconds"]))
-              for s in data["stages"]]
-    before = sum(sec for name, sec in stages if name.startswith("load"))  # the stage starts after the loads
+    stages = [(s["stage"] + (f" [{s['scenario']}]" if s.get("scenario") else ""), float(s["seconds"]),
+               s.get("cpu_s")) for s in data["stages"]]
+    before = sum(sec for name, sec, _cpu in stages if name.startswith("load"))  # the stage starts after these
     sim = data.get("simulation", {})
     tasks: list[dict[str, Any]] = []
     for scenario, figures in sim.get("scenarios", {}).items():
@@ -54,8 +55,8 @@ def main(argv: list[str] | None = None) -> int:
     t = timeline(args.run)
     w = sys.stdout.write
     w(f"{t['run']}: {t['total_s']} s in all\n")
-    for name, sec in t["stages"]:
-        w(f"  {name:48}{sec:9.1f} s\n")
+    for name, sec, cpu in t["stages"]:  # CPU: the command's process (recorded since session 14)
+        w(f"  {name:48}{sec:9.1f} s" + (f"{cpu:9.1f} s CPU" if cpu is not None else "") + "\n")
     w(f"simulation stage from {t['simulation_starts_s']} s, {t['simulation_wall_s']:.1f} s wall, "
       f"tasks {t['tasks_cpu_s']} s CPU\n")
     for p, fig in t["processes"].items():

@@ -223,3 +223,27 @@ def test_an_error_after_the_release_leaves_the_pool_at_once_and_its_process_ends
     assert not pool.ending.is_alive()
     with pytest.raises(ProcessLookupError):
         os.kill(child, 0)
+
+
+def test_a_gated_spawned_process_takes_no_job_before_its_earlier_work_is_done(tmp_path: Path) -> None:
+    """With a gate (the pipeline's validations, given to the spawned processes first), the first jobs go
+    to whichever process is free first: here the caller's, which takes both while the gate is open."""
+    from concurrent.futures import Future
+
+    from kbplanner.scale.task_pool import Dispatch, TaskPool
+
+    project = tmp_path / "b1x1"
+    generate_building(project, storeys=1, units_per_storey=1)
+    names = ["no-such-a", "no-such-b"]  # each job fails at once, its error held (unconfirmed)
+    jobs = [_Job(project, n, "T-FRAME-L01", "T-FRAME-L01", None, tmp_path / n, n, False, True, 1)
+            for n in names]
+    gate: Future[None] = Future()
+    with TaskPool(project, None, 2, load=False) as pool:
+        run = Dispatch(jobs, [0, 1], 2, lambda _j, _o: None, pool, unconfirmed=names)
+        run.begin(here=False, gate=[gate])
+        assert run.run_one() and run.run_one()  # both taken here: the spawned process waits
+        assert sorted(run.held) == [0, 1] and not run.run_one()
+        gate.set_result(None)
+        for n in names:
+            run.drop(n)
+        assert run.wait() == {}

@@ -24,10 +24,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from kbplanner.analysis.comparison import Comparison, ScenarioRun, simulate_scenario, write_outputs
+from kbplanner.core.heap import frozen, growing, set_aside
 from kbplanner.core.outputs import atomic_write_text, input_hashes, run_directory, versions, write_json
 from kbplanner.project import Project, read_manifest
 
 if TYPE_CHECKING:
+    from concurrent.futures import Future
+
+    from kbplanner.scale.task_jobs import Verdict
     from kbplanner.scale.task_runs import ScenarioPart, SimulationRun, SimulationStage, TaskPool
 
 log = logging.getLogger(__name__)
@@ -43,12 +47,13 @@ def peak_rss_mb() -> float:
 
 @dataclass
 class StageTiming:
-    """Wall time and memory of one pipeline stage."""
+    """Wall time, memory and CPU time (of the command's process) of one pipeline stage."""
 
     stage: str
     scenario: str | None
     seconds: float
     peak_rss_mb: float
+    cpu_s: float | None = None  # None: timed elsewhere (it ran beside the others)
 
 
 @dataclass
@@ -98,10 +103,11 @@ class _Clock:
     def stage(self, name: str, scenario: str | None = None) -> Iterator[None]:
         label = f"{name} [{scenario}]" if scenario else name
         self.say(f"{label} ...")
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         yield
         dt = time.perf_counter() - t0
-        self.timings.append(StageTiming(name, scenario, round(dt, 3), round(peak_rss_mb(), 1)))
+        self.timings.append(StageTiming(name, scenario, round(dt, 3), round(peak_rss_mb(), 1),
+                                        round(time.process_time() - c0, 3)))
         self.say(f"{label} done in {dt:.1f} s")
 
     def add(self, name: str, scenario: str | None, seconds: float) -> None:
@@ -140,11 +146,11 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
     manifest = read_manifest(project_dir)
     names = scenarios if scenarios is not None else sorted(manifest.scenarios)
     clock = _Clock(say)
-    with run_directory(out_dir) as stage, contextlib.ExitStack() as later:
+    with frozen(), run_directory(out_dir) as stage, contextlib.ExitStack() as later:
         ahead = _tasks_ahead(project_dir, stage, names, clock, later, workers=workers, seed=seed,
                              max_elements=max_elements, previous=out_dir) \
             if simulate and tasks == "all" and workers > 1 else None
-        with clock.stage("import and load"):
+        with clock.stage("import and load"), growing():  # it lives to the report: set aside
             bare = Project.load(project_dir)
         with clock.stage("summary"):
             info = bare.info()
@@ -171,12 +177,14 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
             if ahead is not None:
                 project = ahead.projects[name]  # loaded before the tasks began
             else:
-                with clock.stage("load", name):
+                with clock.stage("load", name), growing():
                     project = Project.load(project_dir, scenario=name)
-            with clock.stage("validation", name):
-                val = project.validate()
-                val.write(sdir / "validation.ttl")
-                atomic_write_text(sdir / "validation.txt", val.text())
+            if ahead is None or name not in ahead.checks:
+                with clock.stage("validation", name):
+                    val = project.validate()
+                    val.write(sdir / "validation.ttl")
+                    atomic_write_text(sdir / "validation.txt", val.text())
+                conforms, violations = val.conforms, len(val.violations)
             with clock.stage("robot selection", name):
                 sel = project.select_robots()
                 atomic_write_text(sdir / "robots.txt", sel.text())
@@ -189,8 +197,13 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
                 world = world_of(project, tables=tables)
                 exported = export_world(world, sdir / "world")
             loaded[name] = (project, tables)  # again for the report's playback
+            set_aside()  # the scenario's tables and validation live to the report
+            if ahead is not None and name in ahead.checks:  # validated by a task process meanwhile
+                verdict = ahead.verdict(name)
+                clock.add("validation", name, verdict.seconds)
+                conforms, violations = verdict.conforms, verdict.violations
             summary = ScenarioSummary(
-                name=name, conforms=val.conforms, violations=len(val.violations),
+                name=name, conforms=conforms, violations=violations,
                 fit_robots=[a.robot.label for a in sel.fit],
                 world_static=len(world.static),
                 world_task_elements=len(world.task_elements),
@@ -198,7 +211,7 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
             )
             result.scenarios.append(summary)
             if ahead is not None:
-                if val.conforms and sel.fit:
+                if conforms and sel.fit:
                     ahead.run.confirm(name, project, tables)  # its tasks' outcomes are kept
                     sel_rows = [list(r) for r in sel.rows()]
                 else:  # not simulated: what its tasks wrote ahead is removed
@@ -206,12 +219,12 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
                     for written in (sdir / "tasks", sdir / "simulation"):
                         if written.is_dir():
                             shutil.rmtree(written)
-            elif every_task and val.conforms and sel.fit:
+            elif every_task and conforms and sel.fit:
                 from kbplanner.scale.task_runs import ScenarioPart
 
                 parts.append(ScenarioPart(name, sdir / "tasks", sdir / "simulation", project, tables))
                 sel_rows = [list(r) for r in sel.rows()]
-            elif simulate and val.conforms and sel.fit:
+            elif simulate and conforms and sel.fit:
                 with clock.stage("simulation", name):
                     srun = simulate_scenario(project_dir, name, seed=seed, out_dir=sdir / "simulation",
                                              progress=say, project=project, max_elements=max_elements)
@@ -241,6 +254,7 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
         if ahead is not None:
             ahead.run.release()  # the spawned processes end (and free their memory) beside the report
         if sims:
+            set_aside()  # what the tasks keep in this process
             with clock.stage("comparison and report"):
                 result.comparison = write_outputs(project_dir, [sims[n] for n in names if n in sims], stage,
                                                   requirements=req, selection=sel_rows, project=bare,
@@ -261,28 +275,47 @@ def run_pipeline(project_dir: Path, out_dir: Path, *, scenarios: list[str] | Non
 @dataclass
 class _Ahead:
     """The tasks of every scenario begun before the scenarios are validated (``--tasks all``, several
-    workers): the loaded scenarios and the stage in steps."""
+    workers): the loaded scenarios, the stage in steps and each scenario's validation, handed to the
+    spawned processes ahead of the tasks."""
 
     projects: dict[str, Project]
     run: SimulationRun
+    checks: dict[str, Future[Verdict]] = field(default_factory=dict)
+
+    def verdict(self, name: str) -> Verdict:
+        """The scenario's validation, once done; meanwhile this process takes tasks (they ran ahead of
+        the decision anyway): it starts its first task as soon as its own stages are done, and the
+        spawned process, which waited less for its first, validates."""
+        check = self.checks[name]
+        while not check.done() and self.run.dispatch.run_one():
+            pass
+        return check.result()
 
 
 def _tasks_ahead(project_dir: Path, stage: Path, names: list[str], clock: _Clock, later: contextlib.ExitStack,
                  *, workers: int, seed: int | None, max_elements: int | None, previous: Path) -> _Ahead:
-    """Load every scenario and start the spawned processes on their tasks at once (B1-B5 of each
-    robotized task), while this process goes on with the requirements, validation, robot selection and
-    world of each scenario; a scenario that does not conform or has no fit robot is then dropped (its
-    tasks skipped, their outcomes and folders removed), as if never simulated. What is written is the
-    same as when the tasks start after the worlds; only the wall time differs."""
+    """Load every scenario and start the spawned processes on each scenario's validation (A4-A5: they
+    are ready for their first task sooner than this process) and then on the tasks (B1-B5 of each
+    robotized task), while this process goes on with the requirements, robot selection and world of
+    each scenario, and takes tasks until each validation is done; a scenario that does not conform or
+    has no fit robot is then dropped (its tasks skipped, their outcomes and folders removed), as if never
+    simulated. What is written is the same as when the tasks start after the worlds (the validation
+    files too, by whichever process); only the wall time differs."""
+    from kbplanner.scale.task_jobs import validate_job
     from kbplanner.scale.task_runs import ScenarioPart, SimulationRun, TaskPool
 
     pool = later.enter_context(TaskPool(project_dir, names, workers, load=False))  # imports meanwhile
     projects: dict[str, Project] = {}
     for name in names:
-        with clock.stage("load", name):
+        with clock.stage("load", name), growing():  # it lives to the report: set aside
             projects[name] = Project.load(project_dir, scenario=name)
             projects[name].keep_graphs()  # a cold load: the spawned processes unpickle its graphs
     pool.load()  # from the project cache now
+    checks: dict[str, Future[Verdict]] = {}
+    for name in names:  # ahead of every task: the spawned processes' queue is first come, first served
+        check = pool.submit(validate_job, project_dir, name, stage / "scenarios" / name)
+        if check is not None:
+            checks[name] = check
     parts = [ScenarioPart(n, stage / "scenarios" / n / "tasks", stage / "scenarios" / n / "simulation",
                           projects[n], None) for n in names]
     before: dict[str | None, Path] | None = \
@@ -291,7 +324,9 @@ def _tasks_ahead(project_dir: Path, stage: Path, names: list[str], clock: _Clock
     run = SimulationRun(project_dir, parts, seed=seed, workers=workers, keyframes=True, progress=clock.say,
                         max_elements=max_elements, pool=pool, previous=before, unconfirmed=names)
     later.enter_context(run.dispatch.stack)  # an error before the end stops the spawned processes
-    return _Ahead(projects, run.begin(here=False))
+    # the spawned processes take their first task after the validations: the first tasks (the main task
+    # first, which draws key frames) go to whichever process is free first, this one or a spawned one
+    return _Ahead(projects, run.begin(here=False, gate=list(checks.values())), checks)
 
 
 def _simulate_every_task(project_dir: Path, parts: list[ScenarioPart], clock: _Clock, say: Say, *,

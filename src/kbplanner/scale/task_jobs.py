@@ -9,6 +9,7 @@ A process keeps every scenario of one project it has loaded, so a pool shared by
 
 from __future__ import annotations
 
+import gc
 import logging
 import time
 from collections.abc import Sequence
@@ -20,6 +21,7 @@ from kbplanner.analysis.comparison import ScenarioRun, simulate_scenario
 from kbplanner.analysis.report import scenario_figures
 from kbplanner.analysis.run_record import RunRecord
 from kbplanner.analysis.work_done import work_done
+from kbplanner.core.heap import growing
 from kbplanner.core.output_dirs import output_options
 from kbplanner.model.project_data import ProjectData
 
@@ -109,9 +111,12 @@ def keep(project_dir: Path, scenario: str | None, project: ProjectData,
 
 
 def _forget_other_projects(project: str) -> None:
-    for k in [k for k in _LOADED if k[0] != project]:
+    gone = [k for k in _LOADED if k[0] != project]
+    for k in gone:
         _LOADED.pop(k, None)
         _TABLES.pop(k, None)
+    if gone:  # what warm set aside may be garbage now
+        gc.unfreeze()
 
 
 def _loaded(project_dir: Path, scenario: str | None) -> ProjectData:
@@ -147,20 +152,52 @@ def imports() -> None:
     import kbplanner.world.tables  # noqa: F401
 
 
+def ready() -> None:
+    """What a new worker process can do before it is given the project (while the command loads it):
+    import what a task uses and parse every named query (1-4 s it would spend after the load)."""
+    from kbplanner.core.named_queries import prepare_all
+
+    imports()
+    prepare_all()
+
+
 def warm(project_dir: Path, scenarios: Sequence[str | None]) -> None:
     """A new worker process loads the scenarios and their world tables (with the merged graph they are
     read from) before its first task, and parses every named query: 1-2 s per process that its first
     task would otherwise spend, done while the command validates and builds the worlds. An error is
     left for the task to raise (with its message) when it loads the scenario again."""
-    from kbplanner.core.named_queries import prepare_all
+    ready()  # done already by a process started before the load (TaskPool with load=False)
+    with growing():  # the scenarios live as long as the process: set aside from the collector
+        for scenario in scenarios:
+            try:
+                _project(project_dir, scenario)
+            except Exception as exc:  # the task raises it again, as a task's error
+                log.info("worker process could not load %s (%s): %s", project_dir, scenario, exc)
 
-    imports()
-    prepare_all()
-    for scenario in scenarios:
-        try:
-            _project(project_dir, scenario)
-        except Exception as exc:  # the task raises it again, as a task's error
-            log.info("worker process could not load %s (%s): %s", project_dir, scenario, exc)
+
+@dataclass(frozen=True)
+class Verdict:
+    """What :func:`validate_job` found (its report files are written where it was told)."""
+
+    conforms: bool
+    violations: int
+    seconds: float
+
+
+def validate_job(project_dir: Path, scenario: str | None, out_dir: Path) -> Verdict:
+    """A4 of a loaded scenario in a task process: ``validation.ttl`` and ``validation.txt`` written into
+    ``out_dir``, the same files the command's own validation writes (the pipeline hands it to a spawned
+    process, whose first task waits less than the command's, while the command selects the robots and
+    builds the world)."""
+    from kbplanner.core.outputs import atomic_write_text
+    from kbplanner.knowledge.validation import validate_model
+
+    t0 = time.perf_counter()
+    project = _loaded(project_dir, scenario)
+    val = validate_model(project.model, project.kb)  # as Project.validate
+    val.write(out_dir / "validation.ttl")
+    atomic_write_text(out_dir / "validation.txt", val.text())
+    return Verdict(val.conforms, len(val.violations), round(time.perf_counter() - t0, 3))
 
 
 def run_job(job: _Job) -> Outcome:

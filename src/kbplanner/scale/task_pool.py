@@ -26,11 +26,12 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from concurrent import futures
+from concurrent.futures import Future, ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
-from kbplanner.scale.task_jobs import Outcome, _Job, imports, run_job, warm
+from kbplanner.scale.task_jobs import Outcome, _Job, ready, run_job, warm
 
 log = logging.getLogger(__name__)
 
@@ -52,12 +53,12 @@ def _quick_exit() -> None:
 
 def _begin(project_dir: Path, names: Sequence[str | None], load: bool) -> None:
     """A spawned process's start: its quick exit registered, then :func:`warm` (``load``) or
-    :func:`imports`."""
+    :func:`ready` (the imports and the named queries, while the caller loads the project)."""
     atexit.register(_quick_exit)
     if load:
         warm(project_dir, names)
     else:
-        imports()
+        ready()
 
 
 class TaskPool:
@@ -65,8 +66,8 @@ class TaskPool:
 
     Each process loads the scenarios (one name or several) as soon as it starts, so a caller that has
     other work first (the pipeline: validation, the world) hands over warm processes; with ``load=False``
-    it imports the modules a task uses only, and loads the scenarios when told (:meth:`load`: the
-    caller loads them first, so that they come from the project cache). Processes are
+    it imports the modules a task uses and parses the named queries only, and loads the scenarios when
+    told (:meth:`load`: the caller loads them first, so that they come from the project cache). Processes are
     spawned: a fork of a process that has PyBullet, OMPL and thread pools loaded is not safe, and the
     start-up (imports, the scenario from the project cache) overlaps the caller's own work.
     Use as a context manager; leaving it on an error stops the processes without waiting.
@@ -92,6 +93,11 @@ class TaskPool:
         if self.executor is not None:
             for _ in range(self.children):  # one per process: each idle one takes the next
                 self.executor.submit(warm, self.project_dir, self.names)
+
+    def submit(self, fn: Callable[..., Any], *args: Any) -> Future[Any] | None:
+        """Run ``fn(*args)`` on the next free process (after what was submitted before it); None
+        without spawned processes."""
+        return None if self.executor is None else self.executor.submit(fn, *args)
 
     def release(self) -> None:
         """No more jobs: the processes are told to end, and end (each freeing what it loaded: seconds
@@ -197,13 +203,17 @@ class Dispatch:
         else:
             self._record(i, outcome, None, began, who)
 
-    def _feed(self, executor: ProcessPoolExecutor, who: int) -> None:
+    def _feed(self, executor: ProcessPoolExecutor, who: int, gate: Sequence[Future[Any]]) -> None:
+        if gate:  # the spawned processes' earlier work: no job is handed over before it is done
+            futures.wait(gate)
         while (i := self._take()) is not None:
             self._run(i, who, executor)
 
-    def begin(self, here: bool = True) -> Dispatch:
+    def begin(self, here: bool = True, gate: Sequence[Future[Any]] = ()) -> Dispatch:
         """Start the spawned processes on the jobs (``here``: this process will take jobs from the start
-        too, so one spawned process fewer is needed for a few jobs)."""
+        too, so one spawned process fewer is needed for a few jobs). With ``gate`` (what the spawned
+        processes were given before, e.g. the pipeline's validations), each takes its first job once
+        those are done, not before: the first jobs go to whichever process is free first."""
         if self.workers <= 1 or len(self.jobs) <= (1 if here else 0):
             return self
         scenarios = list(dict.fromkeys(j.scenario for j in self.jobs))
@@ -214,7 +224,7 @@ class Dispatch:
         if executor is None:
             return self
         children = min(tp.children, len(self.jobs) - (1 if here else 0))
-        self.threads = [threading.Thread(target=self._feed, args=(executor, k + 1), daemon=True)
+        self.threads = [threading.Thread(target=self._feed, args=(executor, k + 1, gate), daemon=True)
                         for k in range(children)]
         for t in self.threads:
             t.start()
@@ -241,6 +251,14 @@ class Dispatch:
         with self.lock:
             while any(self.jobs[i].scenario == scenario for i in self.running):
                 self.lock.wait()
+
+    def run_one(self) -> bool:
+        """This process takes the next job, if any (False: none was left)."""
+        i = self._take()
+        if i is None:
+            return False
+        self._run(i, 0, None)
+        return True
 
     def run_here(self) -> None:
         """This process takes the next job whenever it is free, until none is left."""

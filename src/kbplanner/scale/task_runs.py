@@ -46,6 +46,8 @@ from kbplanner.scale.task_pool import (
 )
 
 if TYPE_CHECKING:
+    from concurrent.futures import Future
+
     from kbplanner.world.tables import WorldTables
 
 __all__ = ["TASK_COLUMNS", "ScenarioPart", "SimulationRun", "SimulationStage", "TaskFigures", "TaskPool",
@@ -342,11 +344,12 @@ class SimulationRun:
         self.t0 = time.perf_counter()
         self.dispatch = Dispatch(self.jobs, self.order, workers, tell, pool, self.t0, self.unconfirmed)
 
-    def begin(self, here: bool = True) -> SimulationRun:
+    def begin(self, here: bool = True, gate: Sequence[Future[Any]] = ()) -> SimulationRun:
         """Start the spawned processes on the jobs (``here``: this process takes jobs at once too, by
-        :meth:`finish`; else it has other work first)."""
+        :meth:`finish`; else it has other work first; ``gate``: what the spawned processes do first,
+        :meth:`Dispatch.begin`)."""
         self.t0 = self.dispatch.start = time.perf_counter()
-        self.dispatch.begin(here)
+        self.dispatch.begin(here, gate)
         return self
 
     def confirm(self, scenario: str | None, project: ProjectData | None = None,
