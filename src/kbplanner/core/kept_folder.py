@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import io
 import logging
 import os
 from collections.abc import Iterator, Mapping, Sequence
@@ -14,6 +15,8 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+
+from kbplanner.core.outputs import atomic_write_bytes
 
 log = logging.getLogger(__name__)
 
@@ -61,6 +64,23 @@ def read_arrays(path: Path, fields: Mapping[str, Any], what: str) -> list[npt.ND
     except (OSError, ValueError, KeyError, EOFError) as exc:
         log.warning("ignoring the kept %s %s: %s", what, path.name, exc)
         return None
+
+
+def write_arrays(path: Path, what: str, keep: int | None, **arrays: npt.ArrayLike) -> bool:
+    """Keep ``arrays`` as the ``.npz`` file ``path`` (no pickle; written atomically: a process killed
+    half-way leaves the file it had or none), then, with ``keep``, only the ``keep`` newest files of its
+    folder. False where it could not be written (logged, naming ``what``; a result not kept is made
+    again by the next run)."""
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)  # type: ignore[arg-type]
+    try:
+        atomic_write_bytes(path, buf.getvalue())
+        if keep is not None:
+            keep_newest(path.parent, keep)
+    except OSError as exc:
+        log.warning("could not keep the %s in %s: %s", what, path.parent, exc)
+        return False
+    return True
 
 
 def keep_newest(folder: Path, keep: int) -> None:

@@ -29,15 +29,13 @@ or scenario) reads them instead of building the graph and searching.
 from __future__ import annotations
 
 import hashlib
-import io
 import logging
 from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
 
-from kbplanner.core.kept_folder import code_digest, keep_newest, read_arrays
-from kbplanner.core.outputs import atomic_write_bytes
+from kbplanner.core.kept_folder import code_digest, keep_newest, read_arrays, write_arrays
 from kbplanner.world import cspace_store
 
 log = logging.getLogger(__name__)
@@ -230,15 +228,12 @@ def _flush_routes(folder: Path) -> bool:
             continue
         ends = sorted(routes)
         seqs = [routes[e] or () for e in ends]
-        buf = io.BytesIO()
-        np.savez(buf, ends=np.array([e[:6] for e in ends], dtype=np.int64).reshape(-1, 6),
-                 radii=np.array([e[6] for e in ends], dtype=np.float64),
-                 starts=np.concatenate([[0], np.cumsum([len(c) for c in seqs])]).astype(np.int64),
-                 cells=np.array([c for seq in seqs for c in seq], dtype=np.int64).reshape(-1, 3))
-        try:
-            atomic_write_bytes(folder / f"corridor-{k}.npz", buf.getvalue())
-        except OSError as exc:
-            log.warning("could not keep the corridor routes in %s: %s", folder, exc)
+        if not write_arrays(
+                folder / f"corridor-{k}.npz", "corridor routes", None,
+                ends=np.array([e[:6] for e in ends], dtype=np.int64).reshape(-1, 6),
+                radii=np.array([e[6] for e in ends], dtype=np.float64),
+                starts=np.concatenate([[0], np.cumsum([len(c) for c in seqs])]).astype(np.int64),
+                cells=np.array([c for seq in seqs for c in seq], dtype=np.int64).reshape(-1, 3)):
             return wrote
         counts["written"] += 1
         new[0] = False
@@ -260,16 +255,11 @@ def flush() -> None:
         seqs = [paths[e] or () for e in ends]
         starts = np.concatenate([[0], np.cumsum([len(c) for c in seqs])]).astype(np.int64)
         cells = np.array([c for seq in seqs for c in seq], dtype=np.int64).reshape(-1, 2)
-        buf = io.BytesIO()
         pairs = np.array([[*s, *t] for s, t in ends], dtype=np.int64).reshape(-1, 4)
         length_keys = sorted(lengths)
-        np.savez(buf, ends=pairs, starts=starts, cells=cells,
-                 length_keys=np.array(length_keys, dtype=np.float64).reshape(-1, 7),
-                 lengths=np.array([lengths[k] for k in length_keys], dtype=np.float64))
-        try:
-            atomic_write_bytes(folder / f"{k}.npz", buf.getvalue())
-        except OSError as exc:
-            log.warning("could not keep the cell paths in %s: %s", folder, exc)
+        if not write_arrays(folder / f"{k}.npz", "cell paths", None, ends=pairs, starts=starts, cells=cells,
+                            length_keys=np.array(length_keys, dtype=np.float64).reshape(-1, 7),
+                            lengths=np.array([lengths[k] for k in length_keys], dtype=np.float64)):
             return
         counts["written"] += 1
         new[0] = False

@@ -28,7 +28,6 @@ the elements' placements only, so a run keeps them in a folder and the next run 
 from __future__ import annotations
 
 import hashlib
-import io
 import logging
 from dataclasses import dataclass
 from pathlib import Path
@@ -36,8 +35,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
-from kbplanner.core.kept_folder import code_digest, keep_newest, read_arrays
-from kbplanner.core.outputs import atomic_write_bytes
+from kbplanner.core.kept_folder import code_digest, read_arrays, write_arrays
 from kbplanner.world import cspace_store
 from kbplanner.world.world_types import World
 
@@ -138,8 +136,7 @@ def write(world: World, chunks: list[Chunk]) -> None:
     path = _path(world)
     if path is None:
         return
-    buf = io.BytesIO()
-    np.savez(buf, groups=np.array([c.group for c in chunks], dtype=str),
+    if write_arrays(path, "static bodies", KEEP, groups=np.array([c.group for c in chunks], dtype=str),
              iris=np.array([i for c in chunks for i in c.iris], dtype=str),
              iri_starts=np.cumsum([0] + [len(c.iris) for c in chunks]).astype(np.int64),
              v_starts=np.cumsum([0] + [len(c.vertices) for c in chunks]).astype(np.int64),
@@ -147,10 +144,5 @@ def write(world: World, chunks: list[Chunk]) -> None:
              vertices=np.concatenate([c.vertices for c in chunks]).reshape(-1, 3) if chunks
              else np.zeros((0, 3)),
              faces=np.concatenate([c.faces for c in chunks]).reshape(-1, 3) if chunks
-             else np.zeros((0, 3), dtype=np.int64))
-    try:
-        atomic_write_bytes(path, buf.getvalue())
+             else np.zeros((0, 3), dtype=np.int64)):
         counts["written"] += 1
-        keep_newest(path.parent, KEEP)
-    except OSError as exc:
-        log.warning("could not keep the static bodies in %s: %s", path.parent, exc)

@@ -26,14 +26,12 @@ them instead; a leg not kept (a new start or goal cell) is searched as before an
 from __future__ import annotations
 
 import hashlib
-import io
 import logging
 from pathlib import Path
 
 import numpy as np
 
-from kbplanner.core.kept_folder import code_digest, keep_newest, read_arrays
-from kbplanner.core.outputs import atomic_write_bytes
+from kbplanner.core.kept_folder import code_digest, read_arrays, write_arrays
 from kbplanner.simulation.workers import _Router, walk_cells
 from kbplanner.world import cspace_store
 from kbplanner.world.occupancy import OccupancyGrid
@@ -110,15 +108,9 @@ def write_from(router: _Router) -> None:
     sizes = [len(memo[k]) for k in legs]
     starts = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
     points = np.concatenate([np.asarray(memo[k], dtype=np.float64).reshape(-1, 2) for k in legs])
-    buf = io.BytesIO()
-    np.savez(buf, cells=cells, starts=starts, points=points)
-    try:
-        atomic_write_bytes(path, buf.getvalue())
+    if write_arrays(path, "walking routes", KEEP, cells=cells, starts=starts, points=points):
         counts["written"] += 1
         router.kept_legs = frozenset(memo)
-        keep_newest(path.parent, KEEP)
-    except OSError as exc:
-        log.warning("could not keep the walking routes in %s: %s", path.parent, exc)
 
 
 def walk_cells_kept(grid: OccupancyGrid, clearance_m: float) -> tuple[np.ndarray, int]:
@@ -144,12 +136,7 @@ def walk_cells_kept(grid: OccupancyGrid, clearance_m: float) -> tuple[np.ndarray
             return kept, int(coarser)
         log.warning("ignoring the kept walking map %s: not a walking map", path.name)
     free, k = walk_cells(grid, clearance_m)
-    buf = io.BytesIO()
-    np.savez(buf, cells=np.packbits(free), shape=np.array(free.shape, dtype=np.int64), k=np.array(k))
-    try:
-        atomic_write_bytes(path, buf.getvalue())
+    if write_arrays(path, "walking map", KEEP, cells=np.packbits(free),
+                    shape=np.array(free.shape, dtype=np.int64), k=np.array(k)):
         counts["written"] += 1
-        keep_newest(path.parent, KEEP)
-    except OSError as exc:
-        log.warning("could not keep the walking map in %s: %s", path.parent, exc)
     return free, k

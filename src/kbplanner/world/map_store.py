@@ -22,7 +22,6 @@ date (``kbplanner plan`` then ``simulate``; ``simulate`` again) reads it instead
 from __future__ import annotations
 
 import hashlib
-import io
 import json
 import logging
 import os
@@ -30,8 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
-from kbplanner.core.kept_folder import KeptFolder, code_digest, keep_newest, read_arrays
-from kbplanner.core.outputs import atomic_write_bytes, versions
+from kbplanner.core.kept_folder import KeptFolder, code_digest, read_arrays, write_arrays
+from kbplanner.core.outputs import versions
 from kbplanner.world.map_settings import MapSettings
 from kbplanner.world.occupancy import OccupancyGrid
 from kbplanner.world.world_types import StoreyInfo, World
@@ -128,11 +127,6 @@ def write(world: World, storey: StoreyInfo, settings: MapSettings, grid: Occupan
     meta = {"origin": [_num(v) for v in grid.origin], "resolution": _num(grid.resolution),
             "band": None if grid.band is None else [_num(v) for v in grid.band],
             "notes": list(grid.notes), "obstacles": obstacles}
-    buf = io.BytesIO()
-    np.savez(buf, occupied=np.ascontiguousarray(grid.occupied, dtype=bool), meta=np.array(json.dumps(meta)))
-    try:
-        atomic_write_bytes(path, buf.getvalue())
+    if write_arrays(path, "map", KEEP, occupied=np.ascontiguousarray(grid.occupied, dtype=bool),
+                    meta=np.array(json.dumps(meta))):
         counts["written"] += 1
-        keep_newest(path.parent, KEEP)
-    except OSError as exc:
-        log.warning("could not keep the map in %s: %s", path.parent, exc)
