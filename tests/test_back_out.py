@@ -17,6 +17,7 @@ from test_navigation import box
 
 LOAD = Footprint((Rect(0.0, 0.0, 0.99, 0.67), Rect(0.0, 0.0, 1.6, 0.5)), name="husky + load")
 LIMITS = (0.3, 2.0, 1.0, 2.0)  # speed, yaw rate, acceleration, yaw acceleration
+COST = 8.0  # kbp:reversingCost, seconds per backward metre (the value measured in docs/scale.md)
 
 
 def _room_and_pocket() -> ConfigurationSpace:
@@ -39,7 +40,7 @@ def test_facing_into_a_pocket_the_base_backs_out_straight_and_then_drives_forwar
     poses = [(5.0, 0.9, -math.pi / 2), (5.0, 3.0, -math.pi / 2), (9.0, 4.5, 0.0)]
     assert path_is_free(cs, poses)
     plain, _ = turn_drive_turn(cs, poses, allow_reverse=False)
-    got = backed_out(cs, poses, LIMITS[0], LIMITS[1], backward_m(plain))
+    got = backed_out(cs, poses, LIMITS[0], LIMITS[1], backward_m(plain), reverse_s_per_m=COST)
     assert got
     for way in got:
         assert path_is_free(cs, way) and way[0] == poses[0] and way[-1] == poses[-1]
@@ -48,7 +49,7 @@ def test_facing_into_a_pocket_the_base_backs_out_straight_and_then_drives_forwar
         assert _forwards_after(way, 1)
         # out of the pocket (the 1.6 m load turns only once clear of it), but less far than planned
         assert 1.2 < backward_m(way) < backward_m(plain)
-    assert estimate_s(got[0], LIMITS[0], LIMITS[1]) <= estimate_s(got[-1], LIMITS[0], LIMITS[1])
+    assert estimate_s(got[0], *LIMITS[:2], COST) <= estimate_s(got[-1], *LIMITS[:2], COST)
 
 
 def test_a_goal_facing_out_of_a_pocket_is_backed_into_straight_from_its_mouth() -> None:
@@ -56,7 +57,7 @@ def test_a_goal_facing_out_of_a_pocket_is_backed_into_straight_from_its_mouth() 
     poses = [(9.0, 4.5, 0.0), (5.0, 3.0, math.pi / 2), (5.0, 0.9, math.pi / 2)]
     assert path_is_free(cs, poses)
     plain, _ = turn_drive_turn(cs, poses, allow_reverse=False)
-    got = backed_in(cs, poses, LIMITS[0], LIMITS[1], backward_m(plain))
+    got = backed_in(cs, poses, LIMITS[0], LIMITS[1], backward_m(plain), reverse_s_per_m=COST)
     assert got
     way = got[0]
     assert path_is_free(cs, way) and way[0] == poses[0] and way[-1] == poses[-1]
@@ -94,5 +95,5 @@ def test_with_no_time_for_a_backward_metre_the_rewrites_are_not_tried() -> None:
 def test_nothing_to_back_out_of_gives_no_rewrite() -> None:
     cs = _room_and_pocket()
     poses = [(3.0, 4.0, 0.0), (6.0, 4.0, 0.0), (9.0, 4.5, 0.0)]  # in the open room, forwards already
-    assert backed_out(cs, poses, LIMITS[0], LIMITS[1], 0.0) == []
-    assert backed_out(cs, poses[:2], LIMITS[0], LIMITS[1]) == []
+    assert backed_out(cs, poses, LIMITS[0], LIMITS[1], 0.0, reverse_s_per_m=COST) == []
+    assert backed_out(cs, poses[:2], LIMITS[0], LIMITS[1], reverse_s_per_m=COST) == []

@@ -25,7 +25,6 @@ from kbplanner.world.footprint import ConfigurationSpace
 STEP_M = 0.1  # spacing of the poses tried behind the start
 MAX_BACK_M = 3.0  # no farther back than this
 KEEP = 3  # rewrites kept per end, the quickest by the estimate
-REVERSE_S_PER_M = 8.0  # in the estimate, a metre driven backwards (or slid over 60 degrees off) is worth this
 STOP_S = 1.0  # a turn on the spot: speeding up and slowing down its turn and the drives round it, roughly
 
 
@@ -44,10 +43,11 @@ def reversing_cost(value: object) -> float:
     return float(value)
 
 
-def estimate_s(poses: Sequence[Pose2D], speed_mps: float, yaw_rate_rps: float) -> float:
+def estimate_s(poses: Sequence[Pose2D], speed_mps: float, yaw_rate_rps: float,
+               reverse_s_per_m: float) -> float:
     """A rough drive time of a path (each straight SE(2) motion at top speed or yaw rate, whichever takes
-    longer, and ``STOP_S`` per turn on the spot) plus ``REVERSE_S_PER_M`` per metre driven backwards or
-    slid sideways: the cost by which rewrites of one path are compared."""
+    longer, and ``STOP_S`` per turn on the spot) plus ``reverse_s_per_m`` (the skill's ``kbp:reversingCost``)
+    per metre driven backwards or slid sideways: the cost by which rewrites of one path are compared."""
     s = 0.0
     for a, b in itertools.pairwise(poses):
         d = math.hypot(b[0] - a[0], b[1] - a[1])
@@ -59,7 +59,7 @@ def estimate_s(poses: Sequence[Pose2D], speed_mps: float, yaw_rate_rps: float) -
         way = math.atan2(b[1] - a[1], b[0] - a[0])
         off = max(abs(wrap(way - a[2])), abs(wrap(way - b[2])))
         if off > math.radians(60.0):
-            s += REVERSE_S_PER_M * (backward_m([a, b]) if off > math.pi / 2 else d)
+            s += reverse_s_per_m * (backward_m([a, b]) if off > math.pi / 2 else d)
     return s
 
 
@@ -96,7 +96,7 @@ def _turn_free(exact: ExactMotion, p: Pose2D, yaw: float, span: tuple[float, flo
 
 
 def backed_out(cs: ConfigurationSpace, poses: Sequence[Pose2D], speed_mps: float, yaw_rate_rps: float,
-               limit_m: float = MAX_BACK_M) -> list[list[Pose2D]]:
+               limit_m: float = MAX_BACK_M, *, reverse_s_per_m: float) -> list[list[Pose2D]]:
     """``poses`` with the start rewritten (module doc): straight back from the start by a multiple of
     ``STEP_M`` (0 included, less than ``limit_m``, at most ``MAX_BACK_M``) to a pose from which a turn on
     the spot to face a later waypoint (the farthest) and the straight drive to it are free; the path goes
@@ -129,7 +129,7 @@ def backed_out(cs: ConfigurationSpace, poses: Sequence[Pose2D], speed_mps: float
             head = [poses[0], m] if r > 0 else [poses[0]]
             out = [*head, *turn[1:], (q[0], q[1], way), *poses[j:]]
             out = [p for k, p in enumerate(out) if k == 0 or p != out[k - 1]]
-            found.append((estimate_s(out, speed_mps, yaw_rate_rps), r, out))
+            found.append((estimate_s(out, speed_mps, yaw_rate_rps, reverse_s_per_m), r, out))
             break
         r = round(r + STEP_M, 9)
     found.sort(key=lambda f: (round(f[0], 9), f[1]))
@@ -142,6 +142,7 @@ def _reversed(poses: Sequence[Pose2D]) -> list[Pose2D]:
 
 
 def backed_in(cs: ConfigurationSpace, poses: Sequence[Pose2D], speed_mps: float, yaw_rate_rps: float,
-              limit_m: float = MAX_BACK_M) -> list[list[Pose2D]]:
+              limit_m: float = MAX_BACK_M, *, reverse_s_per_m: float) -> list[list[Pose2D]]:
     """``poses`` with the end rewritten as :func:`backed_out` rewrites the start (module doc)."""
-    return [_reversed(p) for p in backed_out(cs, _reversed(poses), speed_mps, yaw_rate_rps, limit_m)]
+    return [_reversed(p) for p in backed_out(cs, _reversed(poses), speed_mps, yaw_rate_rps, limit_m,
+                                             reverse_s_per_m=reverse_s_per_m)]

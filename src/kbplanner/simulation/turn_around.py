@@ -143,14 +143,14 @@ def skid_steer(cs: ConfigurationSpace, poses: Sequence[Pose2D], *, allow_reverse
         length = path_length(choice[0])
         found: list[tuple[float, int, tuple[list[Pose2D], int]]] = []
         for base in [list(poses)] + ([flipped] if flipped is not None else []):
-            outs = backed_out(cs, base, speed, yaw_rate, limit)
-            ways = [*outs, *backed_in(cs, base, speed, yaw_rate, limit)]
+            outs = backed_out(cs, base, speed, yaw_rate, limit, reverse_s_per_m=reverse_s_per_m)
+            ways = [*outs, *backed_in(cs, base, speed, yaw_rate, limit, reverse_s_per_m=reverse_s_per_m)]
             if outs:
-                ways += backed_in(cs, outs[0], speed, yaw_rate, limit)
+                ways += backed_in(cs, outs[0], speed, yaw_rate, limit, reverse_s_per_m=reverse_s_per_m)
             for way in ways:
                 other = turn_drive_turn(cs, way, allow_reverse=allow_reverse)
                 if backward_m(other[0]) <= limit and path_length(other[0]) <= LONGER * length:
-                    found.append((estimate_s(other[0], speed, yaw_rate), len(found), other))
+                    found.append((estimate_s(other[0], speed, yaw_rate, reverse_s_per_m), len(found), other))
         best = cost(choice[0]) if found else 0.0
         for _, _, other in sorted(found, key=lambda f: (round(f[0], 9), f[1]))[:TIMED]:
             c = cost(other[0])
