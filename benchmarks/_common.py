@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import math
 import os
 import platform
 import resource
@@ -144,10 +145,24 @@ _MACHINE: dict[str, Callable[[], Any]] = {
 }
 
 
+def loop_s(n: int = 1_000_000, repeat: int = 3) -> float:
+    """The machine's speed: the CPU seconds of a fixed pure-Python loop (``n`` times ``s += i * i``), the
+    best of ``repeat``. Machines of one kind differ by 2x and more from session to session; a figure of
+    seconds is comparable across sessions only beside this one."""
+    best = math.inf
+    for _ in range(repeat):
+        t0 = time.process_time()
+        s = 0
+        for i in range(n):
+            s += i * i
+        best = min(best, time.process_time() - t0)
+    return round(best, 4)
+
+
 def machine_info(keys: Sequence[str] = ("python", "platform", "cpus")) -> dict[str, Any]:
-    """The machine a result was measured on, with the fields ``keys`` in that order
-    (any of python, platform, machine, cpus)."""
-    return {k: _MACHINE[k]() for k in keys}
+    """The machine a result was measured on, with the fields ``keys`` in that order (any of python,
+    platform, machine, cpus), and always its speed when measured (:func:`loop_s`, ``python_loop_1e6_s``)."""
+    return {**{k: _MACHINE[k]() for k in keys}, "python_loop_1e6_s": loop_s()}
 
 
 def write_json(path: Path, data: Any, *, indent: int = 2, sort_keys: bool = False) -> None:

@@ -139,6 +139,18 @@ def study_rows(folder: Path | None) -> list[Row]:
     return out
 
 
+def machine_speeds(paths: list[Path | None]) -> dict[str, float]:
+    """Each source's machine speed as its benchmark recorded it (``machine.python_loop_1e6_s``, from
+    ``_common.loop_s``; files written before session 15 have none), by file name."""
+    out: dict[str, float] = {}
+    for path in paths:
+        data = _read(path)
+        speed = (data or {}).get("machine", {}).get("python_loop_1e6_s")
+        if path is not None and isinstance(speed, (int, float)):
+            out[path.name] = float(speed)
+    return out
+
+
 def markdown(rows: list[Row]) -> str:
     lines = ["| what | aim | measured | met | from |", "| --- | --- | ---: | --- | --- |"]
     for r in rows:
@@ -161,8 +173,13 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     rows = (startup_rows(args.startup) + simspeed_rows(args.first, "first run:")
             + simspeed_rows(args.kept, "repeated:") + scale_rows(args.scale10) + study_rows(args.study))
+    speeds = machine_speeds([args.startup, args.first, args.kept, args.scale10])
     sys.stdout.write(markdown(rows))
-    write_json(args.out, {"benchmark": "issue14_status", "rows": rows})
+    if speeds:
+        listed = ", ".join(f"`{k}` {v:g} s" for k, v in speeds.items())
+        sys.stdout.write("\nMachine speed when measured (`python_loop_1e6_s`, the CPU seconds of a fixed "
+                         f"Python loop; lower is quicker): {listed}\n")
+    write_json(args.out, {"benchmark": "issue14_status", "rows": rows, "python_loop_1e6_s": speeds})
     return 0
 
 

@@ -29,8 +29,9 @@ def test_aims_are_judged_from_the_files_and_monitoring_off_runs_are_left_out(tmp
     scale = tmp_path / "scale10.json"
     scale.write_text(json.dumps({"after": {"run_s": 181.5}, "load_average_start": [1.2, 1, 1]}))
     first = tmp_path / "first.json"
-    first.write_text(json.dumps({"scenarios": [{"scenario": "storage-inside", "rounds": 3, "after": {
-        "x_real_time_simulation_cpu": 301.0, "x_real_time_command": 99.9}}]}))
+    first.write_text(json.dumps({"machine": {"cpus": 2, "python_loop_1e6_s": 0.0875},
+                                 "scenarios": [{"scenario": "storage-inside", "rounds": 3, "after": {
+                                     "x_real_time_simulation_cpu": 301.0, "x_real_time_command": 99.9}}]}))
     out = tmp_path / "status.json"
     proc = subprocess.run([sys.executable, str(SCRIPT), "--first", str(first), "--scale10", str(scale),
                            "--study", str(study), "--out", str(out)],
@@ -48,6 +49,9 @@ def test_aims_are_judged_from_the_files_and_monitoring_off_runs_are_left_out(tmp
     assert rows["storage-inside: driven / shortest path, max"]["met"] is True
     assert rows["start-up: --version"]["measured"] is None and rows["start-up: --version"]["met"] is None
     assert "| 10 x 8 building, `kbplanner run` |" in proc.stdout and "**no**" in proc.stdout
+    # the machine's speed where a file recorded it (scale10.json here has none)
+    assert json.loads(out.read_text())["python_loop_1e6_s"] == {"first.json": 0.0875}
+    assert "`first.json` 0.0875 s" in proc.stdout and "scale10.json`" not in proc.stdout.split("Machine")[1]
 
 
 def test_a_file_that_is_no_benchmark_result_is_named_with_the_fix(tmp_path: Path) -> None:
