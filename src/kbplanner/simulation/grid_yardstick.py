@@ -239,8 +239,7 @@ def _farthest_visible(pts: list[tuple[float, float]], i: int, free: npt.NDArray[
     Each query first looks at every :data:`_COARSE`-th sample of the candidates' lines (the very same
     sample points): a candidate with one of them blocked is not visible; only the others' lines are
     then sampled in full, and the first of them whose samples are all free is the answer - the same
-    answer as sampling every line in full (tests/test_yardstick_graph.py)."""
-    ny, nx = free.shape
+    answer as sampling every line in full (tests/test_grid_route_searches.py)."""
     ax, ay = pts[i]
     half = g.resolution / 2
     j = len(pts) - 1
