@@ -34,7 +34,8 @@ def _dijkstra_cells(
 
     index, graph = graph_of if graph_of is not None else _graph(free)
     src, dst = int(index[s]), int(index[t])
-    dist, pred = csgraph.dijkstra(graph, directed=False, indices=src, return_predecessors=True)
+    # directed over both directions' edges: the search of the undirected one (see _graph)
+    dist, pred = csgraph.dijkstra(graph, directed=True, indices=src, return_predecessors=True)
     if not math.isfinite(float(dist[dst])):
         return None
     out = [dst]
@@ -46,16 +47,23 @@ def _dijkstra_cells(
     return [(int(flat[k]) // nx, int(flat[k]) % nx) for k in out]
 
 
-_STEP_COSTS = np.array([1.0, math.hypot(1, 1), 1.0, math.hypot(1, 1)])  # to E, SW, S, SE
+# the steps of a cell's row: to E, SW, S, SE (the half graph's edges, to higher nodes), then NW, N, NE, W
+_STEPS = ((0, 1), (1, -1), (1, 0), (1, 1), (-1, -1), (-1, 0), (-1, 1), (0, -1))
+_STEP_COSTS = np.array([math.hypot(dy, dx) for dy, dx in _STEPS])
 
 
 def _graph(free: npt.NDArray[np.bool_]) -> tuple[npt.NDArray[np.int64], Any]:
-    """The node of each cell (-1 blocked; free cells numbered in row-major order) and the graph: each free
-    cell's edges to its free neighbours (y, x+1), (y+1, x-1), (y+1, x), (y+1, x+1), costs 1 or sqrt 2.
+    """The node of each cell (-1 blocked; free cells numbered in row-major order) and the graph for a
+    directed Dijkstra that searches as scipy's undirected one does on the half graph: each free cell's
+    row its edges to its free neighbours (y, x+1), (y+1, x-1), (y+1, x), (y+1, x+1) - the half graph's
+    row, costs 1 or sqrt 2 - then (y-1, x-1), (y-1, x), (y-1, x+1), (y, x-1) - the row of the half
+    graph's transpose, in increasing order as ``graph.T.tocsr()`` has it.
 
-    Built in CSR form directly: row by row the neighbours' nodes in that (increasing) order, the
-    canonical CSR matrix (sorted indices, no duplicates) that ``csr_matrix((costs, (rows, cols)))``
-    made of the same edges - the same graph for Dijkstra, arrays equal (tested)."""
+    scipy's undirected Dijkstra scans, for each node it takes from its heap, the node's row of the graph
+    and then its row of the transpose (which it builds on every call); on this graph the directed one
+    scans the same edges in the same order, so the same distances and predecessors (tested against the
+    former half graph's undirected search); the transpose is not built per search, indices are int32 as
+    the search wants them (not converted per search)."""
     from scipy import sparse
 
     ny, nx = free.shape
@@ -63,12 +71,13 @@ def _graph(free: npt.NDArray[np.bool_]) -> tuple[npt.NDArray[np.int64], Any]:
     flat = np.flatnonzero(free)
     n = len(flat)
     index.ravel()[flat] = np.arange(n)
-    pad = np.full((ny + 1, nx + 2), -1, dtype=np.int64)
-    pad[:ny, 1 : nx + 1] = index
-    nb = np.stack([pad[:ny, 2:], pad[1:, :nx], pad[1:, 1 : nx + 1], pad[1:, 2:]], axis=-1)
-    nb = nb.reshape(-1, 4)[flat]
+    w = nx + 2
+    pad = np.full((ny + 2, w), -1, dtype=np.int32)
+    pad[1:-1, 1:-1] = index
+    at = (flat // nx + 1) * w + flat % nx + 1  # the free cells in the padded grid
+    nb = pad.ravel()[at[:, None] + np.array([dy * w + dx for dy, dx in _STEPS])]
     mask = nb >= 0
-    indptr = np.zeros(n + 1, dtype=np.int64)
+    indptr = np.zeros(n + 1, dtype=np.int32)
     np.cumsum(mask.sum(axis=1), out=indptr[1:])
     costs = np.broadcast_to(_STEP_COSTS, nb.shape)[mask]
     return index, sparse.csr_matrix((costs, nb[mask], indptr), shape=(n, n))
