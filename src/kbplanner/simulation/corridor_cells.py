@@ -14,6 +14,8 @@ searched over the same configuration space is read instead (:mod:`kbplanner.simu
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import numpy.typing as npt
 
@@ -73,15 +75,23 @@ def _route(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, ends: list[tuple
     path = shortest_cells(cs, start, goal)
     if path is None:
         return None
-    off = np.ones(g.shape, dtype=bool)
-    ys, xs = zip(*path, strict=True)
-    off[list(ys), list(xs)] = False
-    near = ndimage.distance_transform_edt(off) <= radius_m / g.resolution
+    ys, xs = np.array(path, dtype=np.int64).T
+    # the distance to the path on the path's bounding box grown by more than the radius only: the cells
+    # off it are farther than the radius from every path cell, those on it as near as on the whole grid
+    reach = radius_m / g.resolution
+    grow = math.floor(reach) + 1
+    wy0, wx0 = max(0, int(ys.min()) - grow), max(0, int(xs.min()) - grow)
+    wy1, wx1 = min(g.shape[0], int(ys.max()) + grow + 1), min(g.shape[1], int(xs.max()) + grow + 1)
+    off = np.ones((wy1 - wy0, wx1 - wx0), dtype=bool)
+    off[ys - wy0, xs - wx0] = False
+    near = ndimage.distance_transform_edt(off) <= reach
     # searched on the corridor's bounding box only: every cell off it is blocked anyway, and the search's
     # path does not depend on where its cells lie (same cells as on the whole window)
     rows, cols = np.flatnonzero(near.any(axis=1)), np.flatnonzero(near.any(axis=0))
     y0, y1, x0, x1 = int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
-    box = cs.free[:, y0:y1, x0:x1] & near[None, y0:y1, x0:x1]
+    near = near[y0:y1, x0:x1]
+    y0, y1, x0, x1 = y0 + wy0, y1 + wy0, x0 + wx0, x1 + wx0
+    box = cs.free[:, y0:y1, x0:x1] & near[None, :, :]
     (b0, sy, sx), (b1, gy, gx) = ends
     nodes = bfs_cells(box, (b0, sy - y0, sx - x0), (b1, gy - y0, gx - x0))
     if nodes is None:
