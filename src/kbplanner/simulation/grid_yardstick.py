@@ -25,7 +25,7 @@ from kbplanner.world.occupancy import OccupancyGrid
 
 def _dijkstra_cells(
     free: npt.NDArray[np.bool_], s: tuple[int, int], t: tuple[int, int],
-    graph_of: tuple[npt.NDArray[np.int64], Any] | None = None,
+    graph_of: tuple[npt.NDArray[np.int32], Any] | None = None,
 ) -> list[tuple[int, int]] | None:
     """Cells (iy, ix) of a shortest 8-connected path over ``free`` from ``s`` to ``t`` (scipy's
     Dijkstra; steps cost 1 or sqrt 2 cells), or None. ``graph_of``: :func:`_graph` of ``free``, when
@@ -52,7 +52,7 @@ _STEPS = ((0, 1), (1, -1), (1, 0), (1, 1), (-1, -1), (-1, 0), (-1, 1), (0, -1))
 _STEP_COSTS = np.array([math.hypot(dy, dx) for dy, dx in _STEPS])
 
 
-def _graph(free: npt.NDArray[np.bool_]) -> tuple[npt.NDArray[np.int64], Any]:
+def _graph(free: npt.NDArray[np.bool_]) -> tuple[npt.NDArray[np.int32], Any]:
     """The node of each cell (-1 blocked; free cells numbered in row-major order) and the graph for a
     directed Dijkstra that searches as scipy's undirected one does on the half graph: each free cell's
     row its edges to its free neighbours (y, x+1), (y+1, x-1), (y+1, x), (y+1, x+1) - the half graph's
@@ -67,14 +67,14 @@ def _graph(free: npt.NDArray[np.bool_]) -> tuple[npt.NDArray[np.int64], Any]:
     from scipy import sparse
 
     ny, nx = free.shape
-    index = np.full(free.shape, -1, dtype=np.int64)
-    flat = np.flatnonzero(free)
-    n = len(flat)
-    index.ravel()[flat] = np.arange(n)
-    w = nx + 2
+    w = nx + 2  # a blocked border round the grid: no step leaves it
+    at = np.zeros((ny + 2, w), dtype=bool)
+    at[1:-1, 1:-1] = free
+    at = np.flatnonzero(at)  # the free cells in the bordered grid, in row-major order
+    n = len(at)
     pad = np.full((ny + 2, w), -1, dtype=np.int32)
-    pad[1:-1, 1:-1] = index
-    at = (flat // nx + 1) * w + flat % nx + 1  # the free cells in the padded grid
+    pad.ravel()[at] = np.arange(n, dtype=np.int32)
+    index = pad[1:-1, 1:-1]
     nb = pad.ravel()[at[:, None] + np.array([dy * w + dx for dy, dx in _STEPS])]
     mask = nb >= 0
     indptr = np.zeros(n + 1, dtype=np.int32)
