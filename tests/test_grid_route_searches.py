@@ -1,6 +1,8 @@
-"""B5 navigation's grid route searches (simulation/grid_yardstick.py): the cheaper searches of session 15
-give the very answers of the searches they replace - the line of sight checked coarsely first
-(``_farthest_visible``), on random grids and the yardstick's own cell paths."""
+"""B5 navigation's grid route searches (simulation/grid_yardstick.py, corridor_cells.py): the cheaper
+searches of session 15 give the very answers of the searches they replace - the line of sight checked
+coarsely first (``grid_yardstick._farthest_visible``) and the corridor's distance to the grid path on
+the path's grown bounding box (``corridor_cells.corridor_box``), on random grids and the yardstick's own
+cell paths."""
 
 from __future__ import annotations
 
@@ -8,8 +10,10 @@ import math
 
 import numpy as np
 import pytest
+from scipy import ndimage
 
 from kbplanner.simulation import grid_yardstick
+from kbplanner.simulation.corridor_cells import corridor_box
 from kbplanner.world.occupancy import OccupancyGrid
 
 
@@ -87,3 +91,34 @@ def test_lines_through_a_thin_gap_and_off_the_grid() -> None:
     pts = [(0.5 + 0.1 * k, 1.45) for k in range(50)] + [(5.5, 0.2), (7.0, 1.45)]
     for i in range(len(pts) - 1):
         assert grid_yardstick._farthest_visible(pts, i, free, g) == _farthest_visible_in_full(pts, i, free, g)
+
+
+def _corridor_on_the_whole_grid(shape: tuple[int, int], path: list[tuple[int, int]], reach: float
+                                ) -> tuple[np.ndarray, tuple[int, int, int, int]]:
+    """The former corridor: the distance transform of the whole grid, then the corridor's bounding box."""
+    off = np.ones(shape, dtype=bool)
+    ys, xs = zip(*path, strict=True)
+    off[list(ys), list(xs)] = False
+    near = ndimage.distance_transform_edt(off) <= reach
+    rows, cols = np.flatnonzero(near.any(axis=1)), np.flatnonzero(near.any(axis=0))
+    y0, y1, x0, x1 = int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+    return near[y0:y1, x0:x1], (y0, y1, x0, x1)
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_the_corridor_on_the_paths_box_is_the_whole_grids(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    for _ in range(25):
+        shape = (int(rng.integers(1, 60)), int(rng.integers(1, 80)))
+        free = _random_free(rng)[: shape[0], : shape[1]] if rng.random() < 0.5 else np.ones(shape, dtype=bool)
+        shape = free.shape
+        cells = np.argwhere(free)
+        if len(cells) == 0:
+            continue
+        s, t = (tuple(int(v) for v in cells[rng.integers(len(cells))]) for _ in range(2))
+        path = grid_yardstick._dijkstra_cells(free, s, t) or [s]  # type: ignore[arg-type]
+        reach = float(rng.choice([0.0, 1.0, 2.0, 3.5, 10.0, 0.5 / 0.05, 0.5 / 0.037, 1e-9]))
+        near, box = corridor_box(shape, path, reach)  # type: ignore[arg-type]
+        near0, box0 = _corridor_on_the_whole_grid(shape, path, reach)  # type: ignore[arg-type]
+        assert box == box0
+        assert np.array_equal(near, near0)
