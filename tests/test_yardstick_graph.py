@@ -1,6 +1,8 @@
 """B5 navigation's yardstick (simulation layer): the grid graph built in CSR form directly
-(``grid_yardstick._graph``) is the matrix the former ``csr_matrix((costs, (rows, cols)))`` construction made
-(same ``indptr``, ``indices`` and ``data``), so Dijkstra returns the same cells and lengths."""
+(``grid_yardstick._graph``) holds, row by row, the row of the matrix the former
+``csr_matrix((costs, (rows, cols)))`` construction made and then the row of its transpose (what scipy's
+undirected Dijkstra scans per node), so its directed Dijkstra returns the same distances and
+predecessors as the undirected one on the former matrix: the same cells and lengths."""
 
 from __future__ import annotations
 
@@ -43,22 +45,38 @@ def _free(seed: int) -> np.ndarray:
     return free
 
 
+def _both_rows(graph: sparse.csr_matrix) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per row the graph's entries, then its transpose's (``graph.T.tocsr()``, as scipy's undirected
+    Dijkstra builds it): ``indptr``, ``indices``, ``data``."""
+    tr = graph.T.tocsr()
+    indptr, indices, data = [0], [], []
+    for v in range(graph.shape[0]):
+        for g in (graph, tr):
+            a, b = g.indptr[v], g.indptr[v + 1]
+            indices += g.indices[a:b].tolist()
+            data += g.data[a:b].tolist()
+        indptr.append(len(indices))
+    return np.array(indptr), np.array(indices, dtype=np.int64), np.array(data)
+
+
 @pytest.mark.parametrize("seed", range(12))
-def test_the_graph_is_the_former_matrix_and_dijkstra_answers_alike(seed: int) -> None:
+def test_the_graph_is_the_former_matrix_both_ways_and_dijkstra_answers_alike(seed: int) -> None:
     free = _free(seed)
     index, graph = grid_yardstick._graph(free)
     index0, graph0 = _former_graph(free)
     assert np.array_equal(index, index0)
     assert graph.shape == graph0.shape
-    assert np.array_equal(graph.indptr, graph0.indptr)
-    assert np.array_equal(graph.indices, graph0.indices)
-    assert np.array_equal(graph.data, graph0.data)
+    indptr, indices, data = _both_rows(graph0)
+    assert np.array_equal(graph.indptr, indptr)
+    assert np.array_equal(graph.indices, indices)
+    assert np.array_equal(graph.data, data)
     if graph.shape[0] < 2:
         return
-    src = int(np.random.default_rng(seed).integers(0, graph.shape[0]))
-    d, p = csgraph.dijkstra(graph, directed=False, indices=src, return_predecessors=True)
-    d0, p0 = csgraph.dijkstra(graph0, directed=False, indices=src, return_predecessors=True)
-    assert np.array_equal(d, d0) and np.array_equal(p, p0)
+    rng = np.random.default_rng(seed)
+    for src in rng.integers(0, graph.shape[0], 3).tolist():
+        d, p = csgraph.dijkstra(graph, directed=True, indices=src, return_predecessors=True)
+        d0, p0 = csgraph.dijkstra(graph0, directed=False, indices=src, return_predecessors=True)
+        assert np.array_equal(d, d0) and np.array_equal(p, p0)
 
 
 def test_lengths_on_a_grid_with_a_wall_and_a_gap() -> None:

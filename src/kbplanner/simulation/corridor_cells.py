@@ -14,6 +14,8 @@ searched over the same configuration space is read instead (:mod:`kbplanner.simu
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import numpy.typing as npt
 
@@ -67,21 +69,12 @@ def _centres(cs: ConfigurationSpace, cell: npt.NDArray[np.int64]) -> list[Pose2D
 def _route(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, ends: list[tuple[int, int, int]],
            radius_m: float) -> npt.NDArray[np.int64] | None:
     """The cells (bin, y, x) of :func:`corridor_cells`' path (its ends' cells free), or None."""
-    from scipy import ndimage
-
     g = cs.grid
     path = shortest_cells(cs, start, goal)
     if path is None:
         return None
-    off = np.ones(g.shape, dtype=bool)
-    ys, xs = zip(*path, strict=True)
-    off[list(ys), list(xs)] = False
-    near = ndimage.distance_transform_edt(off) <= radius_m / g.resolution
-    # searched on the corridor's bounding box only: every cell off it is blocked anyway, and the search's
-    # path does not depend on where its cells lie (same cells as on the whole window)
-    rows, cols = np.flatnonzero(near.any(axis=1)), np.flatnonzero(near.any(axis=0))
-    y0, y1, x0, x1 = int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
-    box = cs.free[:, y0:y1, x0:x1] & near[None, y0:y1, x0:x1]
+    near, (y0, y1, x0, x1) = corridor_box(g.shape, path, radius_m / g.resolution)
+    box = cs.free[:, y0:y1, x0:x1] & near[None, :, :]
     (b0, sy, sx), (b1, gy, gx) = ends
     nodes = bfs_cells(box, (b0, sy - y0, sx - x0), (b1, gy - y0, gx - x0))
     if nodes is None:
@@ -90,3 +83,28 @@ def _route(cs: ConfigurationSpace, start: Pose2D, goal: Pose2D, ends: list[tuple
     cell[:, 1] += y0
     cell[:, 2] += x0
     return cell
+
+
+def corridor_box(shape: tuple[int, int], path: list[tuple[int, int]], reach: float
+                 ) -> tuple[npt.NDArray[np.bool_], tuple[int, int, int, int]]:
+    """The cells (y, x) of a grid of ``shape`` within ``reach`` cells (Euclidean, from centre to centre)
+    of a path's cells, on their bounding box ``(y0, y1, x0, x1)``: the corridor :func:`corridor_cells`
+    searches (the box is where the search runs: every cell off it is blocked anyway, and the search's
+    path does not depend on where its cells lie, the same cells as on the whole window).
+
+    The distance to the path is found on the path's bounding box grown by more than ``reach`` only: a
+    cell off it is farther than ``reach`` from every path cell, and one on it is as near as on the
+    whole grid (its nearest path cell lies in it), so the same corridor as a distance transform of the
+    whole grid (tests/test_grid_route_searches.py)."""
+    from scipy import ndimage
+
+    ys, xs = np.array(path, dtype=np.int64).reshape(-1, 2).T
+    grow = math.floor(reach) + 1
+    wy0, wx0 = max(0, int(ys.min()) - grow), max(0, int(xs.min()) - grow)
+    wy1, wx1 = min(shape[0], int(ys.max()) + grow + 1), min(shape[1], int(xs.max()) + grow + 1)
+    off = np.ones((wy1 - wy0, wx1 - wx0), dtype=bool)
+    off[ys - wy0, xs - wx0] = False
+    near = ndimage.distance_transform_edt(off) <= reach
+    rows, cols = np.flatnonzero(near.any(axis=1)), np.flatnonzero(near.any(axis=0))
+    y0, y1, x0, x1 = int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+    return near[y0:y1, x0:x1], (y0 + wy0, y1 + wy0, x0 + wx0, x1 + wx0)

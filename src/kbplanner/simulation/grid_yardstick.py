@@ -25,7 +25,7 @@ from kbplanner.world.occupancy import OccupancyGrid
 
 def _dijkstra_cells(
     free: npt.NDArray[np.bool_], s: tuple[int, int], t: tuple[int, int],
-    graph_of: tuple[npt.NDArray[np.int64], Any] | None = None,
+    graph_of: tuple[npt.NDArray[np.int32], Any] | None = None,
 ) -> list[tuple[int, int]] | None:
     """Cells (iy, ix) of a shortest 8-connected path over ``free`` from ``s`` to ``t`` (scipy's
     Dijkstra; steps cost 1 or sqrt 2 cells), or None. ``graph_of``: :func:`_graph` of ``free``, when
@@ -34,7 +34,8 @@ def _dijkstra_cells(
 
     index, graph = graph_of if graph_of is not None else _graph(free)
     src, dst = int(index[s]), int(index[t])
-    dist, pred = csgraph.dijkstra(graph, directed=False, indices=src, return_predecessors=True)
+    # directed over both directions' edges: the search of the undirected one (see _graph)
+    dist, pred = csgraph.dijkstra(graph, directed=True, indices=src, return_predecessors=True)
     if not math.isfinite(float(dist[dst])):
         return None
     out = [dst]
@@ -46,29 +47,37 @@ def _dijkstra_cells(
     return [(int(flat[k]) // nx, int(flat[k]) % nx) for k in out]
 
 
-_STEP_COSTS = np.array([1.0, math.hypot(1, 1), 1.0, math.hypot(1, 1)])  # to E, SW, S, SE
+# the steps of a cell's row: to E, SW, S, SE (the half graph's edges, to higher nodes), then NW, N, NE, W
+_STEPS = ((0, 1), (1, -1), (1, 0), (1, 1), (-1, -1), (-1, 0), (-1, 1), (0, -1))
+_STEP_COSTS = np.array([math.hypot(dy, dx) for dy, dx in _STEPS])
 
 
-def _graph(free: npt.NDArray[np.bool_]) -> tuple[npt.NDArray[np.int64], Any]:
-    """The node of each cell (-1 blocked; free cells numbered in row-major order) and the graph: each free
-    cell's edges to its free neighbours (y, x+1), (y+1, x-1), (y+1, x), (y+1, x+1), costs 1 or sqrt 2.
+def _graph(free: npt.NDArray[np.bool_]) -> tuple[npt.NDArray[np.int32], Any]:
+    """The node of each cell (-1 blocked; free cells numbered in row-major order) and the graph for a
+    directed Dijkstra that searches as scipy's undirected one does on the half graph: each free cell's
+    row its edges to its free neighbours (y, x+1), (y+1, x-1), (y+1, x), (y+1, x+1) - the half graph's
+    row, costs 1 or sqrt 2 - then (y-1, x-1), (y-1, x), (y-1, x+1), (y, x-1) - the row of the half
+    graph's transpose, in increasing order as ``graph.T.tocsr()`` has it.
 
-    Built in CSR form directly: row by row the neighbours' nodes in that (increasing) order, the
-    canonical CSR matrix (sorted indices, no duplicates) that ``csr_matrix((costs, (rows, cols)))``
-    made of the same edges - the same graph for Dijkstra, arrays equal (tested)."""
+    scipy's undirected Dijkstra scans, for each node it takes from its heap, the node's row of the graph
+    and then its row of the transpose (which it builds on every call); on this graph the directed one
+    scans the same edges in the same order, so the same distances and predecessors (tested against the
+    former half graph's undirected search); the transpose is not built per search, indices are int32 as
+    the search wants them (not converted per search)."""
     from scipy import sparse
 
     ny, nx = free.shape
-    index = np.full(free.shape, -1, dtype=np.int64)
-    flat = np.flatnonzero(free)
-    n = len(flat)
-    index.ravel()[flat] = np.arange(n)
-    pad = np.full((ny + 1, nx + 2), -1, dtype=np.int64)
-    pad[:ny, 1 : nx + 1] = index
-    nb = np.stack([pad[:ny, 2:], pad[1:, :nx], pad[1:, 1 : nx + 1], pad[1:, 2:]], axis=-1)
-    nb = nb.reshape(-1, 4)[flat]
+    w = nx + 2  # a blocked border round the grid: no step leaves it
+    at = np.zeros((ny + 2, w), dtype=bool)
+    at[1:-1, 1:-1] = free
+    at = np.flatnonzero(at)  # the free cells in the bordered grid, in row-major order
+    n = len(at)
+    pad = np.full((ny + 2, w), -1, dtype=np.int32)
+    pad.ravel()[at] = np.arange(n, dtype=np.int32)
+    index = pad[1:-1, 1:-1]
+    nb = pad.ravel()[at[:, None] + np.array([dy * w + dx for dy, dx in _STEPS])]
     mask = nb >= 0
-    indptr = np.zeros(n + 1, dtype=np.int64)
+    indptr = np.zeros(n + 1, dtype=np.int32)
     np.cumsum(mask.sum(axis=1), out=indptr[1:])
     costs = np.broadcast_to(_STEP_COSTS, nb.shape)[mask]
     return index, sparse.csr_matrix((costs, nb[mask], indptr), shape=(n, n))
@@ -220,6 +229,7 @@ def _line_of_sight_length(cs: ConfigurationSpace, free: npt.NDArray[np.bool_], s
 
 
 _BATCH = 32  # line-of-sight candidates checked per numpy query
+_COARSE = 8  # every this many samples of a line first: a blocked one rules the candidate out
 
 
 @functools.lru_cache(maxsize=1024)
@@ -233,29 +243,49 @@ def _unit_steps(n: int) -> npt.NDArray[np.float64]:
 def _farthest_visible(pts: list[tuple[float, float]], i: int, free: npt.NDArray[np.bool_],
                       g: OccupancyGrid) -> int:
     """The farthest ``j > i`` whose straight line from ``pts[i]`` stays in free cells (sampled every half
-    cell), else ``i + 1``: candidates from the last point back, ``_BATCH`` per numpy query."""
-    ny, nx = free.shape
-    a = pts[i]
+    cell), else ``i + 1``: candidates from the last point back, ``_BATCH`` per numpy query.
+
+    Each query first looks at every :data:`_COARSE`-th sample of the candidates' lines (the very same
+    sample points): a candidate with one of them blocked is not visible; only the others' lines are
+    then sampled in full, and the first of them whose samples are all free is the answer - the same
+    answer as sampling every line in full (tests/test_grid_route_searches.py)."""
+    ax, ay = pts[i]
+    half = g.resolution / 2
     j = len(pts) - 1
     while j > i + 1:
         cands = range(j, max(i + 1, j - _BATCH), -1)
-        xs, ys, counts = [], [], []
+        units, dxs, dys = [], [], []
         for k in cands:
-            b = pts[k]
-            n = max(1, math.ceil(math.hypot(b[0] - a[0], b[1] - a[1]) / (g.resolution / 2)))
-            u = _unit_steps(n + 1)
-            xs.append(a[0] + u * (b[0] - a[0]))
-            ys.append(a[1] + u * (b[1] - a[1]))
-            counts.append(n + 1)
-        x, y = np.concatenate(xs), np.concatenate(ys)
-        ix = np.floor((x - g.origin[0]) / g.resolution).astype(np.int64)
-        iy = np.floor((y - g.origin[1]) / g.resolution).astype(np.int64)
-        ok = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny)
-        ok[ok] = free[iy[ok], ix[ok]]
-        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-        seen = np.logical_and.reduceat(ok, starts)
-        hit = np.flatnonzero(seen)
-        if hit.size:
-            return cands[int(hit[0])]
+            bx, by = pts[k]
+            dx, dy = bx - ax, by - ay
+            units.append(_unit_steps(max(1, math.ceil(math.hypot(dx, dy) / half)) + 1))
+            dxs.append(dx)
+            dys.append(dy)
+        coarse = [u[::_COARSE] for u in units]
+        alive = np.flatnonzero(_all_free(coarse, dxs, dys, ax, ay, free, g))
+        if alive.size:
+            keep = alive.tolist()
+            hit = np.flatnonzero(_all_free([units[c] for c in keep], [dxs[c] for c in keep],
+                                           [dys[c] for c in keep], ax, ay, free, g))
+            if hit.size:
+                return cands[keep[int(hit[0])]]
         j = cands[-1] - 1
     return i + 1
+
+
+def _all_free(units: list[npt.NDArray[np.float64]], dxs: list[float], dys: list[float], ax: float, ay: float,
+              free: npt.NDArray[np.bool_], g: OccupancyGrid) -> npt.NDArray[np.bool_]:
+    """Per line from (ax, ay) by (dx, dy): whether its points at the fractions ``units`` lie in free cells
+    of the grid (``a + u * d``, the cell by floor: the points of :func:`_farthest_visible`)."""
+    ny, nx = free.shape
+    counts = np.fromiter((len(u) for u in units), dtype=np.int64, count=len(units))
+    u = np.concatenate(units)
+    x = ax + u * np.repeat(np.asarray(dxs, dtype=np.float64), counts)
+    y = ay + u * np.repeat(np.asarray(dys, dtype=np.float64), counts)
+    ix = np.floor((x - g.origin[0]) / g.resolution).astype(np.int64)
+    iy = np.floor((y - g.origin[1]) / g.resolution).astype(np.int64)
+    ok = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny)
+    ok[ok] = free[iy[ok], ix[ok]]
+    starts = np.zeros(len(counts), dtype=np.int64)
+    np.cumsum(counts[:-1], out=starts[1:])
+    return np.logical_and.reduceat(ok, starts)
