@@ -9,6 +9,8 @@ import numpy as np
 
 from kbplanner.simulation import base_trajectory
 from kbplanner.simulation.base_trajectory import _rest_to_rest, time_parameterize
+from kbplanner.world.footprint import ConfigurationSpace, Footprint, Rect
+from kbplanner.world.occupancy import OccupancyGrid
 
 
 def _former_passes(vlim: np.ndarray, two_a_ds: list[float]) -> list[float]:
@@ -72,3 +74,30 @@ def test_a_trajectory_is_the_same_as_with_the_former_passes_and_wrap() -> None:
             base_trajectory._rest_to_rest = former
         assert got.t_s == want.t_s, trial
         assert _bits([c for p in got.poses for c in p]) == _bits([c for p in want.poses for c in p]), trial
+
+
+def test_a_path_timed_again_is_the_kept_trajectory_and_the_same_as_timed_anew() -> None:
+    """time_parameterize keeps what it timed by the poses' bits, the space's identity and the limits."""
+    occ = np.zeros((80, 80), dtype=bool)
+    occ[[0, -1], :] = True
+    occ[:, [0, -1]] = True
+    foot = Footprint((Rect(0.0, 0.0, 0.99, 0.67),), name="husky")
+    space = ConfigurationSpace.build(OccupancyGrid(occ, origin=(0.0, 0.0), resolution=0.05), foot, 72)
+    poses = [(1.0, 1.0, 0.0), (3.0, 1.0, 0.0), (3.0, 1.0, math.pi / 2), (3.0, 3.0, math.pi / 2)]
+    limits = (0.5, 1.0, 0.5, 2.0, 10.0)
+    base_trajectory._TIMED.clear()
+    first = time_parameterize(list(poses), *limits, space=space)
+    again = time_parameterize([tuple(p) for p in poses], *limits, space=space)
+    assert again is first  # kept
+    base_trajectory._TIMED.clear()
+    anew = time_parameterize(poses, *limits, space=space)
+    assert anew is not first and anew == first
+    # another space, other limits, a signed zero, numpy scalars: not the kept one
+    other = ConfigurationSpace.build(OccupancyGrid(occ, origin=(0.0, 0.0), resolution=0.05), foot, 72)
+    assert time_parameterize(poses, *limits, space=other) is not anew
+    assert time_parameterize(poses, 0.4, 1.0, 0.5, 2.0, 10.0, space=space) is not anew
+    signed = [(1.0, 1.0, -0.0), *poses[1:]]
+    assert time_parameterize(signed, *limits, space=space) is not anew
+    scalars = [tuple(np.float64(v) for v in p) for p in poses]
+    assert time_parameterize(scalars, *limits, space=space) is not anew  # type: ignore[arg-type]
+    assert len(base_trajectory._TIMED) <= base_trajectory.TIMED_KEPT

@@ -17,7 +17,10 @@ from __future__ import annotations
 
 import bisect
 import math
-from collections.abc import Sequence
+import struct
+import weakref
+from collections import OrderedDict
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -222,8 +225,40 @@ def time_parameterize(
     if not poses:
         return Trajectory((), ())
     limits = (max_speed_mps, max_yaw_rate_rps, max_accel_mps2, max_yaw_accel_rps2)
+    key = _timed_key(poses, space, (*limits, rate_hz))
+    if key is not None:
+        hit = _TIMED.get(key)
+        if hit is not None and hit[0]() is space:
+            _TIMED.move_to_end(key)
+            return hit[1]
     pieces: list[Piece] = blend_corners(poses, space, *limits) if space is not None else split_pieces(poses)
-    return time_pieces(pieces, poses[0], poses[-1], *limits, rate_hz=rate_hz)
+    traj = time_pieces(pieces, poses[0], poses[-1], *limits, rate_hz=rate_hz)
+    if key is not None:
+        _TIMED[key] = (weakref.ref(space) if space is not None else _no_space, traj)
+        if len(_TIMED) > TIMED_KEPT:
+            _TIMED.popitem(last=False)
+    return traj
+
+
+#: how many timed paths :func:`time_parameterize` keeps (the navigation times a leg to compare it with
+#: others and again to drive it, the same poses in another list: about two in five calls repeat one)
+TIMED_KEPT = 64
+_TIMED: OrderedDict[tuple[object, ...], tuple[Callable[[], object], Trajectory]] = OrderedDict()
+
+
+def _no_space() -> None:
+    return None
+
+
+def _timed_key(poses: Sequence[Pose2D], space: ConfigurationSpace | None,
+               numbers: tuple[float, ...]) -> tuple[object, ...] | None:
+    """What a timed path depends on, bit for bit: the poses' floats (None, not kept, unless every one
+    is a Python float: a numpy scalar's arithmetic may differ in the last bit), the space (by identity;
+    its entry holds a weak reference, checked on a hit) and the limits with their types."""
+    flat = [v for p in poses for v in p]
+    if len(flat) != 3 * len(poses) or not all(type(v) is float for v in flat):
+        return None
+    return (struct.pack(f"{len(flat)}d", *flat), id(space), tuple((type(v), v) for v in numbers))
 
 
 def time_pieces(
