@@ -16,6 +16,7 @@ samples; speed and separation monitoring scales how far along them it gets per c
 from __future__ import annotations
 
 import bisect
+import contextlib
 import math
 import struct
 import weakref
@@ -229,14 +230,16 @@ def time_parameterize(
     if key is not None:
         hit = _TIMED.get(key)
         if hit is not None and hit[0]() is space:
-            _TIMED.move_to_end(key)
+            with contextlib.suppress(KeyError):  # (dropped meanwhile by another thread)
+                _TIMED.move_to_end(key)
             return hit[1]
     pieces: list[Piece] = blend_corners(poses, space, *limits) if space is not None else split_pieces(poses)
     traj = time_pieces(pieces, poses[0], poses[-1], *limits, rate_hz=rate_hz)
     if key is not None:
         _TIMED[key] = (weakref.ref(space) if space is not None else _no_space, traj)
-        if len(_TIMED) > TIMED_KEPT:
-            _TIMED.popitem(last=False)
+        while len(_TIMED) > TIMED_KEPT:
+            with contextlib.suppress(KeyError):
+                _TIMED.popitem(last=False)
     return traj
 
 
