@@ -15,15 +15,20 @@ samples; speed and separation monitoring scales how far along them it gets per c
 
 from __future__ import annotations
 
+import bisect
+import contextlib
 import math
-from collections.abc import Sequence
+import struct
+import weakref
+from collections import OrderedDict
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
 from kbplanner.core.errors import KbplannerError
-from kbplanner.simulation.nav_path import NavPath, Pose2D, wrap
+from kbplanner.simulation.nav_path import NavPath, Pose2D
 from kbplanner.simulation.path_pieces import Piece, Run, Spin, blend_corners, split_pieces
 from kbplanner.world.footprint import ConfigurationSpace
 
@@ -140,18 +145,60 @@ def _profile(run: Run, vmax: float, wmax: float, amax: float, alpha: float) -> _
         vlim = np.minimum(vlim, np.where(k2 > 1e-12, np.sqrt(0.5 * alpha / np.maximum(k2, 1e-300)), np.inf))
         alim_pt = np.where(k1 > 1e-12, np.minimum(amax, 0.5 * alpha / np.maximum(k1, 1e-300)), amax)
     alim = np.minimum(alim_pt[:-1], alim_pt[1:])  # per cell
-    vl = vlim.tolist()
-    two_a_ds = (2.0 * alim * ds).tolist()
-    vv = [0.0] * n
-    for i in range(n - 1):  # forward: from rest, within the acceleration
-        vv[i + 1] = min(vl[i + 1], math.sqrt(vv[i] * vv[i] + two_a_ds[i]))
-    vv[-1] = 0.0
-    for i in range(n - 2, -1, -1):  # backward: to rest
-        vv[i] = min(vv[i], math.sqrt(vv[i + 1] * vv[i + 1] + two_a_ds[i]))
-    v = np.asarray(vv)
+    v = np.asarray(_rest_to_rest(vlim, (2.0 * alim * ds).tolist()))
     dt = 2.0 * ds / (v[:-1] + v[1:])
     t = np.concatenate([[0.0], np.cumsum(dt)])
     return _Profile(p, cum, yaw, s, v, t)
+
+
+def _rest_to_rest(vlim: npt.NDArray[np.float64], two_a_ds: list[float]) -> list[float]:
+    """The speeds of :func:`_profile`'s forward pass (from rest: ``v[i + 1] = min(vlim[i + 1],
+    sqrt(v[i] ** 2 + two_a_ds[i]))``) and backward pass (to rest: ``v[i] = min(v[i], sqrt(v[i + 1] ** 2 +
+    two_a_ds[i]))``), the very numbers of those loops with the work whose result is known left out.
+
+    ``two_a_ds >= 0``, so ``sqrt(w * w + step) >= w`` in floats (the rounded square root of a rounded
+    square is the number itself; adding, rounding and the square root never decrease): where the speed
+    already reached is at least the next limit, the pass takes the limit (``min`` takes its first
+    argument when equal). So once a pass meets its limit it runs on at the limits without a square
+    root until a limit rises (forward) or, backward, the forward speeds fall; only the stretches
+    between (speeding up, slowing down) are worked out step by step.
+    """
+    sqrt = math.sqrt
+    n = len(vlim)
+    vl = vlim.tolist()
+    rises = np.flatnonzero(vlim[1:] > vlim[:-1]).tolist()  # j: vl[j + 1] > vl[j]
+    fwd = list(vl)
+    fwd[0] = w = 0.0
+    i = 0
+    while i < n - 1:  # forward: from rest, within the acceleration
+        lim = vl[i + 1]
+        u = sqrt(w * w + two_a_ds[i])
+        if u < lim:
+            fwd[i + 1] = w = u
+            i += 1
+            continue
+        # at the limit at i + 1: the limits up to the next rise (fwd holds them)
+        k = bisect.bisect_left(rises, i + 1)
+        i = rises[k] if k < len(rises) else n - 1
+        w = vl[i]
+    fwd[-1] = 0.0
+    f = np.asarray(fwd)
+    falls = np.flatnonzero(f[:-1] > f[1:]).tolist()  # j: fwd[j] > fwd[j + 1]
+    out = list(fwd)
+    w = 0.0
+    i = n - 2
+    while i >= 0:  # backward: to rest
+        cur = fwd[i]
+        u = sqrt(w * w + two_a_ds[i])
+        if u < cur:
+            out[i] = w = u
+            i -= 1
+            continue
+        # at the forward speed at i: the forward speeds down to the next fall below i (out holds them)
+        k = bisect.bisect_right(falls, i - 1) - 1
+        i = falls[k] if k >= 0 else -1
+        w = fwd[i + 1]
+    return out
 
 
 def time_parameterize(
@@ -179,8 +226,42 @@ def time_parameterize(
     if not poses:
         return Trajectory((), ())
     limits = (max_speed_mps, max_yaw_rate_rps, max_accel_mps2, max_yaw_accel_rps2)
+    key = _timed_key(poses, space, (*limits, rate_hz))
+    if key is not None:
+        hit = _TIMED.get(key)
+        if hit is not None and hit[0]() is space:
+            with contextlib.suppress(KeyError):  # (dropped meanwhile by another thread)
+                _TIMED.move_to_end(key)
+            return hit[1]
     pieces: list[Piece] = blend_corners(poses, space, *limits) if space is not None else split_pieces(poses)
-    return time_pieces(pieces, poses[0], poses[-1], *limits, rate_hz=rate_hz)
+    traj = time_pieces(pieces, poses[0], poses[-1], *limits, rate_hz=rate_hz)
+    if key is not None:
+        _TIMED[key] = (weakref.ref(space) if space is not None else _no_space, traj)
+        while len(_TIMED) > TIMED_KEPT:
+            with contextlib.suppress(KeyError):
+                _TIMED.popitem(last=False)
+    return traj
+
+
+#: how many timed paths :func:`time_parameterize` keeps (the navigation times a leg to compare it with
+#: others and again to drive it, the same poses in another list: about two in five calls repeat one)
+TIMED_KEPT = 64
+_TIMED: OrderedDict[tuple[object, ...], tuple[Callable[[], object], Trajectory]] = OrderedDict()
+
+
+def _no_space() -> None:
+    return None
+
+
+def _timed_key(poses: Sequence[Pose2D], space: ConfigurationSpace | None,
+               numbers: tuple[float, ...]) -> tuple[object, ...] | None:
+    """What a timed path depends on, bit for bit: the poses' floats (None, not kept, unless every one
+    is a Python float: a numpy scalar's arithmetic may differ in the last bit), the space (by identity;
+    its entry holds a weak reference, checked on a hit) and the limits with their types."""
+    flat = [v for p in poses for v in p]
+    if len(flat) != 3 * len(poses) or not all(type(v) is float for v in flat):
+        return None
+    return (struct.pack(f"{len(flat)}d", *flat), id(space), tuple((type(v), v) for v in numbers))
 
 
 def time_pieces(
@@ -221,6 +302,8 @@ def time_pieces(
             out[sel, 0], out[sel, 1], out[sel, 2] = item.x, item.y, item.yaw0 + u * item.dyaw
         else:
             out[sel] = item.at(local)
-    result = [(float(x), float(y), wrap(float(t))) for x, y, t in out]
+    # (wrap inline: the same operations on the same floats)
+    pi, two_pi = math.pi, 2 * math.pi
+    result = [(x, y, (t + pi) % two_pi - pi) for x, y, t in out.tolist()]
     result[-1] = (float(last[0]), float(last[1]), float(last[2]))
-    return Trajectory(tuple(round(float(t), 9) for t in times), tuple(result))
+    return Trajectory(tuple([round(t, 9) for t in times.tolist()]), tuple(result))
