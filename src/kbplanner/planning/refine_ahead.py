@@ -113,6 +113,7 @@ def start(plan: Plan, world: World, *, seed: int, grid: OccupancyGrid, cache_dir
         finally:
             os._exit(code)
     os.close(write)
+    log.info("B4 in process %d, ahead of B5", pid)
     return RefineAhead(plan, pid, read)
 
 
@@ -222,10 +223,9 @@ class RefineAhead:
         assert self._final is not None
         data, steps = self._final
         final: Plan = pickle.loads(data)
-        used = list(self._used)
-        if elements_in_order(final)[:len(used)] != used or len(final.steps) != len(self.plan.steps):
-            raise AheadDiffers(final, "B4's order feedback changed the element order")
-        changed = [iri for iri in used if steps.get(iri) != self._used[iri]]
+        if elements_in_order(final) != self.order or len(final.steps) != len(self.plan.steps):
+            raise AheadDiffers(final, "B4's order feedback changed the element order")  # (B5 runs B3's)
+        changed = [iri for iri, used in self._used.items() if steps.get(iri) != used]
         if changed:
             raise AheadDiffers(final, f"B4's order feedback refined {len(changed)} element(s) again")
         vars(self.plan).update(vars(final))
