@@ -92,13 +92,14 @@ def run(args: argparse.Namespace) -> int:
         grid = storey_map(world).grid
     settings = ExecSettings(keyframes=not args.no_keyframes, monitoring=args.monitoring,
                             reactive_workers=not args.scripted_workers)
-    # the workers' walking legs kept by a second process while B4 runs, B4 in a third one while B5 runs
-    # (both forked before the progress bar's thread starts; the step reads the legs as an earlier run's;
-    # left alone on an error, the early process ends by itself)
-    early = early_builds.start(project, world, grid, folder_for(project.cache_entry),
-                               reactive_workers=settings.reactive_workers)
-    ahead = refine_ahead.start(plan, world, seed=seed, grid=grid, cache_dir=project.cache_entry,
-                               folder=folder_for(project.cache_entry))
+    # B4 in a second process while B5 runs (no refined plan kept); the workers' walking legs and the static
+    # bodies then kept here before B5's first element, which waits for B4's first, else by a second
+    # process while B4 runs (forked before the progress bar's thread starts; the step reads them as an
+    # earlier run's; left alone on an error, the early process ends by itself)
+    kept = folder_for(project.cache_entry)
+    ahead = refine_ahead.start(plan, world, seed=seed, grid=grid, cache_dir=project.cache_entry, folder=kept)
+    early = early_builds.start(project, world, grid, kept, reactive_workers=settings.reactive_workers) \
+        if ahead is None else early_builds.EarlyBuilds()
     columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
     lines = plain_counter(console)  # plain lines where stderr is no terminal (logs, nohup)
     try:
@@ -131,6 +132,7 @@ def run(args: argparse.Namespace) -> int:
             refined: Plan | None = None
             if ahead is not None:  # B5 of element k once B4 (in its process) refined it
                 ahead.progress = refined_one
+                early_builds.build(project, world, grid, kept, reactive_workers=settings.reactive_workers)
                 try:
                     result = run_b5(ahead.plan, ahead.ready)
                 except refine_ahead.AheadDiffers as differs:  # B4's order feedback: B5 again, its plan
@@ -139,7 +141,7 @@ def run(args: argparse.Namespace) -> int:
                     log.info("B4 ahead of B5 failed (%s): B4 then B5", exc)
             if result is None:
                 if refined is None:
-                    with kept_in(folder_for(project.cache_entry)):  # B4's configuration spaces, kept
+                    with kept_in(kept):  # B4's configuration spaces, kept beside the cache
                         refined = refine_kept(plan, world, seed=seed, grid=grid, progress=refined_one,
                                               cache_dir=project.cache_entry)  # B4, or an earlier run's
                 result = run_b5(refined)

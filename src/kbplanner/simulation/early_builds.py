@@ -91,19 +91,25 @@ def start(project: ProjectData, world: World, grid: OccupancyGrid, folder: Path 
     of it). Call before any thread is started (a progress bar's): the fork copies this process."""
     if not possible(folder):
         return EarlyBuilds()
+    return forked(lambda: build(project, world, grid, folder, reactive_workers=reactive_workers))
 
-    def builds() -> None:
-        from kbplanner.simulation.floors import walk_grid
-        from kbplanner.simulation.sim_world import static_chunks
-        from kbplanner.simulation.workers import load_workers
-        from kbplanner.world import cspace_store
 
-        if reactive_workers:
-            keep_walking_legs(load_workers(project.model), walk_grid(world, grid), folder)
-        with cspace_store.kept_in(folder):
-            static_chunks(world)  # the static bodies' triangles (read, or made and kept)
+def build(project: ProjectData, world: World, grid: OccupancyGrid, folder: Path | None,
+          *, reactive_workers: bool = True) -> None:
+    """What :func:`start`'s process keeps, made and kept in this process (nothing without a kept folder or
+    with the cache off): ``kbplanner simulate`` calls it while B4 runs ahead of B5 in a second process
+    (:mod:`kbplanner.planning.refine_ahead`), before B5's first element, which waits for B4's first."""
+    if not possible(folder):
+        return
+    from kbplanner.simulation.floors import walk_grid
+    from kbplanner.simulation.sim_world import static_chunks
+    from kbplanner.simulation.workers import load_workers
+    from kbplanner.world import cspace_store
 
-    return forked(builds)
+    if reactive_workers:
+        keep_walking_legs(load_workers(project.model), walk_grid(world, grid), folder)
+    with cspace_store.kept_in(folder):
+        static_chunks(world)  # the static bodies' triangles (read, or made and kept)
 
 
 def forked(work: Callable[[], object]) -> EarlyBuilds:
