@@ -42,7 +42,7 @@ def test_the_plan_handed_over_element_by_element_is_b4s_plan(
         for iri in order:
             ahead.ready(iri)
             assert ahead.plan.steps_for(iri) == case.refined.steps_for(iri)  # field for field
-        assert ahead.final is not None
+        assert ahead.final is not None and ahead.b4_failed() is None
         assert ahead.plan == case.refined and ahead.plan.to_json() == case.refined.to_json()
     finally:
         assert ahead.close() == 0
@@ -85,6 +85,7 @@ def test_an_error_of_the_b4_process_is_the_sequential_paths(tmp_path: Path,
     with pytest.raises(refine_ahead.AheadFailed) as failed:
         ahead.ready(elements_in_order(bad)[0])
     assert str(sequential.value) in str(failed.value)
+    assert str(sequential.value) in (ahead.b4_failed() or "")  # (asked where B5 failed first)
     assert ahead.close() == 1
     assert not list(tmp_path.rglob("*.json"))  # nothing kept
 

@@ -139,6 +139,11 @@ def run(args: argparse.Namespace) -> int:
                     refined = differs.plan
                 except refine_ahead.AheadFailed as exc:  # B4 again here: its error as the sequential path's
                     log.info("B4 ahead of B5 failed (%s): B4 then B5", exc)
+                except Exception:  # B5's error; B4's first where B4 failed too (the sequential path's order)
+                    why = ahead.b4_failed()
+                    if why is None:
+                        raise
+                    log.info("B4 ahead of B5 failed (%s): B4 then B5", why)
             if result is None:
                 if refined is None:
                     with kept_in(kept):  # B4's configuration spaces, kept beside the cache

@@ -20,7 +20,9 @@ the executor calls :meth:`RefineAhead.ready` before each element, which waits fo
   from the start with the final plan (nothing written before: the run folder is written at the end).
 - Errors: when the B4 process fails (an error raised by B4, the process killed, its pipe closed before the
   final plan), :class:`AheadFailed` ends B5; the command then runs B4 itself, as the sequential path
-  does, so that an error reaches the user with the same message and exit code.
+  does, so that an error reaches the user with the same message and exit code. An error of B5 is
+  reported as it is when B4 ended well (:meth:`RefineAhead.b4_failed`), else B4's, as the sequential
+  path reports it.
 - Not started (:func:`start` returns None; the command runs B4 then B5): no ``fork`` (not Linux), a plan
   without robot or elements, a refined plan kept by an earlier command (nothing to overlap).
 - :meth:`RefineAhead.close` ends the process if it still runs (an error in B5, Ctrl-C) and waits for it
@@ -187,6 +189,16 @@ class RefineAhead:
             while self._final is None:
                 self._wait()
             self._take_final()
+
+    def b4_failed(self) -> str | None:
+        """Wait for the B4 process's plan: None when it came, else why it did not (B5 failed first: the
+        sequential path would have reported B4's error before B5 ran)."""
+        try:
+            while self._final is None:
+                self._wait()
+        except AheadFailed as exc:
+            return str(exc)
+        return None
 
     def poll(self) -> None:
         """Read what the B4 process sent (its progress), without waiting."""

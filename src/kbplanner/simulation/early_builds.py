@@ -27,6 +27,9 @@ The step reads them at its start as it reads an earlier run's.
   --no-cache``, ``KBPLANNER_NO_CACHE=1``) or ``fork`` (not Linux); no walking legs for scripted workers.
 - A run that kept them before: the early process reads them and ends (a few hundredths of a second on
   the other core).
+- B4 ahead of B5 (:mod:`kbplanner.planning.refine_ahead`, a first run: B4 in a second process): no
+  process is started; the command makes them itself (:func:`build`) while B5's first element waits for
+  B4's first (forked beside the step, they came too late for it: the step searched them itself).
 - :meth:`EarlyBuilds.finish` waits for the process: the command calls it once the step has run (its
   CPU is then counted with the command's); after an error the process is left to end by itself.
 
