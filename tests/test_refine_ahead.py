@@ -54,6 +54,14 @@ def test_the_plan_handed_over_element_by_element_is_b4s_plan(
                               folder=None) is None
 
 
+def test_nothing_is_started_when_turned_off(tmp_path_factory: pytest.TempPathFactory,
+                                            monkeypatch: pytest.MonkeyPatch) -> None:
+    case = _case(tmp_path_factory)
+    monkeypatch.setenv("KBPLANNER_B4_AHEAD", "0")
+    assert refine_ahead.start(case.plan, case.world, seed=3, grid=case.grid, cache_dir=None,
+                              folder=None) is None
+
+
 def test_a_run_with_b4_ahead_writes_the_same_bytes(tmp_path: Path,
                                                    tmp_path_factory: pytest.TempPathFactory) -> None:
     from kbplanner.simulation.executor import simulate

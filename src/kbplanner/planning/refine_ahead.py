@@ -23,8 +23,9 @@ the executor calls :meth:`RefineAhead.ready` before each element, which waits fo
   does, so that an error reaches the user with the same message and exit code. An error of B5 is
   reported as it is when B4 ended well (:meth:`RefineAhead.b4_failed`), else B4's, as the sequential
   path reports it.
-- Not started (:func:`start` returns None; the command runs B4 then B5): no ``fork`` (not Linux), a plan
-  without robot or elements, a refined plan kept by an earlier command (nothing to overlap).
+- Not started (:func:`start` returns None; the command runs B4 then B5): no ``fork`` (not Linux),
+  ``KBPLANNER_B4_AHEAD=0``, a plan without robot or elements, a refined plan kept by an earlier command
+  (nothing to overlap).
 - :meth:`RefineAhead.close` ends the process if it still runs (an error in B5, Ctrl-C) and waits for it
   (its CPU is then counted with the command's).
 
@@ -80,8 +81,10 @@ class AheadDiffers(Exception):
 
 
 def possible() -> bool:
-    """Whether B4 can run in a second process: ``fork`` (Linux)."""
-    return sys.platform == "linux" and hasattr(os, "fork")
+    """Whether B4 can run in a second process: ``fork`` (Linux), and not turned off with
+    ``KBPLANNER_B4_AHEAD=0`` (B4 then B5, as before: a before/after on one tree)."""
+    return sys.platform == "linux" and hasattr(os, "fork") \
+        and os.environ.get("KBPLANNER_B4_AHEAD", "").strip() != "0"
 
 
 def start(plan: Plan, world: World, *, seed: int, grid: OccupancyGrid, cache_dir: Path | None,
