@@ -107,3 +107,22 @@ def test_a_process_killed_before_it_wrote_leaves_no_file(tmp_path: Path) -> None
     failed = early_builds.forked(lambda: 1 / 0)  # an error in the work: status 1, nothing written
     assert failed.finish() == 1
     assert not list(tmp_path.iterdir())
+
+
+def test_the_builds_made_in_this_process_are_the_forked_ones(tmp_path: Path) -> None:
+    # (kbplanner simulate makes them in its own process while B4 runs ahead of B5 in another)
+    from sim_project_factory import load_sim_case
+
+    case = load_sim_case(tmp_path / "p")
+    here, there = tmp_path / "here" / "cspace", tmp_path / "there" / "cspace"
+    early_builds.build(case.project, case.world, case.grid, here)
+    assert early_builds.start(case.project, case.world, case.grid, there).finish() == 0
+
+    def kept(root: Path) -> dict[str, bytes]:
+        return {p.relative_to(root).as_posix(): p.read_bytes() for p in sorted(root.rglob("*"))
+                if p.is_file()}
+
+    made = kept(here.parent)
+    assert made and made == kept(there.parent)
+    assert {name.split("/")[0] for name in made} >= {"walks", "static"}
+    early_builds.build(case.project, case.world, case.grid, None)  # no kept folder: nothing made

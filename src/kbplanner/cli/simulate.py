@@ -15,10 +15,14 @@ project, scenario, task or robot, no ``[simulation] date``).
 from __future__ import annotations
 
 import argparse
+import logging
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 from kbplanner.cli.arguments import add_force, check_out, positive_int, seed_int
+
+log = logging.getLogger(__name__)
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -50,15 +54,17 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TaskID, TextColumn, TimeElapsedColumn
     from rich.table import Table
 
     from kbplanner.cli.progress import plain_counter
+    from kbplanner.planning import refine_ahead
+    from kbplanner.planning.plan_model import Plan
     from kbplanner.planning.planner import plan_task
     from kbplanner.planning.refine_cache import refine_kept
     from kbplanner.project import Project
     from kbplanner.simulation import early_builds
-    from kbplanner.simulation.executor import INSTALLED, simulate
+    from kbplanner.simulation.executor import INSTALLED, SimulationResult, simulate
     from kbplanner.simulation.skills import ExecSettings
     from kbplanner.world import map_store
     from kbplanner.world.build import build_world
@@ -86,31 +92,67 @@ def run(args: argparse.Namespace) -> int:
         grid = storey_map(world).grid
     settings = ExecSettings(keyframes=not args.no_keyframes, monitoring=args.monitoring,
                             reactive_workers=not args.scripted_workers)
-    # the workers' walking legs kept by a second process while B4 runs (forked before the progress bar's
-    # thread starts; the step reads them as an earlier run's; left alone on an error, it ends by itself)
-    early = early_builds.start(project, world, grid, folder_for(project.cache_entry),
-                               reactive_workers=settings.reactive_workers)
+    # B4 in a second process while B5 runs (no refined plan kept); the workers' walking legs and the static
+    # bodies then kept here before B5's first element, which waits for B4's first, else by a second
+    # process while B4 runs (forked before the progress bar's thread starts; the step reads them as an
+    # earlier run's; left alone on an error, the early process ends by itself)
+    kept = folder_for(project.cache_entry)
+    ahead = refine_ahead.start(plan, world, seed=seed, grid=grid, cache_dir=project.cache_entry, folder=kept)
+    early = early_builds.start(project, world, grid, kept, reactive_workers=settings.reactive_workers) \
+        if ahead is None else early_builds.EarlyBuilds()
     columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
     lines = plain_counter(console)  # plain lines where stderr is no terminal (logs, nohup)
-    with Progress(*columns, console=console, transient=False, disable=lines is not None) as bar:
-        b4 = bar.add_task("B4 arm and base poses", total=len(plan.elements))
-        def refined_one(_label: str, done: int, total: int) -> None:
-            bar.update(b4, completed=done, total=total)
-            if lines is not None:
-                lines.count("B4 arm and base poses", done, total)
+    try:
+        with Progress(*columns, console=console, transient=False, disable=lines is not None) as bar:
+            b4 = bar.add_task("B4 arm and base poses", total=len(plan.elements))
 
-        with kept_in(folder_for(project.cache_entry)):  # B4's configuration spaces, kept beside the cache
-            refined = refine_kept(plan, world, seed=seed, grid=grid, progress=refined_one,
-                                  cache_dir=project.cache_entry)  # B4, or the plan kept from an earlier run
-        b5 = bar.add_task("B5 simulation", total=len(refined.steps))
+            def refined_one(_label: str, done: int, total: int) -> None:
+                bar.update(b4, completed=done, total=total)
+                if lines is not None:
+                    lines.count("B4 arm and base poses", done, total)
 
-        def tell(label: str, done: int, total: int) -> None:
-            bar.update(b5, completed=done, total=total, description=f"B5 simulation: {label}")
-            if lines is not None:
-                lines.count(f"B5 simulation: {label}", done, total)
+            b5: list[TaskID] = []
 
-        result = simulate(project, refined, seed=seed, out_dir=args.out, progress=tell, world=world,
-                          grid=grid, settings=settings, gui=args.gui)
+            def tell(label: str, done: int, total: int) -> None:
+                if ahead is not None:
+                    ahead.poll()  # B4's progress, from its process
+                if not b5:
+                    b5.append(bar.add_task("B5 simulation", total=total))
+                bar.update(b5[0], completed=done, total=total, description=f"B5 simulation: {label}")
+                if lines is not None:
+                    lines.count(f"B5 simulation: {label}", done, total)
+
+            def run_b5(refined: Plan, ready: Callable[[str], None] | None = None) -> SimulationResult:
+                if b5:
+                    bar.reset(b5[0])
+                return simulate(project, refined, seed=seed, out_dir=args.out, progress=tell, world=world,
+                                grid=grid, settings=settings, gui=args.gui, ready=ready)
+
+            result: SimulationResult | None = None
+            refined: Plan | None = None
+            if ahead is not None:  # B5 of element k once B4 (in its process) refined it
+                ahead.progress = refined_one
+                early_builds.build(project, world, grid, kept, reactive_workers=settings.reactive_workers)
+                try:
+                    result = run_b5(ahead.plan, ahead.ready)
+                except refine_ahead.AheadDiffers as differs:  # B4's order feedback: B5 again, its plan
+                    refined = differs.plan
+                except refine_ahead.AheadFailed as exc:  # B4 again here: its error as the sequential path's
+                    log.info("B4 ahead of B5 failed (%s): B4 then B5", exc)
+                except Exception:  # B5's error; B4's first where B4 failed too (the sequential path's order)
+                    why = ahead.b4_failed()
+                    if why is None:
+                        raise
+                    log.info("B4 ahead of B5 failed (%s): B4 then B5", why)
+            if result is None:
+                if refined is None:
+                    with kept_in(kept):  # B4's configuration spaces, kept beside the cache
+                        refined = refine_kept(plan, world, seed=seed, grid=grid, progress=refined_one,
+                                              cache_dir=project.cache_entry)  # B4, or an earlier run's
+                result = run_b5(refined)
+    finally:
+        if ahead is not None:
+            ahead.close()
     early.finish()  # (ended long before: its CPU counted with the command's)
     table = Table(title=f"{plan.task_id} ({plan.spec_id}) with {plan.robot_label or plan.robot_id}, "
                         f"{project.scenario or 'bare model'}, seed {seed}")

@@ -100,19 +100,22 @@ def refine_kept(
     settings: RefineSettings | None = None,
     progress: Callable[[str, int, int], None] | None = None,
     reorder: bool = True,
+    stop: Callable[[Plan], bool] | None = None,
 ) -> Plan:
     """:func:`~kbplanner.planning.manipulation.refine_plan`, kept in ``cache_dir`` (see module docstring).
 
-    A kept plan is reported to ``progress`` as every element done.
+    A kept plan is reported to ``progress`` as every element done. ``stop``: as ``refine_plan``'s (asked
+    after each element of B4's first pass; a plan it stopped is not kept).
     """
     if cache_dir is None or not plan.robot_id:
         return refine_plan(plan, world, seed=seed, grid=grid, settings=settings, progress=progress,
-                           reorder=reorder)
+                           reorder=reorder, stop=stop)
     if grid is None:
         from kbplanner.world.maps import storey_map
 
         grid = storey_map(world).grid
-    path = Path(cache_dir) / SUBDIR / f"{refine_key(plan, world, grid, seed, settings, reorder)}.json"
+    path = kept_path(plan, world, seed=seed, cache_dir=cache_dir, grid=grid, settings=settings,
+                     reorder=reorder)
     kept = _read(path)
     if kept is not None:
         log.info("B4: refined plan from the cache (%s)", path.name)
@@ -122,20 +125,42 @@ def refine_kept(
                 progress(iri, n, len(order))
         return kept
     out = refine_plan(plan, world, seed=seed, grid=grid, settings=settings, progress=progress,
-                      reorder=reorder)
-    _write(path, out)
+                      reorder=reorder, stop=stop)
+    if not _stopped(out):
+        _write(path, out)
     return out
+
+
+def kept_path(plan: Plan, world: World, *, seed: int, cache_dir: Path, grid: OccupancyGrid,
+              settings: RefineSettings | None = None, reorder: bool = True) -> Path:
+    """Where :func:`refine_kept` keeps the refined plan of these inputs."""
+    return Path(cache_dir) / SUBDIR / f"{refine_key(plan, world, grid, seed, settings, reorder)}.json"
+
+
+def kept_plan(plan: Plan, world: World, *, seed: int, cache_dir: Path | None, grid: OccupancyGrid,
+              settings: RefineSettings | None = None, reorder: bool = True) -> Plan | None:
+    """The refined plan :func:`refine_kept` would read for these inputs, or None (none kept, no cache)."""
+    if cache_dir is None or not plan.robot_id:
+        return None
+    return _read(kept_path(plan, world, seed=seed, cache_dir=cache_dir, grid=grid, settings=settings,
+                           reorder=reorder))
+
+
+def _stopped(plan: Plan) -> bool:
+    """Whether ``stop`` ended B4 (:data:`kbplanner.planning.manipulation.STOPPED`; the text is repeated
+    here: the module is imported only when B4 runs)."""
+    return bool(plan.notes) and plan.notes[-1].startswith("B4 stopped by the caller after ")
 
 
 def refine_plan(plan: Plan, world: World, *, seed: int, grid: OccupancyGrid | None,
                 settings: RefineSettings | None, progress: Callable[[str, int, int], None] | None,
-                reorder: bool) -> Plan:
+                reorder: bool, stop: Callable[[Plan], bool] | None = None) -> Plan:
     """B4 (:func:`kbplanner.planning.manipulation.refine_plan`), its search and IK modules imported here,
     when a plan is refined: a command whose refined plan is kept imports none of them (issue 14)."""
     from kbplanner.planning import manipulation
 
     return manipulation.refine_plan(plan, world, seed=seed, grid=grid, settings=settings, progress=progress,
-                                    reorder=reorder)
+                                    reorder=reorder, stop=stop)
 
 
 def _read(path: Path) -> Plan | None:

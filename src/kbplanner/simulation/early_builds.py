@@ -27,6 +27,9 @@ The step reads them at its start as it reads an earlier run's.
   --no-cache``, ``KBPLANNER_NO_CACHE=1``) or ``fork`` (not Linux); no walking legs for scripted workers.
 - A run that kept them before: the early process reads them and ends (a few hundredths of a second on
   the other core).
+- B4 ahead of B5 (:mod:`kbplanner.planning.refine_ahead`, a first run: B4 in a second process): no
+  process is started; the command makes them itself (:func:`build`) while B5's first element waits for
+  B4's first (forked beside the step, they came too late for it: the step searched them itself).
 - :meth:`EarlyBuilds.finish` waits for the process: the command calls it once the step has run (its
   CPU is then counted with the command's); after an error the process is left to end by itself.
 
@@ -91,19 +94,25 @@ def start(project: ProjectData, world: World, grid: OccupancyGrid, folder: Path 
     of it). Call before any thread is started (a progress bar's): the fork copies this process."""
     if not possible(folder):
         return EarlyBuilds()
+    return forked(lambda: build(project, world, grid, folder, reactive_workers=reactive_workers))
 
-    def builds() -> None:
-        from kbplanner.simulation.floors import walk_grid
-        from kbplanner.simulation.sim_world import static_chunks
-        from kbplanner.simulation.workers import load_workers
-        from kbplanner.world import cspace_store
 
-        if reactive_workers:
-            keep_walking_legs(load_workers(project.model), walk_grid(world, grid), folder)
-        with cspace_store.kept_in(folder):
-            static_chunks(world)  # the static bodies' triangles (read, or made and kept)
+def build(project: ProjectData, world: World, grid: OccupancyGrid, folder: Path | None,
+          *, reactive_workers: bool = True) -> None:
+    """What :func:`start`'s process keeps, made and kept in this process (nothing without a kept folder or
+    with the cache off): ``kbplanner simulate`` calls it while B4 runs ahead of B5 in a second process
+    (:mod:`kbplanner.planning.refine_ahead`), before B5's first element, which waits for B4's first."""
+    if not possible(folder):
+        return
+    from kbplanner.simulation.floors import walk_grid
+    from kbplanner.simulation.sim_world import static_chunks
+    from kbplanner.simulation.workers import load_workers
+    from kbplanner.world import cspace_store
 
-    return forked(builds)
+    if reactive_workers:
+        keep_walking_legs(load_workers(project.model), walk_grid(world, grid), folder)
+    with cspace_store.kept_in(folder):
+        static_chunks(world)  # the static bodies' triangles (read, or made and kept)
 
 
 def forked(work: Callable[[], object]) -> EarlyBuilds:

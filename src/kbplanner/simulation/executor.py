@@ -176,9 +176,10 @@ class _Run:
     """One execution: the loop over elements and steps, events and key frames."""
 
     def __init__(self, env: SimEnv, plan: Plan, settings: ExecSettings, seed: int,
-                 progress: ProgressFn | None) -> None:
+                 progress: ProgressFn | None, ready: Callable[[str], None] | None = None) -> None:
         self.env = env
         self.plan = plan
+        self.ready = ready
         self.settings = settings
         self.progress = progress
         self.rec = Recorder(env, settings.record_hz)
@@ -270,6 +271,8 @@ class _Run:
         return out
 
     def element(self, iri: str) -> ElementOutcome:
+        if self.ready is not None:
+            self.ready(iri)  # (B4 ahead of B5: the plan holds the element's refined steps once it returns)
         steps = self.plan.steps_for(iri)
         info = next((e for e in self.plan.elements if e.iri == iri), None)
         gid = info.global_id if info else iri
@@ -450,12 +453,16 @@ def simulate(
     settings: ExecSettings | None = None,
     gui: bool = False,
     workers: Sequence[WorkerMotion] | None = None,
+    ready: Callable[[str], None] | None = None,
 ) -> SimulationResult:
     """Execute a refined plan in PyBullet and write the run directory (see module docstring).
 
     ``progress(element_label, steps_done, steps_total)`` is called after each step. ``world`` and
     ``grid`` (the task storey's occupancy grid) are built when not given; ``workers`` replaces the
-    model's workers (their motions, e.g. a scripted one for a test or a what-if).
+    model's workers (their motions, e.g. a scripted one for a test or a what-if). ``ready(element_iri)``
+    is called before each element is simulated (:meth:`kbplanner.planning.refine_ahead.RefineAhead.ready`:
+    B4 refines the plan's elements in a second process meanwhile; the outputs are written from ``plan``
+    as it is after the last element).
 
     Raises:
         KbplannerError: no robot in the plan, no [simulation] date for the world, a robot whose URDF
@@ -491,7 +498,7 @@ def simulate(
         with cspace_store.kept_in(kept):  # the workers' walking map, kept (walk_store)
             env.reset(seed=seed)
         load_s = time.perf_counter() - loaded
-        run = _Run(env, plan, settings, seed, progress)
+        run = _Run(env, plan, settings, seed, progress, ready)
         # configuration spaces of earlier commands, beside the project cache (none with --no-cache)
         with cspace_store.kept_in(kept):
             if env.crowd is not None:  # the workers' route legs of an earlier run on this walking map
