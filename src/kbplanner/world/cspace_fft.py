@@ -298,9 +298,12 @@ def _centred(src: npt.NDArray[_S], h: int, dst: npt.NDArray[_S], axis: int) -> N
         dst[at(slice(h + 1, length - h))] = 0
         dst[at(slice(0, h + 1))] = src[at(slice(h, size))]
         dst[at(slice(length - h, length))] = src[at(slice(0, h))]
-    else:
-        dst[...] = 0
-        np.add.at(np.moveaxis(dst, axis, 0), (np.arange(size) - h) % length, np.moveaxis(src, axis, 0))
+    else:  # folded: entries a length apart added, then turned by h
+        reps = -(-size // length)
+        wide = np.zeros((*src.shape[:axis], reps * length, *src.shape[axis + 1:]), dtype=src.dtype)
+        wide[at(slice(0, size))] = src
+        folded = wide.reshape((*src.shape[:axis], reps, length, *src.shape[axis + 1:])).sum(axis=axis)
+        dst[...] = np.roll(folded, -h, axis=axis)
 
 
 def hits_many(grid_f: npt.NDArray[np.complex64], kset: KernelSet, js: Sequence[int], shape: tuple[int, ...],
