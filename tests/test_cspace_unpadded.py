@@ -91,13 +91,14 @@ def test_grids_smaller_than_a_kernel_empty_or_full(shape: tuple[int, int], fill:
 
 
 def test_a_small_kernel_off_the_robot_on_a_grid_shorter_than_the_kernel_square() -> None:
-    """The transform (n + h) is shorter than the kernel's square (2h + 1), yet the load fits: the rows
-    of the kernel left out are off the grid (here ahead of a robot whose base is tiny)."""
+    """The transform (as long as the grid) is shorter than the kernel's square (2h + 1), yet the load
+    fits: the kernel's rows past the transform's length are folded onto it (here ahead of a robot whose
+    base is tiny)."""
     fp = Footprint((Rect(0.0, 0.0, 0.04, 0.04), Rect(0.6, 0.0, 0.1, 0.1)), name="tiny base, load ahead")
     occ = np.zeros((9, 30), dtype=bool)
     occ[4, 20] = True
     got = cspace_fft.free_maps(occ, fp.rects, 0.05, 72, 0.0)
-    assert cspace_fft.kernel_set(fp.rects, 0.05, 72, 0.0).h >= 9  # the transform along y: 9 + h < 2h + 1
+    assert cspace_fft.kernel_set(fp.rects, 0.05, 72, 0.0).h >= 9  # the transform along y: 9 < 2h + 1
     assert np.array_equal(got, _padded_build(occ, fp, 0.05, 72, 0.0))
     assert got[0].any() and not got[0].all()
 
@@ -115,3 +116,57 @@ def test_bins_transformed_a_few_at_a_time_or_one_by_one_agree(monkeypatch: pytes
     monkeypatch.setattr(cspace_fft, "BATCH_CELLS", 1)
     one = ConfigurationSpace.build(grid, FOOTPRINTS[2]).free
     assert np.array_equal(whole, one) and whole.any()
+
+
+#: footprints as the case study's carry modes give them (the base and a frame held off the robot's axis)
+CARRIED = [
+    Footprint((Rect(0.0, 0.0, 0.99, 0.67), Rect(-0.005, -0.1741, 0.608, 2.4)), name="frame across"),
+    Footprint((Rect(0.0, 0.0, 0.99, 0.67), Rect(-0.005, -0.1741, 2.4, 0.089)), name="frame along"),
+]
+
+
+@pytest.mark.parametrize("fp", FOOTPRINTS + CARRIED, ids=lambda f: f.name)
+def test_kernels_turned_over_are_found_cell_for_cell(fp: Footprint) -> None:
+    """``KernelSet.mirror``: a kernel read off another's transform is that kernel with its rows, columns
+    or both reversed, and that one is transformed for itself."""
+    kset = cspace_fft.kernel_set(fp.rects, 0.05, 72, 0.0)
+    assert len(kset.mirror) == len(kset.flipped)
+    turn = {cspace_fft.ROWS: (slice(None, None, -1), slice(None)),
+            cspace_fft.COLUMNS: (slice(None), slice(None, None, -1)),
+            cspace_fft.BOTH: (slice(None, None, -1), slice(None, None, -1))}
+    for j, (i, how) in enumerate(kset.mirror):
+        if i >= 0:
+            assert i < j and kset.mirror[i] == (-1, 0)
+            assert np.array_equal(kset.flipped[j], kset.flipped[i][turn[how]])
+    hows = {how for _, how in kset.mirror}
+    if fp.name in ("base", "base+load"):  # mirrored across the robot's x axis
+        assert cspace_fft.ROWS in hows
+    if fp.name in ("frame across", "frame along"):  # half a turn
+        assert cspace_fft.BOTH in hows
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_grids_about_as_large_as_a_kernel(seed: int) -> None:
+    """Transforms as long as the grid, shorter or a little longer than the kernel's square (folded,
+    wrapped around): the cells whose kernel stays on the grid are counted exactly, the others blocked."""
+    rng = np.random.default_rng(100 + seed)
+    fp = (FOOTPRINTS + CARRIED)[seed % 6]
+    res = 0.05
+    h = cspace_fft.kernel_set(fp.rects, res, 24, 0.0).h
+    ny, nx = (int(v) for v in rng.integers(max(1, h - 6), 2 * h + 12, size=2))
+    occ = _occupancy(rng, ny, nx, [0.0, 0.002, 0.01, 0.03][seed % 4])
+    free = cspace_fft.free_maps(occ, fp.rects, res, 24, 0.0)
+    assert np.array_equal(free, _padded_build(occ, fp, res, 24, 0.0)), (ny, nx)
+
+
+@pytest.mark.parametrize("fp", CARRIED, ids=lambda f: f.name)
+def test_carried_frames_on_walled_rooms(fp: Footprint) -> None:
+    """A room with walls and a door, larger than the kernels: the padded build's free maps, some free."""
+    occ = np.zeros((150, 210), dtype=bool)
+    occ[[0, -1], :] = occ[:, [0, -1]] = True
+    occ[:, 100] = True
+    occ[60:85, 100] = False  # a door
+    occ[30:40, 150:160] = True
+    free = cspace_fft.free_maps(occ, fp.rects, 0.05, 72, 0.0)
+    assert np.array_equal(free, _padded_build(occ, fp, 0.05, 72, 0.0))
+    assert free.any() and not free.all()

@@ -7,6 +7,9 @@ a margin) and their distinct set per footprint (:func:`kernel_set`) are kept for
 free maps are exact: a cell of bin ``k`` is free when no occupied cell and no cell off the grid lies
 under bin ``k``'s kernel (the FFT's sums of cells are rounded far below the 0.5 they are compared with;
 tests/test_cspace_unpadded.py compares with a binary dilation and with the build before session 11).
+Since session 15 the transforms are as long as the grid (:func:`transform_shape`) and a kernel that is
+another's turned over (a yaw bin half a turn or mirrored from another's, :attr:`KernelSet.mirror`) takes
+that one's transform read backwards or conjugated (:func:`hits_many`).
 
 Example:
     >>> from kbplanner.world.footprint import Rect
@@ -20,15 +23,16 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Protocol, TypeVar
 
 import numpy as np
 import numpy.typing as npt
 from scipy import fft as sp_fft
 
 BoolArray = npt.NDArray[np.bool_]
+_S = TypeVar("_S", bound=np.generic)
 
 
 class Rect(Protocol):
@@ -132,6 +136,10 @@ def _rect_cells(r: Rect, resolution: float, yaw_lo: float, yaw_hi: float, margin
 #: Complex cells (frequency rows x columns x bins) transformed at once by a build (512 kB: in the caches)
 BATCH_CELLS = 64 * 1024
 
+#: How a distinct kernel is another's turned over (:attr:`KernelSet.mirror`): its rows reversed (the
+#: footprint mirrored across the robot's x axis), its columns reversed, or both (half a turn)
+ROWS, COLUMNS, BOTH = 1, 2, 3
+
 
 @dataclass(frozen=True)
 class KernelSet:
@@ -146,6 +154,11 @@ class KernelSet:
     #: that hold a cell, from the robot's cell ((0, -1, 0, -1) for an empty kernel: nothing to block)
     extents: tuple[tuple[int, int, int, int], ...]
     first: tuple[int, ...]
+    #: per distinct kernel ``j``, ``(i, how)`` when it is an earlier distinct kernel ``i`` with its rows,
+    #: columns or both reversed (:data:`ROWS`, :data:`COLUMNS`, :data:`BOTH`, cell for cell: a kernel of
+    #: a yaw bin half a turn or mirrored from another's), its transform then read off ``i``'s; else
+    #: ``(-1, 0)``
+    mirror: tuple[tuple[int, int], ...] = ()
 
     def bin_extents(self) -> tuple[tuple[int, int, int, int], ...]:
         """:attr:`extents` of every yaw bin's kernel."""
@@ -164,6 +177,8 @@ def kernel_set(rects: tuple[Rect, ...], resolution: float, n_bins: int, margin_m
     flipped: list[BoolArray] = []
     first: list[int] = []
     extents: list[tuple[int, int, int, int]] = []
+    own: dict[bytes, int] = {}  # the kernels transformed for themselves
+    mirror: list[tuple[int, int]] = []
     for k, kern in enumerate(kernels):
         j = seen.setdefault((kern.shape, kern.tobytes()), len(flipped))
         index[k] = j
@@ -172,14 +187,22 @@ def kernel_set(rects: tuple[Rect, ...], resolution: float, n_bins: int, margin_m
             full = np.zeros((size, size), dtype=bool)
             first.append(k)
             full[h - hk : h + hk + 1, h - hk : h + hk + 1] = kern
-            flipped.append(np.ascontiguousarray(full[::-1, ::-1]))
+            f = np.ascontiguousarray(full[::-1, ::-1])
+            flipped.append(f)
             rows, cols = np.nonzero(kern)
             extents.append((int(rows.min()) - hk, int(rows.max()) - hk, int(cols.min()) - hk,
                             int(cols.max()) - hk) if len(rows) else (0, -1, 0, -1))
+            turned = ((own.get(f[::-1, ::-1].tobytes()), BOTH), (own.get(f[::-1].tobytes()), ROWS),
+                      (own.get(f[:, ::-1].tobytes()), COLUMNS))
+            i, how = next(((i, how) for i, how in turned if i is not None), (-1, 0))
+            mirror.append((i, how))
+            if i < 0:
+                own[f.tobytes()] = j
     stack = np.stack(flipped)
     stack.setflags(write=False)
     index.setflags(write=False)
-    return KernelSet(h=h, flipped=stack, index=index, extents=tuple(extents), first=tuple(first))
+    return KernelSet(h=h, flipped=stack, index=index, extents=tuple(extents), first=tuple(first),
+                     mirror=tuple(mirror))
 
 
 def free_maps(occupied: BoolArray, rects: tuple[Rect, ...], resolution: float, n_yaw_bins: int,
@@ -188,7 +211,6 @@ def free_maps(occupied: BoolArray, rects: tuple[Rect, ...], resolution: float, n
     (bin ``k`` covers [k*w - w/2, k*w + w/2], w = 2*pi / n_yaw_bins), any position in the cell, is
     clear of every occupied cell of ``occupied`` and of the cells off it."""
     kset = kernel_set(rects, resolution, n_yaw_bins, margin_m)
-    h = kset.h
     ny, nx = occupied.shape
     free = np.empty((n_yaw_bins, ny, nx), dtype=bool)
     # Correlation by FFT of the grid (its transform computed once for all bins, the kernels all of one
@@ -196,23 +218,19 @@ def free_maps(occupied: BoolArray, rects: tuple[Rect, ...], resolution: float, n
     # footprint. Cells off the grid count as occupied: a cell is also blocked where the kernel's extent
     # (its first and last rows and columns that hold a cell) leaves the grid - the very cells that a
     # correlation of the grid padded with h occupied cells all round blocks for them (the build before
-    # session 11; tests/test_cspace_unpadded.py). The transform is circular: a length of at least n + h
-    # keeps every wrapped-around term out of the cells kept (see hits_many).
+    # session 11; tests/test_cspace_unpadded.py). The transform is circular and only as long as the grid
+    # (transform_shape): a wrapped-around term only reaches cells whose kernel leaves the grid, blocked
+    # anyway (see hits_many).
     if ny and nx:
-        shape = (sp_fft.next_fast_len(ny + h, real=True), sp_fft.next_fast_len(nx + h, real=True))
+        shape = transform_shape(ny, nx)
         rows_f = sp_fft.rfft(occupied.astype(np.float32), n=shape[1], axis=1)
         grid_f = sp_fft.fft(rows_f, n=shape[0], axis=0, overwrite_x=True)
         # one free map per distinct kernel (e.g. a centrally symmetric footprint half a turn later has
-        # the same), written in its first bin and copied to the others; the transforms a few at a time
-        n_distinct = len(kset.flipped)
-        step = max(1, min(n_distinct, BATCH_CELLS // (shape[0] * (shape[1] // 2 + 1))))
-        work = np.empty((step, shape[0], shape[1] // 2 + 1), dtype=np.complex64)  # reused: no new pages
-        for i in range(0, n_distinct, step):
-            hits = hits_many(grid_f, kset.flipped[i : i + step], h, shape, ny, nx, work)
-            for j in range(i, min(i + step, n_distinct)):
-                k = kset.first[j]
-                np.less(hits[j - i], 0.5, out=free[k])
-                block_off_grid(free[k : k + 1], kset.extents[j : j + 1])
+        # the same), written in its first bin and copied to the others
+        for j, hits in kernel_hits(grid_f, kset, shape, (0, ny), (0, nx)):
+            k = kset.first[j]
+            np.less(hits, 0.5, out=free[k])
+            block_off_grid(free[k : k + 1], kset.extents[j : j + 1])
         for k, j in enumerate(kset.index):
             if kset.first[j] != k:
                 free[k] = free[kset.first[j]]
@@ -235,32 +253,110 @@ def block_off_grid(free: BoolArray, extents: Sequence[tuple[int, int, int, int]]
         free[j, :, x1:] = False
 
 
-def hits_many(grid_f: npt.NDArray[np.complex64], flipped: BoolArray, h: int,
-              shape: tuple[int, ...], ny: int, nx: int,
+def transform_shape(ny: int, nx: int) -> tuple[int, int]:
+    """The lengths of the circular transforms :func:`free_maps` correlates a grid of ``ny x nx`` cells
+    with: each at least the grid's own (not the grid plus a kernel's reach): a term wrapped around
+    comes from a cell ``n`` or more rows or columns away, under the kernel only of cells whose kernel
+    reaches off the grid, which :func:`block_off_grid` blocks anyway."""
+    return (sp_fft.next_fast_len(ny, real=True), sp_fft.next_fast_len(nx, real=True))
+
+
+def kernel_hits(grid_f: npt.NDArray[np.complex64], kset: KernelSet, shape: tuple[int, int],
+                rows: tuple[int, int], cols: tuple[int, int]
+                ) -> Iterator[tuple[int, npt.NDArray[np.float32]]]:
+    """``(j, hits)`` for every distinct kernel ``j`` of ``kset``: :func:`hits_many` of the grid whose
+    transform is ``grid_f`` (``shape``), its rows ``rows[0] ..`` (``rows[1]`` of them) and columns
+    ``cols[0] ..``. A few kernels per call (about :data:`BATCH_CELLS` complex cells), each with the
+    kernels turned over from it (:attr:`KernelSet.mirror`): their transforms are its own read
+    backwards or conjugated."""
+    m, nh = shape[0], shape[1] // 2 + 1
+    step = max(1, BATCH_CELLS // (m * nh))
+    groups: dict[int, list[int]] = {}
+    for j, (i, _how) in enumerate(kset.mirror or [(-1, 0)] * len(kset.flipped)):
+        groups.setdefault(j if i < 0 else i, []).append(j)
+    batches: list[list[int]] = [[]]
+    for group in groups.values():
+        if batches[-1] and len(batches[-1]) + len(group) > step:
+            batches.append([])
+        batches[-1].extend(group)
+    work = np.empty((max(len(b) for b in batches), m, nh), dtype=np.complex64)  # reused: no new pages
+    for batch in batches:
+        hits = hits_many(grid_f, kset, batch, shape, rows, cols, work)
+        yield from zip(batch, hits, strict=True)
+
+
+def _centred(src: npt.NDArray[_S], h: int, dst: npt.NDArray[_S], axis: int) -> None:
+    """Write ``src``'s entries ``u`` along ``axis`` (a kernel's ``2h + 1`` rows or columns) into ``dst``
+    at ``(u - h) mod length``, the kernel's centre at 0, adding those a length apart (a transform
+    shorter than the kernel); ``dst``'s other entries 0."""
+    size, length = src.shape[axis], dst.shape[axis]
+
+    def at(sl: slice) -> tuple[slice, ...]:
+        return (slice(None),) * axis + (sl,)
+
+    if size <= length:
+        dst[at(slice(h + 1, length - h))] = 0
+        dst[at(slice(0, h + 1))] = src[at(slice(h, size))]
+        dst[at(slice(length - h, length))] = src[at(slice(0, h))]
+    else:  # folded: entries a length apart added, then turned by h
+        reps = -(-size // length)
+        wide = np.zeros((*src.shape[:axis], reps * length, *src.shape[axis + 1:]), dtype=src.dtype)
+        wide[at(slice(0, size))] = src
+        folded = wide.reshape((*src.shape[:axis], reps, length, *src.shape[axis + 1:])).sum(axis=axis)
+        dst[...] = np.roll(folded, -h, axis=axis)
+
+
+def hits_many(grid_f: npt.NDArray[np.complex64], kset: KernelSet, js: Sequence[int], shape: tuple[int, ...],
+              rows: tuple[int, int], cols: tuple[int, int],
               work: npt.NDArray[np.complex64] | None = None) -> npt.NDArray[np.float32]:
-    """How many occupied cells of the grid each of several kernels covers at each of its cells:
-    ``flipped`` (n, size, size) as :class:`KernelSet` keeps them, ``grid_f`` the grid's transform
-    (unpadded, ``shape``). Rows and columns ``h ..`` of the circular convolution with the flipped kernel
-    in the top-left ``size x size`` corner, each transform along one axis of the stack, the two passes of
-    each 2-D transform done by hand so that only rows that hold something are transformed along x: the
-    kernel's ``size`` rows (the others are zero) and, back, the ``ny`` rows kept. ``work``: an array of
-    at least (n, shape[0], shape[1] // 2 + 1) to transform in (a fresh one costs its pages each time).
-    Counts of cells; the rounding (float32) stays far below the 0.5 they are compared with
+    """How many occupied cells of the grid each of the distinct kernels ``js`` of ``kset`` covers at
+    each cell: ``hits[n, y, x]`` for the grid's rows ``rows[0] .. rows[0] + rows[1] - 1`` and columns
+    likewise, ``grid_f`` the grid's transform (``shape``, unpadded). The circular correlation with each
+    kernel placed with its centre at cell (0, 0) (:func:`_centred`), each transform along one axis of
+    the stack, the two passes of each 2-D transform done by hand so that only rows that hold something
+    are transformed along x: the kernel's ``2h + 1`` rows (the others are zero) and, back, the rows kept.
+    A kernel that is an earlier one of ``js`` turned over (:attr:`KernelSet.mirror`; centred, the same
+    kernel reflected through cell 0) takes that one's transform with the frequencies' rows reversed
+    and/or conjugated: the same spectrum, to rounding. ``work``: an array of at least (len(js),
+    shape[0], shape[1] // 2 + 1) to transform in (a fresh one costs its pages each time). Counts of
+    cells; the rounding (float32) stays far below the 0.5 they are compared with
     (tests/test_cspace_unpadded.py).
 
-    Where a transform is shorter than the kernel (a grid of at most ``h`` rows or columns), the kernel's
-    rows or columns past it are left out: they are offsets of ``n`` cells or more to the left or below
-    the robot's cell, off the grid from every cell, whose cells :func:`block_off_grid` blocks anyway."""
-    n = len(flipped)
+    A cell's count is exact where the kernel, from it, stays on the grid transformed (each cell under it
+    at most ``n - 1`` rows or columns away: nothing wraps around); :func:`free_maps` blocks the others
+    (:func:`block_off_grid`), whatever their counts. (:func:`kbplanner.world.cspace_join.part_free`
+    transforms a grid grown by the kernels' reach all round and keeps the cells inside.)"""
+    n, h = len(js), kset.h
     m, nh = shape[0], shape[1] // 2 + 1
     if work is None or work.shape[0] < n or work.shape[1:] != (m, nh):
         work = np.empty((n, m, nh), dtype=np.complex64)
     spec = work[:n]
-    rows_f = sp_fft.rfft(flipped.astype(np.float32), n=shape[1], axis=2)[:, :m]
-    spec[:, : rows_f.shape[1]] = rows_f
-    spec[:, rows_f.shape[1] :] = 0
-    spec = sp_fft.fft(spec, axis=1, overwrite_x=True)
+    mirror = kset.mirror or [(-1, 0)] * len(kset.flipped)
+    slot = {j: s for s, j in enumerate(js)}
+    own = [s for s, j in enumerate(js) if mirror[j][0] < 0 or mirror[j][0] not in slot]
+    if own:
+        kern = np.empty((len(own), 2 * h + 1, shape[1]), dtype=np.float32)
+        _centred(kset.flipped[[js[s] for s in own]], h, kern, 2)
+        rows_f = sp_fft.rfft(kern, axis=2)
+        if len(own) == n:
+            _centred(rows_f, h, spec, 1)
+            spec = sp_fft.fft(spec, axis=1, overwrite_x=True)
+        else:
+            part = np.empty((len(own), m, nh), dtype=np.complex64)
+            _centred(rows_f, h, part, 1)
+            spec[own] = sp_fft.fft(part, axis=1, overwrite_x=True)
+    backwards = (-np.arange(m)) % m  # the frequencies' rows of a kernel with its rows reversed
+    for s, j in enumerate(js):
+        i, how = mirror[j]
+        if i < 0 or i not in slot:
+            continue
+        if how == BOTH:
+            np.conjugate(spec[slot[i]], out=spec[s])
+        else:
+            np.take(spec[slot[i]], backwards, axis=0, out=spec[s])
+            if how == COLUMNS:
+                np.conjugate(spec[s], out=spec[s])
     spec *= grid_f
-    rows = sp_fft.ifft(spec, axis=1, overwrite_x=True)[:, h : h + ny]
-    out: npt.NDArray[np.float32] = sp_fft.irfft(rows, n=shape[1], axis=2, overwrite_x=True)
-    return out[:, :, h : h + nx]
+    back = sp_fft.ifft(spec, axis=1, overwrite_x=True)[:, rows[0] : rows[0] + rows[1]]
+    out: npt.NDArray[np.float32] = sp_fft.irfft(back, n=shape[1], axis=2, overwrite_x=True)
+    return out[:, :, cols[0] : cols[0] + cols[1]]

@@ -40,7 +40,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy import fft as sp_fft
 
-from kbplanner.world.cspace_fft import BATCH_CELLS, hits_many, kernel_set
+from kbplanner.world.cspace_fft import kernel_hits, kernel_set
 from kbplanner.world.footprint import ConfigurationSpace, Footprint
 from kbplanner.world.occupancy import OccupancyGrid
 
@@ -135,8 +135,9 @@ def part_free(grid: OccupancyGrid, footprint: Footprint, region: tuple[int, int,
     that grid by the reach again and computes its free maps in the band the region is grown by, which
     the part throws away (about 30 % more transform work on B4's parts, and a copy kept). The kernels are
     the build's (:func:`~kbplanner.world.cspace_fft.kernel_set`: each distinct one once, turned half a
-    turn), transformed as the build does (:func:`~kbplanner.world.cspace_fft.hits_many`, into one work
-    array), keeping the rows and columns ``2h ..`` of the grown region.
+    turn), transformed as the build does (:func:`~kbplanner.world.cspace_fft.kernel_hits`: each kernel
+    centred on cell 0, those turned over from another read off its transform), keeping the rows and
+    columns ``h ..`` of the grown region.
     """
     y0, y1, x0, x1 = region
     sy, sx = y1 - y0, x1 - x0
@@ -147,17 +148,12 @@ def part_free(grid: OccupancyGrid, footprint: Footprint, region: tuple[int, int,
     gy0, gy1, gx0, gx1 = max(0, y0 - h), min(ny, y1 + h), max(0, x0 - h), min(nx, x1 + h)
     occ[gy0 - (y0 - h):gy1 - (y0 - h), gx0 - (x0 - h):gx1 - (x0 - h)] = grid.occupied[gy0:gy1, gx0:gx1]
     # A circular correlation at least as long as the grown region keeps every wrapped-around term out
-    # of the cells kept: rows and columns 2h .. 2h + size - 1 of the convolution with the flipped kernel.
+    # of the cells kept: rows and columns h .. h + size - 1 of the correlation with the centred kernel.
     shape = (sp_fft.next_fast_len(sy + 2 * h, real=True), sp_fft.next_fast_len(sx + 2 * h, real=True))
     occ_f = sp_fft.fft(sp_fft.rfft(occ, n=shape[1], axis=1), n=shape[0], axis=0, overwrite_x=True)
     free = np.empty((n_bins, sy, sx), dtype=bool)
-    n_distinct = len(kset.flipped)
-    step = max(1, min(n_distinct, BATCH_CELLS // (shape[0] * (shape[1] // 2 + 1))))
-    work = np.empty((step, shape[0], shape[1] // 2 + 1), dtype=np.complex64)
-    for i in range(0, n_distinct, step):
-        hits = hits_many(occ_f, kset.flipped[i:i + step], 2 * h, shape, sy, sx, work)
-        for j in range(i, min(i + step, n_distinct)):
-            np.less(hits[j - i], 0.5, out=free[kset.first[j]])
+    for j, hits in kernel_hits(occ_f, kset, shape, (h, sy), (h, sx)):
+        np.less(hits, 0.5, out=free[kset.first[j]])
     for k, j in enumerate(kset.index):  # a kernel met before: the same free map
         if kset.first[j] != k:
             free[k] = free[kset.first[j]]
