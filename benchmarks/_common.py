@@ -165,6 +165,15 @@ def machine_info(keys: Sequence[str] = ("python", "platform", "cpus")) -> dict[s
     return {**{k: _MACHINE[k]() for k in keys}, "python_loop_1e6_s": loop_s()}
 
 
+def write_scenarios(path: Path, before: str, rows: list[dict[str, Any]]) -> None:
+    """Write a before/after benchmark's per-scenario ``rows`` with the machine and the load average at the
+    end to ``path``, and say so."""
+    load = os.getloadavg()
+    write_json(path, {"machine": machine_info(), "before": before, "scenarios": rows,
+                      "load_average_end": [round(x, 2) for x in load]})
+    print(f"load average {load[0]:.2f}; wrote {path}")
+
+
 def write_json(path: Path, data: Any, *, indent: int = 2, sort_keys: bool = False) -> None:
     """Write ``data`` as JSON (with a final newline) to ``path``, creating its folder."""
     path.parent.mkdir(parents=True, exist_ok=True)

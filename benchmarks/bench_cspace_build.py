@@ -32,7 +32,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from _common import REPO, RESULTS_DIR, machine_info, write_json
+from _common import REPO, RESULTS_DIR, write_scenarios
 
 _CAPTURE = r'''import pickle, sys
 import numpy as np
@@ -197,10 +197,7 @@ def main() -> None:
                 print(f"  {k:<16} {b[k]:7.3f} / {a[k]:7.3f}  ({ratios[k]})")
             for k in ("build_calls", "built", "cropped", "patched", "hits"):
                 print(f"  {k:<16} {b[k]:>7} / {a[k]:<7}")
-    load = os.getloadavg()
-    write_json(args.out, {"machine": machine_info(), "before": args.before, "scenarios": rows,
-                          "load_average_end": [round(x, 2) for x in load]})
-    print(f"load average {load[0]:.2f}; wrote {args.out}")
+    write_scenarios(args.out, args.before, rows)
 
 
 if __name__ == "__main__":

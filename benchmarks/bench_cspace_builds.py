@@ -29,7 +29,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from _common import REPO, RESULTS_DIR, machine_info, write_json
+from _common import REPO, RESULTS_DIR, write_scenarios
 
 _CHILD = r'''import functools, json, sys, time
 import kbplanner.world.footprint as fp
@@ -197,10 +197,7 @@ def main() -> None:
                       f"{b.get('cpu_s', 0.0):7.3f} / {a.get('cpu_s', 0.0):.3f}")
             cpu = (row["before"]["command_cpu_s"], row["after"]["command_cpu_s"])
             print(f"  command after imports {cpu[0]:.2f} / {cpu[1]:.2f}")
-    load = os.getloadavg()
-    write_json(args.out, {"machine": machine_info(), "before": args.before, "scenarios": rows,
-                          "load_average_end": [round(x, 2) for x in load]})
-    print(f"load average {load[0]:.2f}; wrote {args.out}")
+    write_scenarios(args.out, args.before, rows)
 
 
 if __name__ == "__main__":
